@@ -1,0 +1,95 @@
+"""The ``hila`` command line: ``build_parser()`` + ``main(argv) -> int``.
+
+Each sub-command lives in ``hila_lang/commands/<name>.py`` and exposes
+
+- ``HELP``: one line for ``hila --help``;
+- ``add_arguments(parser)``: its options (module top level imports nothing heavy);
+- ``run(args) -> int``: the work; heavy imports (pybullet, sklearn, cv2) happen in here.
+
+Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input.  Any
+:class:`~hila_lang.errors.HilaError` is printed as a message, never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from . import __version__
+from .errors import EXIT_BAD_INPUT, EXIT_RUN_FAILED, HilaError
+
+#: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
+COMMANDS = {
+    "exec": "exec_",
+    "repl": "repl",
+    "check": "check",
+    "compile": "compile_",
+    "learn": "learn",
+    "imitate": "imitate",
+    "eval": "eval_",
+    "snapshot": "snapshot",
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that exits with status 2 and a one-line hint (its default is a usage dump)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def _command_module(name: str):
+    return importlib.import_module(f"hila_lang.commands.{COMMANDS[name]}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="hila",
+        description=(
+            "hila: teach a robot an action from ONE demonstration, then write new tasks as "
+            "sequences and hierarchies of its pieces (HILA-OSILA, Wu & Demiris 2010)."
+        ),
+        epilog="Run 'hila COMMAND --help' for a command's options. "
+        "Exit status: 0 ok, 1 run failed, 2 bad input.",
+    )
+    parser.add_argument("--version", action="version", version=f"hila {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name in COMMANDS:
+        try:
+            module = _command_module(name)
+        except ModuleNotFoundError as exc:  # a command not built yet must not break the others
+            if exc.name != f"hila_lang.commands.{COMMANDS[name]}":
+                raise
+            continue
+        cmd = sub.add_parser(name, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
+        module.add_arguments(cmd)
+        cmd.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "_run", None) is None:
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        return int(args._run(args) or 0)
+    except HilaError as exc:
+        print(str(exc), file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_RUN_FAILED
+    except BrokenPipeError:
+        return 0
+
+
+def entry() -> None:  # pragma: no cover - thin wrapper for python -m
+    sys.exit(main())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    entry()

@@ -1,0 +1,90 @@
+"""Safe file input and output shared by every stage: atomic writes, safe YAML, CSV paths."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from .errors import InputError
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, then rename.
+
+    A crash leaves either the old file or the new one, never half of one.  Parent folders are
+    created.  Returns the path written.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Atomic :func:`atomic_write_bytes` for UTF-8 text."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def read_text(path: str | os.PathLike, what: str = "file") -> str:
+    """Read a UTF-8 text file, turning every OS or decoding failure into :class:`InputError`."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{what} not found", file=str(path)) from None
+    except IsADirectoryError:
+        raise InputError(f"expected a {what}, got a directory", file=str(path)) from None
+    except OSError as exc:
+        raise InputError(f"cannot read {what}: {exc.strerror}", file=str(path)) from None
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise InputError(
+            f"{what} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
+            file=str(path),
+            line=line,
+        ) from None
+
+
+def load_yaml(path: str | os.PathLike, what: str = "YAML file") -> Any:
+    """``yaml.safe_load`` a file; syntax errors become :class:`InputError` with line and column."""
+    import yaml
+
+    text = read_text(path, what)
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = getattr(exc, "problem", None) or str(exc)
+        kwargs: dict[str, Any] = {"file": str(path)}
+        if mark is not None:
+            kwargs.update(line=mark.line + 1, column=mark.column + 1)
+            lines = text.splitlines()
+            if mark.line < len(lines):
+                kwargs["source_line"] = lines[mark.line]
+        raise InputError(f"{what} is not valid YAML: {problem}", **kwargs) from None
+
+
+def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
+    """Write ``data`` as block-style YAML, atomically, after an optional ``# comment`` header."""
+    import yaml
+
+    body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
+    if header:
+        header = "".join(f"# {ln}\n" if ln else "#\n" for ln in header.splitlines())
+    return atomic_write_text(path, header + body)
