@@ -61,12 +61,43 @@ def read_text(path: str | os.PathLike, what: str = "file") -> str:
         ) from None
 
 
-def load_yaml(path: str | os.PathLike, what: str = "YAML file") -> Any:
-    """``yaml.safe_load`` a file; syntax errors become :class:`InputError` with line and column."""
+def _unique_key_loader():
+    """A ``yaml.SafeLoader`` subclass that refuses duplicate keys in a mapping (built lazily)."""
+    import yaml
+
+    class UniqueKeyLoader(yaml.SafeLoader):
+        def construct_mapping(self, node, deep=False):
+            seen: dict[Any, Any] = {}
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    first = seen.get(key)
+                except TypeError:  # unhashable key: let SafeLoader report it
+                    break
+                if first is not None:
+                    raise yaml.constructor.ConstructorError(
+                        None, None,
+                        f"duplicate key {key!r} (first defined at line {first.line + 1})",
+                        key_node.start_mark,
+                    )
+                seen[key] = key_node.start_mark
+            return super().construct_mapping(node, deep=deep)
+
+    return UniqueKeyLoader
+
+
+def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: bool = False) -> Any:
+    """``yaml.safe_load`` a file; syntax errors become :class:`InputError` with line and column.
+
+    With ``unique_keys`` a key repeated in one mapping is an error too (plain YAML keeps the last
+    one silently), reported at the repeated key's line and column.
+    """
     import yaml
 
     text = read_text(path, what)
     try:
+        if unique_keys:
+            return yaml.load(text, Loader=_unique_key_loader())  # a SafeLoader subclass
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)

@@ -1,0 +1,175 @@
+"""OSILA: one-shot imitation of a template path in a new scene (DESIGN.md §1).
+
+:func:`imitate` is the contract: warp the template with a thin plate spline fitted on paired ICPs
+(:mod:`.tps`, with similarity/translation fallbacks in :mod:`.fallback`), choose the
+minimum-energy route through a ball of candidate waypoints around every mapped point
+(:mod:`.candidates`, :mod:`.route`), then adjust the plan until forced waypoints and obstacles
+are satisfied (:mod:`.adjust`).  :func:`imitate_detailed` returns the same route with its
+diagnostics.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..validation import check_int, check_path, check_points, check_positive
+from .adjust import OsilaResult, adjust
+from .tps import Warp, fit_warp
+
+__all__ = ["imitate", "imitate_detailed", "OsilaResult", "Warp", "fit_warp", "OPTIONS"]
+
+#: option name -> default (see :func:`imitate`)
+OPTIONS: dict[str, Any] = {
+    "threshold": None,
+    "rounds": 10,
+    "smoothing": 0.0,
+    "seed": 0,
+    "distortion": 0.0,
+    "margin": 0.0,
+    "shells": 2,
+    "directions": None,
+    "pin": (),
+}
+
+
+def _obstacles(obstacles: Any, dim: int) -> np.ndarray:
+    """Spheres as an array (O, D+1): centre then radius; accepts dicts {centre|center, radius}."""
+    if obstacles is None:
+        return np.zeros((0, dim + 1))
+    if isinstance(obstacles, (list, tuple)) and obstacles and all(isinstance(o, dict) for o in obstacles):
+        rows = []
+        for i, o in enumerate(obstacles):
+            centre = o.get("centre", o.get("center"))
+            unknown = set(o) - {"centre", "center", "radius", "name"}
+            if centre is None or "radius" not in o or unknown:
+                raise InputError(
+                    f"expected obstacles[{i}] as {{centre: [..{dim} numbers..], radius: r}}, got keys {sorted(o)}"
+                )
+            c = check_points(centre, dim, f"obstacles[{i}].centre")[0]
+            rows.append(np.append(c, check_positive(o["radius"], f"obstacles[{i}].radius")))
+        return np.array(rows)
+    arr = check_points(obstacles, dim + 1, "obstacles (centre + radius per row)", allow_empty=True)
+    if (arr[:, -1] <= 0).any():
+        i = int(np.argmax(arr[:, -1] <= 0))
+        raise InputError(f"expected obstacle radii > 0, got {arr[i, -1]} in row {i}")
+    return arr
+
+
+def _pin(pin: Any, T: int) -> tuple[int, ...]:
+    try:
+        stamps = [int(i) for i in pin]
+    except (TypeError, ValueError):
+        raise InputError(f"expected option 'pin' as a list of stamp indices, got {pin!r}") from None
+    bad = [i for i in stamps if not -T <= i < T]
+    if bad:
+        raise InputError(f"expected 'pin' stamps in [-{T}, {T - 1}] for a path of {T} points, got {bad[0]}")
+    return tuple(i % T for i in stamps)
+
+
+def imitate_detailed(
+    path: Any,
+    template_icps: Any,
+    task_icps: Any,
+    *,
+    forced: Any = None,
+    obstacles: Any = None,
+    **options: Any,
+) -> OsilaResult:
+    """As :func:`imitate`, returning an :class:`~hila_lang.osila.adjust.OsilaResult`."""
+    path = check_path(path, "path")
+    D = path.shape[1]
+    src = check_points(template_icps, D, "template_icps")
+    dst = check_points(task_icps, D, "task_icps")
+    if src.shape[0] != dst.shape[0]:
+        raise InputError(
+            f"expected template_icps and task_icps paired by row, got K = {src.shape[0]} and K = {dst.shape[0]}"
+        )
+    forced_arr = (
+        np.zeros((0, D)) if forced is None else check_points(forced, D, "forced waypoints", allow_empty=True)
+    )
+    obst = _obstacles(obstacles, D)
+    unknown = sorted(set(options) - set(OPTIONS))
+    if unknown:
+        raise InputError(f"unknown option {unknown[0]!r}; expected one of {', '.join(OPTIONS)}")
+    opts = {**OPTIONS, **options}
+    threshold = None if opts["threshold"] is None else check_positive(opts["threshold"], "threshold", allow_zero=True)
+    directions = None if opts["directions"] is None else check_int(opts["directions"], "directions", minimum=1)
+    check_int(opts["seed"], "seed")
+    pin = _pin(opts["pin"], path.shape[0])
+    return adjust(
+        path,
+        src,
+        dst,
+        forced_arr,
+        obst,
+        threshold=threshold,
+        rounds=check_int(opts["rounds"], "rounds", minimum=1),
+        smoothing=check_positive(opts["smoothing"], "smoothing", allow_zero=True),
+        distortion=check_positive(opts["distortion"], "distortion", allow_zero=True),
+        margin=check_positive(opts["margin"], "margin", allow_zero=True),
+        shells=check_int(opts["shells"], "shells", minimum=0),
+        directions=directions,
+        pin=pin,
+    )
+
+
+def imitate(
+    path: Any,
+    template_icps: Any,
+    task_icps: Any,
+    *,
+    forced: Any = None,
+    obstacles: Any = None,
+    **options: Any,
+) -> np.ndarray:
+    """Imitate a template path in a task scene.
+
+    Parameters
+    ----------
+    path : array_like, shape (T, D)
+        Template path, D in {2, 3}, any length unit (metres for the robot).
+    template_icps, task_icps : array_like, shape (K, D)
+        ICPs of the demonstration and of the task scene, paired by row, K >= 1.  K < D+1 or
+        degenerate ICPs (collinear in 2-D, coplanar in 3-D) fall back to a similarity transform
+        (K >= 2) or a translation (K = 1); template ICPs that coincide are merged.
+    forced : array_like, shape (F, D), optional
+        Waypoints the route must pass within ``threshold`` (in any order).
+    obstacles : array_like, shape (O, D+1), or list of dict, optional
+        Spheres: rows ``[centre..., radius]`` or dicts ``{"centre": [...], "radius": r}``.  No
+        route waypoint lies closer than ``radius + margin`` to a centre.
+    **options
+        threshold : float, default 1 % of the mapped path's bounding-box diagonal
+            Radius of the candidate ball (task units); every waypoint stays within it of its
+            mapped point.  0 returns the warped path itself.
+        rounds : int, default 10
+            Maximum plan-adjustment rounds.
+        smoothing : float, default 0
+            TPS regulariser λ (unit-free, template normalised to unit extent); 0 = exact.
+        distortion : float, default 0
+            Weight of Σ|q_t - f(p_t)|² added to the route energy Σ|q_{t+1} - q_t|².
+        margin : float, default 0
+            Extra clearance around obstacles (task units).
+        shells, directions : int, default 2 and 8 (2-D) / 14 (3-D)
+            Candidate set: centre + shells × directions points (:mod:`.candidates`).
+        pin : sequence of int, default ()
+            Stamps (negative = from the end) whose waypoint is exactly the mapped point, e.g.
+            ``(0,)`` to start exactly at a bound "start" ICP.
+        seed : int, default 0
+            Accepted for a uniform interface; OSILA makes no random choice, so it has no effect.
+
+    Returns
+    -------
+    ndarray, shape (T, D)
+        The generated route.
+
+    Raises
+    ------
+    InputError
+        Bad shapes, NaN/inf, an empty path, K = 0, K mismatch, unknown or bad options.
+    ConstraintError
+        The constraints contradict each other or could not be met within ``rounds``.
+    """
+    return imitate_detailed(path, template_icps, task_icps, forced=forced, obstacles=obstacles, **options).path

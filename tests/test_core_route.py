@@ -1,0 +1,49 @@
+"""The vectorised Viterbi equals the slow reference; candidate sets stay in the ball."""
+
+import numpy as np
+import pytest
+
+from hila_lang.osila.candidates import ball_offsets
+from hila_lang.osila.route import min_energy_route, min_energy_route_reference, route_energy
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_vectorised_dp_equals_reference(seed):
+    rng = np.random.default_rng(seed)
+    dim = 2 + seed % 2
+    T = int(rng.integers(2, 25))
+    centres = np.cumsum(rng.normal(0, 1, (T, dim)), axis=0)
+    offsets = rng.normal(0, 0.5, (int(rng.integers(1, 9)), dim))  # random (not lattice): no ties
+    distortion = float(rng.choice([0.0, 0.5, 3.0]))
+    blocked = rng.random((T, len(offsets))) < 0.3 if seed % 3 == 0 else None
+    fast, e_fast = min_energy_route(centres, offsets, distortion, blocked)
+    slow, e_slow = min_energy_route_reference(centres, offsets, distortion, blocked)
+    assert e_fast == pytest.approx(e_slow, rel=1e-9, abs=1e-9)
+    np.testing.assert_array_equal(fast, slow)
+    assert e_fast == pytest.approx(route_energy(centres + offsets[fast], centres, distortion), rel=1e-9)
+    if blocked is not None:
+        free = ~blocked
+        ok = ~free.any(1) | free[np.arange(T), fast]
+        assert ok.all()
+
+
+def test_dp_beats_every_random_route():
+    rng = np.random.default_rng(42)
+    centres = np.cumsum(rng.normal(0, 1, (15, 2)), axis=0)
+    offsets = ball_offsets(2, 0.3)
+    choice, energy = min_energy_route(centres, offsets)
+    for _ in range(200):
+        other = rng.integers(0, len(offsets), 15)
+        assert route_energy(centres + offsets[other], centres) >= energy - 1e-9
+
+
+@pytest.mark.parametrize("dim,M", [(2, 17), (3, 29)])
+def test_ball_offsets_fill_the_ball(dim, M):
+    off = ball_offsets(dim, 0.5)
+    assert off.shape == (M, dim)
+    np.testing.assert_array_equal(off[0], np.zeros(dim))
+    r = np.linalg.norm(off, axis=1)
+    assert r.max() == pytest.approx(0.5) and (r <= 0.5 + 1e-12).all()
+    assert len(np.unique(np.round(off, 12), axis=0)) == M  # no duplicates
+    np.testing.assert_allclose(off.mean(0), 0, atol=1e-12)  # symmetric: no drift bias
+    assert ball_offsets(dim, 0.0).shape == (1, dim)
