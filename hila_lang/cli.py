@@ -21,14 +21,8 @@ from .errors import EXIT_BAD_INPUT, EXIT_RUN_FAILED, HilaError
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
-    "exec": "exec_",
-    "repl": "repl",
-    "check": "check",
-    "compile": "compile_",
     "learn": "learn",
     "imitate": "imitate",
-    "eval": "eval_",
-    "snapshot": "snapshot",
 }
 
 
@@ -57,12 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"hila {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
-        try:
-            module = _command_module(name)
-        except ModuleNotFoundError as exc:  # a command not built yet must not break the others
-            if exc.name != f"hila_lang.commands.{COMMANDS[name]}":
-                raise
-            continue
+        module = _command_module(name)
         cmd = sub.add_parser(name, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
         module.add_arguments(cmd)
         cmd.set_defaults(_run=module.run)
