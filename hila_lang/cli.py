@@ -21,8 +21,14 @@ from .errors import EXIT_BAD_INPUT, EXIT_RUN_FAILED, HilaError
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
+    "exec": "exec_",
+    "repl": "repl",
+    "check": "check",
+    "compile": "compile_",
     "learn": "learn",
     "imitate": "imitate",
+    "eval": "eval_",
+    "snapshot": "snapshot",
 }
 
 

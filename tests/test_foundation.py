@@ -91,6 +91,9 @@ def test_atomic_write_replaces_whole_file_and_leaves_no_temp(tmp_path):
     atomic_write_text(target, "a: 2\n")
     assert target.read_text() == "a: 2\n"
     assert sorted(os.listdir(target.parent)) == ["t.yaml"]
+    mask = os.umask(0)
+    os.umask(mask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~mask
 
 
 def test_atomic_write_failure_keeps_old_content(tmp_path, monkeypatch):

@@ -1,0 +1,29 @@
+"""``hila repl PROGRAM``: step a program's state machine interactively (or from piped stdin)."""
+
+from __future__ import annotations
+
+from ..language.runopts import add_run_arguments, run_options
+
+HELP = "step a .hila program state by state (step, run, break, where, icps, path, fsm, ...)"
+DESCRIPTION = (
+    "An interactive stepper over the program's FSM. Commands: step [n], run, break STATE, "
+    "continue, where, icps, path [--plot FILE.png], fsm, reset, help, quit. Reads piped stdin too."
+)
+
+
+def add_arguments(parser) -> None:
+    add_run_arguments(parser)
+
+
+def run(args) -> int:
+    from ..language.repl import Repl
+    from ..language.runner import finish, prepare
+
+    options = run_options(args)
+    interp = prepare(args.program, options, args.backend)
+    repl = Repl(interp, stdin=options.stdin, stdout=options.stdout)
+    try:
+        repl.cmdloop()
+    finally:
+        finish(interp)
+    return 0

@@ -1,0 +1,160 @@
+"""Files ``hila eval`` writes: the text tables, a long CSV of every pair, JSON, heatmap PNGs.
+
+- ``tables.txt``         what was printed (Tables I–III, summary, peers)
+- ``pairs.csv``          one row per method × N × template × task: R, MSD, seconds
+- ``results.json``       the tables (ours and the paper's), the summary shares, peers, run facts
+- ``heatmap_r_<method>.png``, ``heatmap_msd_<method>.png``
+                         the J × J matrices, one panel per N; x = input (template) trial,
+                         y = output (task) trial, grouped by set-up as in Table II
+
+Every file is written atomically (:mod:`hila_lang.fileio`).  The PNGs are drawn with OpenCV
+(matplotlib is not a dependency): R on a fixed scale 0.5–1 (lower values clip to the darkest
+colour), MSD on a log scale 1–10⁴.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..fileio import atomic_write_bytes, atomic_write_text
+from . import paper, tables
+from .run import GridResult
+
+PANEL = 300  # target panel size, pixels (cells are PANEL // J pixels, at least 1)
+
+
+def write_csv(result: GridResult, path: Path) -> Path:
+    """Every pair's scores, long format."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["method", "segments", "template", "template_setup", "task", "task_setup", "r", "msd", "seconds"])
+    setups = [label.split("/")[0] for label in result.labels]
+    for m in result.methods:
+        for s, n in enumerate(result.segments):
+            for i, a in enumerate(result.labels):
+                for j, b in enumerate(result.labels):
+                    w.writerow([m, n, a, setups[i], b, setups[j], repr(float(result.r[m][s, i, j])),
+                                repr(float(result.msd[m][s, i, j])), f"{result.seconds[m][s, i, j]:.6g}"])
+    return atomic_write_text(path, buf.getvalue())
+
+
+def _clean(x: Any) -> Any:
+    """NaN -> None recursively (JSON has no NaN)."""
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    if isinstance(x, (float, np.floating)):
+        return None if not np.isfinite(x) else float(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Tables (ours, and the paper's when comparable), summary, peers and run facts."""
+    doc: dict[str, Any] = {
+        "run": {"backend": result.backend, "wall_seconds": result.wall_seconds, "trials": len(result.labels),
+                "setups": result.setups, "segments": list(result.segments), "methods": list(result.methods),
+                **(info or {})},
+        "layout": "table_ii/table_iii are [N index][output set-up][input set-up]; table_i is [N index][set-up]",
+        "ours": {m: {"table_i": tables.table1(result, m), "table_ii": tables.table2(result, m),
+                     "table_iii": tables.table3(result, m), "summary": tables.summary(result, m)}
+                 for m in result.methods},
+        "peers": tables.peer_rows(result),
+        "failures": {m: result.failures[m] for m in result.methods},
+    }
+    if tables._with_paper(result):
+        doc["paper"] = {"note": "reference figures of Wu & Demiris (2010) on their human data, not ours",
+                        "table_i": paper.TABLE_I, "table_ii": paper.TABLE_II, "table_iii": paper.TABLE_III,
+                        "claims": paper.CLAIMS}
+    return _clean(doc)
+
+
+def _colour(values01: np.ndarray) -> np.ndarray:
+    import cv2
+
+    v = np.clip(np.nan_to_num(values01, nan=0.0), 0.0, 1.0)
+    img = cv2.applyColorMap((v * 255).astype(np.uint8), cv2.COLORMAP_VIRIDIS)
+    img[np.isnan(values01)] = (128, 128, 128)
+    return img
+
+
+def heatmap(result: GridResult, method: str, metric: str) -> np.ndarray:
+    """A BGR image: one panel per N, set-up grid lines and names, a colour bar."""
+    import cv2
+
+    data = result.r[method] if metric == "r" else result.msd[method]
+    if metric == "r":
+        lo, hi = 0.5, 1.0
+        ticks = [(0.0, "<=0.5"), (0.5, "0.75"), (0.8, "0.9"), (1.0, "1")]
+        scaled = (data - lo) / (hi - lo)
+        title = f"{method}: correlation R (x: input/template, y: output/task)"
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scaled = np.log10(np.maximum(data, 1e-12)) / 4.0
+        ticks = [(0.0, "<=1"), (0.25, "10"), (0.5, "100"), (0.75, "1000"), (1.0, ">=1e4")]
+        title = f"{method}: MSD, log scale (x: input/template, y: output/task)"
+    J = data.shape[1]
+    cell = max(1, PANEL // J)
+    side = cell * J
+    margin_l, margin_t, gap, bar_w = 60, 50, 20, 18
+    S = len(result.segments)
+    width = margin_l + S * (side + gap) + 70
+    height = margin_t + side + 50
+    img = np.full((height, width, 3), 255, np.uint8)
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    cv2.putText(img, title, (10, 20), font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    bounds = np.flatnonzero(np.diff(result.trial_setup)) + 1
+    centres = [(a + b) / 2 for a, b in zip(np.r_[0, bounds], np.r_[bounds, J])]
+    for s, n in enumerate(result.segments):
+        x0 = margin_l + s * (side + gap)
+        panel = _colour(scaled[s].T)  # rows: task (output), columns: template (input)
+        panel = cv2.resize(panel, (side, side), interpolation=cv2.INTER_NEAREST)
+        for b in bounds:
+            panel[:, b * cell] = 255
+            panel[b * cell, :] = 255
+        img[margin_t : margin_t + side, x0 : x0 + side] = panel
+        cv2.putText(img, f"N = {n}", (x0 + side // 2 - 20, margin_t - 8), font, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+        for k, c in enumerate(centres):
+            name = result.setups[k][:6]
+            cv2.putText(img, name, (x0 + int(c * cell) - 12, margin_t + side + 14), font, 0.33, (0, 0, 0), 1,
+                        cv2.LINE_AA)
+            if s == 0:
+                cv2.putText(img, name, (5, margin_t + int(c * cell) + 4), font, 0.33, (0, 0, 0), 1, cv2.LINE_AA)
+    bx = margin_l + S * (side + gap)
+    grad = np.linspace(1.0, 0.0, side)[:, None].repeat(bar_w, 1)
+    img[margin_t : margin_t + side, bx : bx + bar_w] = _colour(grad)
+    for v, text in ticks:
+        y = margin_t + int((1 - v) * (side - 1))
+        cv2.putText(img, text, (bx + bar_w + 3, y + 4), font, 0.33, (0, 0, 0), 1, cv2.LINE_AA)
+    return img
+
+
+def write_png(img: np.ndarray, path: Path) -> Path:
+    """Encode a BGR image as PNG and write it atomically."""
+    import cv2
+
+    ok, buf = cv2.imencode(".png", img)
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
+        raise RuntimeError(f"could not encode {path.name}")
+    return atomic_write_bytes(path, buf.tobytes())
+
+
+def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] | None = None) -> list[Path]:
+    """Write every output file into ``out``; returns the paths written."""
+    out = Path(out)
+    written = [atomic_write_text(out / "tables.txt", text), write_csv(result, out / "pairs.csv"),
+               atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n")]
+    for m in result.methods:
+        for metric in ("r", "msd"):
+            written.append(write_png(heatmap(result, m, metric), out / f"heatmap_{metric}_{m}.png"))
+    return written

@@ -1,0 +1,215 @@
+"""The whole cross-mapping grid, run locally, with joblib processes, or on a Dask cluster.
+
+Work is cut into chunks of template rows (:func:`hila_lang.evaluation.grid.evaluate_rows`);
+every backend computes the same rows with the same deterministic code and the results are put
+back by row index, so the numbers do not depend on the backend or the order chunks finish in.
+A progress bar (rows done) goes to stderr.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from .dataset import Trial, setups_of
+from .grid import SEGMENTS, RowResult, evaluate_rows
+
+#: how long ``--dask`` waits for the scheduler before giving up
+CONNECT_TIMEOUT = "10s"
+
+
+@dataclass
+class GridResult:
+    """Scores of the full grid.
+
+    Attributes
+    ----------
+    labels : list of str
+        ``setup/trial`` per trial, in dataset order (rows = templates/input, columns = tasks/output).
+    trial_setup : ndarray of int, shape (J,)
+        Set-up index of each trial.
+    setups : list of str
+        Set-up names.
+    segments : tuple of int
+        Segment counts N.
+    methods : tuple of str
+        Methods run (``osila`` first).
+    r, msd, seconds : dict of str to ndarray, shape (S, J, J)
+        Per method: ``[s, i, j]`` is template i mapped onto task j with ``segments[s]`` segments.
+    failures : dict of str to list of str
+        Failed pairs per method.
+    wall_seconds : float
+        Wall-clock time of the grid.
+    backend : str
+        ``local``, ``joblib(N)`` or ``dask(ADDRESS)``.
+    """
+
+    labels: list[str]
+    trial_setup: np.ndarray
+    setups: list[str]
+    segments: tuple[int, ...]
+    methods: tuple[str, ...]
+    r: dict[str, np.ndarray] = field(default_factory=dict)
+    msd: dict[str, np.ndarray] = field(default_factory=dict)
+    seconds: dict[str, np.ndarray] = field(default_factory=dict)
+    failures: dict[str, list[str]] = field(default_factory=dict)
+    wall_seconds: float = 0.0
+    backend: str = "local"
+
+
+class Progress:
+    """A text progress bar on a stream: redrawn in place on a terminal, every 10 % otherwise."""
+
+    def __init__(self, total: int, label: str = "eval", stream=None, enabled: bool = True) -> None:
+        self.total, self.label, self.done = total, label, 0
+        self.stream = sys.stderr if stream is None else stream
+        self.enabled = enabled and total > 0
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.start = time.perf_counter()
+        self._last_decile = -1
+
+    def update(self, k: int = 1) -> None:
+        """Advance by ``k`` units and redraw."""
+        self.done += k
+        if not self.enabled:
+            return
+        frac = self.done / self.total
+        elapsed = time.perf_counter() - self.start
+        eta = elapsed / frac * (1 - frac) if frac > 0 else 0.0
+        bar = "#" * int(30 * frac) + "-" * (30 - int(30 * frac))
+        text = f"{self.label} [{bar}] {self.done}/{self.total} rows  {elapsed:5.1f} s  eta {eta:5.1f} s"
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if self.done >= self.total else ""))
+            self.stream.flush()
+        elif int(frac * 10) > self._last_decile:
+            self._last_decile = int(frac * 10)
+            self.stream.write(text + "\n")
+            self.stream.flush()
+
+
+def _chunks(n_rows: int, n_chunks: int) -> list[list[int]]:
+    n_chunks = max(1, min(n_rows, n_chunks))
+    return [list(range(k, n_rows, n_chunks)) for k in range(n_chunks)]
+
+
+def _run_local(trials, chunks, args, progress):
+    for rows in chunks:
+        res = evaluate_rows(trials, rows, *args)
+        progress.update(len(rows))
+        yield res
+
+
+def _run_joblib(trials, chunks, args, jobs, progress):
+    from joblib import Parallel, delayed
+
+    try:
+        parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")  # joblib >= 1.4
+    except (TypeError, ValueError):  # older joblib: results in submission order
+        parallel = Parallel(n_jobs=jobs)
+    for res in parallel(delayed(evaluate_rows)(trials, rows, *args) for rows in chunks):
+        progress.update(len(res))
+        yield res
+
+
+def _connect(address: str):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--dask needs the optional package 'distributed', which is not installed",
+                         hint="pip install 'hila-lang[dask]'") from None
+    try:
+        return Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {exc}",
+                         hint="start one with 'dask scheduler' and 'dask worker ADDRESS', or omit --dask") from None
+
+
+def _run_dask(trials, chunks, args, address, progress):
+    from distributed import as_completed
+
+    client = _connect(address)
+    try:
+        [shared] = client.scatter([trials], broadcast=True)
+        futures = [client.submit(evaluate_rows, shared, rows, *args, pure=False) for rows in chunks]
+        for fut in as_completed(futures, loop=client.loop):
+            res = fut.result()
+            progress.update(len(res))
+            yield res
+    finally:
+        client.close()
+
+
+def run_grid(
+    trials: list[Trial],
+    *,
+    segments: tuple[int, ...] = SEGMENTS,
+    methods: tuple[str, ...] = ("osila",),
+    options: dict[str, Any] | None = None,
+    jobs: int = 1,
+    dask: str | None = None,
+    progress: bool = True,
+    stream=None,
+) -> GridResult:
+    """Evaluate every template against every task (see :mod:`.grid`) and collect the scores.
+
+    Parameters
+    ----------
+    trials : list of Trial
+        The dataset, grouped by set-up.
+    segments, methods, options
+        As :func:`hila_lang.evaluation.grid.evaluate_row`.
+    jobs : int
+        Worker processes for joblib (1 = in this process; -1 = all cores).
+    dask : str, optional
+        Address of a Dask scheduler (``tcp://host:8786``); overrides ``jobs``.
+    progress : bool
+        Draw a progress bar on ``stream`` (stderr by default).
+
+    Returns
+    -------
+    GridResult
+    """
+    if "dmp" in methods:
+        from .peers import require_dmp
+
+        require_dmp()
+    n = len(trials)
+    setups = setups_of(trials)
+    result = GridResult(
+        labels=[t.label for t in trials],
+        trial_setup=np.array([setups.index(t.setup) for t in trials]),
+        setups=setups,
+        segments=tuple(segments),
+        methods=tuple(methods),
+    )
+    for m in methods:
+        for name in ("r", "msd", "seconds"):
+            getattr(result, name)[m] = np.full((len(segments), n, n), np.nan)
+        result.failures[m] = []
+    args = (tuple(segments), tuple(methods), dict(options or {}))
+    bar = Progress(n, stream=stream, enabled=progress)
+    t0 = time.perf_counter()
+    if dask:
+        result.backend = f"dask({dask})"
+        stream_of_results = _run_dask(trials, _chunks(n, 4 * n), args, dask, bar)
+    elif jobs != 1:
+        result.backend = f"joblib({jobs})"
+        stream_of_results = _run_joblib(trials, _chunks(n, 4 * max(jobs, 2)), args, jobs, bar)
+    else:
+        stream_of_results = _run_local(trials, _chunks(n, n), args, bar)
+    rows: list[RowResult] = []
+    for chunk in stream_of_results:
+        rows.extend(chunk)
+    result.wall_seconds = time.perf_counter() - t0
+    for row in sorted(rows, key=lambda r: r.row):
+        for m in methods:
+            result.r[m][:, row.row] = row.r[m]
+            result.msd[m][:, row.row] = row.msd[m]
+            result.seconds[m][:, row.row] = row.seconds[m]
+            result.failures[m].extend(row.failures[m])
+    return result

@@ -1,0 +1,192 @@
+"""Tables I–III of the paper from a :class:`~hila_lang.evaluation.run.GridResult`, as text.
+
+- Table I: mean R of the self-mapping cases (template i onto its own ICPs), per set-up and N.
+- Table II: mean R over all template/task pairs, grouped by input (template, columns) and output
+  (task, rows) set-up; each cell holds N = 1..4 on four lines, as in the paper.
+- Table III: the same for MSD (squared path units: pixels² for the stand-in).
+
+When the dataset has 5 set-ups the paper's figures (:mod:`.paper`) are printed beside ours,
+``ours (paper)``; they are reference values from a different (human) dataset.
+
+Summary shares follow the paper's §IV.A.  The paper's percentages are shares of Table II cells
+(8 of its 25 cells have R < 0.8 unsegmented = 32 %; 23 of 25 reach R >= 0.8 at N = 2 = 92 %,
+counting its 0.800; 24 of 25 exceed 0.95 at N = 4, "nearly all"), so we give both the share of
+cells, computed the same way, and the share of the individual pairs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import paper
+from .run import GridResult
+
+#: (key, N, comparison, threshold, label)
+CLAIMS = (
+    ("unsegmented_below_0.8", 1, "<", 0.8, "R < 0.8 unsegmented (N = 1)"),
+    ("segmented_at_least_0.8", 2, ">=", 0.8, "R >= 0.8 once segmented (N = 2)"),
+    ("n4_above_0.95", 4, ">", 0.95, "R > 0.95 at N = 4"),
+)
+_OPS = {"<": np.less, ">=": np.greater_equal, ">": np.greater}
+
+
+def _group_mean(values: np.ndarray, setup_of: np.ndarray, n_setups: int) -> np.ndarray:
+    """Mean of values (S, J, J) [s, template, task] grouped to (S, output setup, input setup)."""
+    S = values.shape[0]
+    out = np.full((S, n_setups, n_setups), np.nan)
+    for o in range(n_setups):
+        for i in range(n_setups):
+            block = values[:, setup_of == i][:, :, setup_of == o]
+            with np.errstate(all="ignore"):
+                out[:, o, i] = np.nanmean(block.reshape(S, -1), axis=1) if block.size else np.nan
+    return out
+
+
+def table1(result: GridResult, method: str = "osila") -> np.ndarray:
+    """Mean self-mapping R, shape (S, n_setups)."""
+    diag = np.diagonal(result.r[method], axis1=1, axis2=2)  # (S, J)
+    return np.array([[np.nanmean(diag[s, result.trial_setup == k]) for k in range(len(result.setups))]
+                     for s in range(len(result.segments))])
+
+
+def table2(result: GridResult, method: str = "osila") -> np.ndarray:
+    """Mean R per (N, output set-up, input set-up), shape (S, n_setups, n_setups)."""
+    return _group_mean(result.r[method], result.trial_setup, len(result.setups))
+
+
+def table3(result: GridResult, method: str = "osila") -> np.ndarray:
+    """Mean MSD per (N, output set-up, input set-up), shape (S, n_setups, n_setups)."""
+    return _group_mean(result.msd[method], result.trial_setup, len(result.setups))
+
+
+def share(values: np.ndarray, op: str, threshold: float) -> float:
+    """Share of the finite ``values`` satisfying ``value op threshold`` (NaN if none is finite)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    return float(_OPS[op](v, threshold).mean()) if v.size else float("nan")
+
+
+def summary(result: GridResult, method: str = "osila") -> list[dict[str, Any]]:
+    """The §IV.A shares: ours over cells and over pairs, and the paper's over its cells."""
+    cells = table2(result, method)
+    out = []
+    for key, n, op, thr, label in CLAIMS:
+        row: dict[str, Any] = {"claim": key, "label": label, "segments": n,
+                               "paper_text": paper.CLAIMS[key],
+                               "paper_cells": share(paper.TABLE_II[n - 1], op, thr)}
+        if n in result.segments:
+            s = result.segments.index(n)
+            row["cells"] = share(cells[s], op, thr)
+            row["pairs"] = share(result.r[method][s], op, thr)
+        out.append(row)
+    return out
+
+
+def _pct(x: float) -> str:
+    return "  n/a" if not np.isfinite(x) else f"{100 * x:4.0f}%"
+
+
+def _num(x: float, kind: str) -> str:
+    if not np.isfinite(x):
+        return "n/a"
+    return f"{x:.3f}" if kind == "r" else f"{x:.0f}"
+
+
+def _cell(ours: float, ref: float | None, kind: str) -> str:
+    text = _num(ours, kind)
+    return text if ref is None else f"{text} ({_num(ref, kind)})"
+
+
+def _with_paper(result: GridResult) -> bool:
+    return len(result.setups) == 5 and tuple(result.segments) == (1, 2, 3, 4)
+
+
+def format_table1(result: GridResult, method: str = "osila") -> str:
+    """Table I in the paper's layout: rows N, columns set-ups."""
+    ours, ref = table1(result, method), (paper.TABLE_I if _with_paper(result) else None)
+    width = 15 if ref is not None else 7
+    lines = ["TABLE I: averaged R of the self-mapping cases, grouped in experiments"
+             + (" -- ours (paper)" if ref is not None else ""),
+             "N segments | " + " | ".join(f"{name:^{width}}" for name in result.setups)]
+    for s, n in enumerate(result.segments):
+        cells = [_cell(ours[s, k], None if ref is None else ref[s, k], "r") for k in range(len(result.setups))]
+        lines.append(f"{n:^10} | " + " | ".join(f"{c:^{width}}" for c in cells))
+    return "\n".join(lines)
+
+
+def _format_cross(result: GridResult, ours: np.ndarray, ref: np.ndarray | None, kind: str, title: str) -> str:
+    width = (15 if kind == "r" else 13) if ref is not None else 7
+    lines = [title + (" -- ours (paper)" if ref is not None else ""),
+             "Columns: input (template) experiment; rows: output (task) experiment; "
+             f"the lines of a cell: N = {', '.join(map(str, result.segments))} segments.",
+             f"{'output':<8}| {'N':>2} | " + " | ".join(f"{name:^{width}}" for name in result.setups)]
+    k_all = range(len(result.setups))
+    for o, name in enumerate(result.setups):
+        lines.append("-" * len(lines[2]))
+        for s, n in enumerate(result.segments):
+            cells = [_cell(ours[s, o, i], None if ref is None else ref[s, o, i], kind) for i in k_all]
+            head = name if s == 0 else ""
+            lines.append(f"{head:<8}| {n:>2} | " + " | ".join(f"{c:^{width}}" for c in cells))
+    return "\n".join(lines)
+
+
+def format_table2(result: GridResult, method: str = "osila") -> str:
+    """Table II (mean R) in the paper's layout."""
+    ref = paper.TABLE_II if _with_paper(result) else None
+    return _format_cross(result, table2(result, method), ref, "r",
+                         "TABLE II: averaged correlation coefficient R, mapping one experiment onto another")
+
+
+def format_table3(result: GridResult, method: str = "osila") -> str:
+    """Table III (mean MSD) in the paper's layout."""
+    ref = paper.TABLE_III if _with_paper(result) else None
+    return _format_cross(result, table3(result, method), ref, "msd",
+                         "TABLE III: averaged mean squared difference MSD, mapping one experiment onto another")
+
+
+def format_summary(result: GridResult, method: str = "osila") -> str:
+    """The §IV.A summary lines, ours beside the paper's."""
+    lines = [f"Summary ({method}; shares of the {len(result.setups) ** 2} Table II cells and of all "
+             f"{len(result.labels) ** 2} pairs):"]
+    for row in summary(result, method):
+        if "cells" not in row:
+            continue
+        lines.append(f"  {row['label']:<32} ours: {_pct(row['cells'])} of cells, {_pct(row['pairs'])} of pairs"
+                     f" | paper: {_pct(row['paper_cells'])} of cells ({row['paper_text']})")
+    return "\n".join(lines)
+
+
+def peer_rows(result: GridResult) -> list[dict[str, Any]]:
+    """Per method and N: mean and median R, share R >= 0.8, mean MSD, mean time per path."""
+    rows = []
+    for m in result.methods:
+        for s, n in enumerate(result.segments):
+            r, d, t = result.r[m][s], result.msd[m][s], result.seconds[m][s]
+            rows.append({"method": m, "segments": n,
+                         "mean_r": float(np.nanmean(r)), "median_r": float(np.nanmedian(r)),
+                         "share_r_at_least_0.8": share(r, ">=", 0.8), "mean_msd": float(np.nanmean(d)),
+                         "ms_per_path": 1e3 * float(np.nanmean(t)),
+                         "failures": int(np.isnan(r).sum())})
+    return rows
+
+
+def format_peers(result: GridResult) -> str:
+    """OSILA and its peers side by side on the same grid."""
+    lines = ["Peers on the same grid (every template onto every task):",
+             f"{'method':<7}| {'N':>2} | {'mean R':>7} | {'median R':>8} | {'R>=0.8':>6} | {'mean MSD':>9} | "
+             f"{'ms/path':>7} | {'failed':>6}"]
+    for row in peer_rows(result):
+        lines.append(f"{row['method']:<7}| {row['segments']:>2} | {row['mean_r']:7.3f} | {row['median_r']:8.3f} | "
+                     f"{_pct(row['share_r_at_least_0.8']):>6} | {row['mean_msd']:9.1f} | {row['ms_per_path']:7.2f} | "
+                     f"{row['failures']:>6}")
+    return "\n".join(lines)
+
+
+def render(result: GridResult) -> str:
+    """Everything ``hila eval`` prints: Tables I–III, the summary, and peers when run."""
+    parts = [format_table1(result), format_table2(result), format_table3(result), format_summary(result)]
+    if len(result.methods) > 1:
+        parts.append(format_peers(result))
+    return "\n\n".join(parts) + "\n"

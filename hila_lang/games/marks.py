@@ -1,0 +1,136 @@
+"""The marks on the paper: the opponent's hand-drawn crosses and measures of the robot's circles.
+
+Pure numpy (plus :mod:`hila_lang.metrics`); every point is world frame, metres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..robot.scene import SceneSpec, cell_center
+
+#: a pen-tip point within this height of the paper touches it, metres (the PyBullet back end
+#: inks within the same 0.5 mm)
+CONTACT_TOLERANCE = 0.0005
+#: half the length of a cross's bar, as a fraction of the cell size
+CROSS_HALF = 0.30
+
+
+def cross_strokes(spec: SceneSpec, cell: int, rng: np.random.Generator,
+                  points_per_stroke: int = 12) -> list[np.ndarray]:
+    """Two hand-drawn strokes of a cross in ``cell`` on the paper, each shape (N, 3).
+
+    The bars run along the cell's diagonals with seeded jitter in length, angle and position,
+    like a person's cross.
+    """
+    size = spec.grid_size / 3
+    centre = spec.world_to_grid(cell_center(spec, cell)) + rng.normal(scale=0.04 * size, size=2)
+    strokes = []
+    for base in (np.pi / 4, -np.pi / 4):
+        angle = base + rng.normal(scale=0.08)
+        half = CROSS_HALF * size * np.sqrt(2) * rng.uniform(0.85, 1.05)
+        d = np.array([np.cos(angle), np.sin(angle)])
+        t = np.linspace(-half, half, points_per_stroke)[:, None]
+        bow = np.sin(np.linspace(0, np.pi, points_per_stroke))[:, None] * rng.normal(scale=0.02 * size)
+        pts = centre + t * d + bow * np.array([-d[1], d[0]])
+        strokes.append(spec.grid_to_world(pts[:, 0], pts[:, 1]))
+    return strokes
+
+
+def similarity_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """``source`` mapped by the best similarity (rotation, uniform scale, translation) onto ``target``.
+
+    Umeyama's least-squares solution (reflections excluded).
+
+    Parameters
+    ----------
+    source, target : ndarray, shape (N, D)
+        Corresponding points.
+
+    Returns
+    -------
+    ndarray, shape (N, D)
+    """
+    src = np.asarray(source, dtype=float)
+    dst = np.asarray(target, dtype=float)
+    mu_s, mu_d = src.mean(axis=0), dst.mean(axis=0)
+    a, b = src - mu_s, dst - mu_d
+    cov = b.T @ a / len(src)
+    u, sig, vt = np.linalg.svd(cov)
+    fix = np.eye(src.shape[1])
+    if np.linalg.det(u) * np.linalg.det(vt) < 0:
+        fix[-1, -1] = -1.0
+    rot = u @ fix @ vt
+    var = (a**2).sum() / len(src)
+    scale = float(np.trace(np.diag(sig) @ fix) / var) if var > 0 else 1.0
+    return scale * a @ rot.T + mu_d
+
+
+def by_arc_length(path: np.ndarray, n: int) -> np.ndarray:
+    """``path`` (T, D) re-sampled at ``n`` points evenly spaced along its length (linear)."""
+    path = np.asarray(path, dtype=float)
+    step = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    keep = np.concatenate([[True], step > 1e-9])
+    path = path[keep]
+    s = np.concatenate([[0.0], np.cumsum(step[step > 1e-9])])
+    if len(path) < 2 or s[-1] == 0:
+        return np.repeat(path[:1], n, axis=0)
+    u = np.linspace(0.0, s[-1], n)
+    return np.column_stack([np.interp(u, s, path[:, k]) for k in range(path.shape[1])])
+
+
+def mark_correlation(drawn: np.ndarray, demonstrated: np.ndarray, n: int = 200) -> float:
+    """Per-mark R: the drawn circle against the demonstrated one after similarity alignment.
+
+    Ink has no timing (the robot draws at its own speed), so both paths are first spread evenly
+    along their length (:func:`by_arc_length`), then brought to ``n`` points by cubic spline
+    (:func:`hila_lang.metrics.resample`, the paper's equal-length step); the drawn one is
+    aligned onto the demonstrated one (:func:`similarity_align`), and R is the paper's eq. 1
+    (:func:`hila_lang.metrics.correlation`).
+    """
+    from ..metrics import correlation, resample
+
+    m = max(len(drawn), len(demonstrated), n)
+    a = resample(by_arc_length(drawn, m), n)
+    b = resample(by_arc_length(demonstrated, m), n)
+    return float(correlation(similarity_align(a, b), b))
+
+
+def tracking_error(planned: np.ndarray, executed: np.ndarray, step: float = 0.0002,
+                   prefix: bool = False) -> np.ndarray:
+    """Distance (metres) of every executed point to the planned polyline, shape (T',).
+
+    The planned path is densified to ``step`` metres and the nearest point found with a k-d tree.
+    With ``prefix`` the executed trace's first point is put in front of the plan: a back end
+    moves straight from where the pen was to the plan's first waypoint, and that move is part
+    of what it was asked to do.
+    """
+    from scipy.spatial import cKDTree
+
+    planned = np.asarray(planned, dtype=float)
+    executed = np.asarray(executed, dtype=float)
+    if prefix and len(executed):
+        planned = np.vstack([executed[:1], planned])
+    if len(planned) == 1:
+        return np.linalg.norm(executed - planned[0], axis=1)
+    dense = [planned[:1]]
+    for p, q in zip(planned[:-1], planned[1:]):
+        k = max(int(np.ceil(np.linalg.norm(q - p) / step)), 1)
+        dense.append(p + np.linspace(0, 1, k + 1)[1:, None] * (q - p))
+    dist, _ = cKDTree(np.vstack(dense)).query(executed)
+    return dist
+
+
+def outside_cell(spec: SceneSpec, cell: int, points: np.ndarray) -> float:
+    """How far (metres) the farthest of ``points`` lies outside ``cell``, seen from above; 0 inside."""
+    size = spec.grid_size / 3
+    centre = spec.world_to_grid(cell_center(spec, cell))
+    g = spec.world_to_grid(np.asarray(points, dtype=float)) - centre
+    excess = np.abs(g) - size / 2
+    return float(max(excess.max(), 0.0))
+
+
+def on_paper(path: np.ndarray, surface_z: float) -> np.ndarray:
+    """The points of ``path`` (T, 3) at most :data:`CONTACT_TOLERANCE` above the paper (or below it), (T', 3)."""
+    path = np.asarray(path, dtype=float)
+    return path[path[:, 2] - surface_z <= CONTACT_TOLERANCE]

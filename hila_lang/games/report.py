@@ -1,0 +1,229 @@
+"""The output folder of a game: images, pen traces, the FSM and ``report.json``.
+
+Files (all written atomically through :mod:`hila_lang.fileio`):
+
+- ``report.json``: seed, opponent, who started, the moves, the final board, the result, per-mark
+  R of each drawn circle against the demonstrated one (after similarity alignment), how far each
+  circle strays outside its cell, tracking error (planned against executed pen path), wall time;
+- ``eye.png``: the final left eye-camera image (PyBullet back end only);
+- ``top.png``: the board from above with the planned paths (green) and the executed pen paths
+  (blue) drawn over it -- a rendered camera view with the PyBullet back end (the arm may hide
+  part of the board), the paper's ink otherwise;
+- ``paper.png``: the sheet straight from above -- its ink (what the cameras see on the paper)
+  with the same planned and executed paths over it, never hidden by the arm;
+- ``traces.csv``: every pen path: ``source,state,pen_down,kind,index,x,y,z`` (metres);
+- ``fsm.dot``: the program's state machine (when the runner hands it over).
+
+The default folder is ``runs/game-<UTC time>-seed<N>``, made fresh (a suffix is added when it
+exists).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..fileio import atomic_write_bytes, atomic_write_text
+from . import tictactoe as ttt
+
+PLANNED_BGR = (60, 170, 60)
+EXECUTED_BGR = (200, 80, 20)
+
+
+def _mm(x: float | None) -> float | None:
+    return None if x is None else round(1000.0 * float(x), 3)
+
+
+def build_report(world, trace=None) -> dict[str, Any]:
+    """The game's summary as plain JSON-ready data (see the module docstring)."""
+    from .marks import tracking_error
+
+    errors = []
+    for st in world.states:
+        if st["planned"] is not None and st["executed"] is not None and len(st["executed"]):
+            errors.append(tracking_error(st["planned"], st["executed"], prefix=True))
+    all_err = np.concatenate(errors) if errors else None
+    marks = []
+    for m in world.marks:
+        marks.append({
+            "cell": m["cell"],
+            "intended_cell": m["intended_cell"],
+            "state": m["state"],
+            "r": None if m["r"] is None else round(m["r"], 4),
+            "r_planned": None if m["r_planned"] is None else round(m["r_planned"], 4),
+            "outside_cell_mm": _mm(m["outside_cell_m"]),
+            "contact_points": m["contact_points"],
+            "tracking_median_mm": _mm(m.get("tracking_median_m")),
+            "tracking_max_mm": _mm(m.get("tracking_max_m")),
+        })
+    rs = [m["r"] for m in marks if m["r"] is not None]
+    backend = world.backend
+    return {
+        "game": "tictactoe",
+        "seed": world.seed,
+        "opponent": world.opponent.name,
+        "first": world.first,
+        "backend": getattr(backend, "name", None),
+        "park": [round(float(v), 5) for v in world.park],
+        "scene": {
+            "grid_center": list(world.scene.grid_center),
+            "grid_size": world.scene.grid_size,
+            "grid_rotation_deg": round(float(np.degrees(world.scene.grid_rotation)), 3),
+            "surface_z": world.scene.surface_z,
+        },
+        "moves": world.moves,
+        "board": list(world.board),
+        "board_text": ttt.render(world.board).splitlines(),
+        "result": world.result(),
+        "winning_line": ttt.winning_line(world.board),
+        "marks": marks,
+        "r_min": None if not rs else min(rs),
+        "r_mean": None if not rs else round(float(np.mean(rs)), 4),
+        "tracking_error_mm": None if all_err is None else {
+            "median": _mm(np.median(all_err)), "max": _mm(all_err.max()),
+            "states": len(errors),
+        },
+        "fsm_states_run": len(world.states),
+        "trace_entries": None if trace is None else len(trace),
+        "wall_time_s": round(time.perf_counter() - world.t0, 3),
+    }
+
+
+def output_folder(out: Path | str | None, seed: int) -> Path:
+    """``out`` as given, or a fresh ``runs/game-<UTC time>-seed<N>[-k]`` folder (created)."""
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    base = Path("runs") / f"game-{stamp}-seed{seed}"
+    folder, k = base, 1
+    while folder.exists():
+        k += 1
+        folder = base.with_name(f"{base.name}-{k}")
+    folder.mkdir(parents=True)
+    return folder
+
+
+def traces_csv(world) -> str:
+    """Every planned and executed path of the robot and every opponent stroke, as CSV text."""
+    buf = io.StringIO()
+    buf.write("source,state,pen_down,kind,index,x,y,z\n")
+    for st in world.states:
+        for kind in ("planned", "executed"):
+            pts = st[kind]
+            if pts is None:
+                continue
+            for i, (x, y, z) in enumerate(np.asarray(pts, dtype=float)):
+                buf.write(f"robot,{st['state']},{int(st['pen_down'])},{kind},{i},{x:.6f},{y:.6f},{z:.6f}\n")
+    for move, strokes in enumerate(world.crosses, start=1):
+        for s, stroke in enumerate(strokes):
+            for i, (x, y, z) in enumerate(stroke):
+                buf.write(f"opponent,cross{move}.{s + 1},1,inked,{i},{x:.6f},{y:.6f},{z:.6f}\n")
+    return buf.getvalue()
+
+
+def _png(rgb: np.ndarray) -> bytes:
+    import cv2
+
+    ok, data = cv2.imencode(".png", np.ascontiguousarray(rgb[:, :, ::-1]))
+    if not ok:  # pragma: no cover - cv2 encodes any uint8 image
+        raise RuntimeError("PNG encoding failed")
+    return data.tobytes()
+
+
+def _overlay(rgb: np.ndarray, world, project) -> np.ndarray:
+    """``rgb`` with every planned (green) and executed (blue) robot path drawn over it."""
+    import cv2
+
+    scale = 1 if rgb.shape[0] >= 480 else 2
+    if scale > 1:
+        rgb = cv2.resize(rgb, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+    bgr = np.ascontiguousarray(rgb[:, :, ::-1])
+    for st in world.states:
+        for kind, colour in (("planned", PLANNED_BGR), ("executed", EXECUTED_BGR)):
+            pts = st[kind]
+            if pts is None or len(pts) < 2:
+                continue
+            px = np.asarray(project(np.asarray(pts, dtype=float)), dtype=float) * scale
+            px = px[np.isfinite(px).all(axis=1)]
+            if len(px) >= 2:
+                cv2.polylines(bgr, [np.round(px).astype(np.int32)], False, colour, 1, cv2.LINE_AA)
+    return np.ascontiguousarray(bgr[:, :, ::-1])
+
+
+def paper_view(world) -> np.ndarray:
+    """The sheet seen straight from above (its ink texture, RGB) with the robot's paths over it.
+
+    With the PyBullet back end this is the texture the cameras see; otherwise the ink is
+    rasterised here from the pen traces that touched the paper and the opponent's strokes.
+    """
+    from ..robot.ink import INK_RGB, InkCanvas
+    from .marks import on_paper
+
+    canvas = InkCanvas(world.scene)
+    ink_image = getattr(world.backend, "ink_image", None)
+    if callable(ink_image):
+        rgb = np.ascontiguousarray(ink_image()).copy()
+    else:
+        for st in world.states:
+            if st["pen_down"] and st["executed"] is not None:
+                touching = on_paper(st["executed"], world.scene.surface_z)
+                if len(touching) >= 2:
+                    canvas.draw_polyline(touching)
+        for strokes in world.crosses:
+            for stroke in strokes:
+                canvas.draw_polyline(stroke, color=INK_RGB["opponent"])
+        rgb = np.ascontiguousarray(canvas.image).copy()
+    return _overlay(rgb, world, canvas.to_pixels)
+
+
+def top_view(world) -> np.ndarray:
+    """The board from above (RGB) with planned and executed paths: a rendered camera view
+    with the PyBullet back end (the arm may hide part of it), else :func:`paper_view`."""
+    view = getattr(world.backend, "top_view_image", None)
+    if not callable(view):
+        return paper_view(world)
+    image = view()
+    return _overlay(np.ascontiguousarray(image.rgb).copy(), world, image.project)
+
+
+def fsm_dot(fsm) -> str | None:
+    """DOT text of the compiled FSM, or None when it is unknown."""
+    if fsm is None:
+        return None
+    for attr in ("to_dot", "dot"):
+        fn = getattr(fsm, attr, None)
+        if callable(fn):
+            return fn()
+    try:
+        from ..language import fsm as fsm_module  # the language's renderer, when present
+    except ImportError:
+        return None
+    fn = getattr(fsm_module, "to_dot", None)
+    return fn(fsm) if callable(fn) else None
+
+
+def write_outputs(world, report: dict[str, Any], dot: str | None = None) -> Path:
+    """Write the output folder of ``world``'s game; returns the folder."""
+    folder = output_folder(world.options.out, world.seed)
+    files = ["paper.png", "report.json", "traces.csv", "top.png"]
+    atomic_write_text(folder / "traces.csv", traces_csv(world))
+    atomic_write_bytes(folder / "top.png", _png(top_view(world)))
+    atomic_write_bytes(folder / "paper.png", _png(paper_view(world)))
+    camera = getattr(world.backend, "camera_image", None)
+    if callable(camera):
+        atomic_write_bytes(folder / "eye.png", _png(camera("left").rgb))
+        files.append("eye.png")
+    dot = dot if dot is not None else fsm_dot(world.fsm)
+    if dot:
+        atomic_write_text(folder / "fsm.dot", dot)
+        files.append("fsm.dot")
+    report = dict(report, files=sorted(files))
+    atomic_write_text(folder / "report.json", json.dumps(report, indent=2) + "\n")
+    return folder

@@ -1,0 +1,311 @@
+"""The ``tictactoe`` world that ``programs/game.hila`` runs in (the paper's Experiment B).
+
+The iCub plays circles (``O``) on :meth:`SceneSpec.game` -- a grid 20 % smaller than the
+demonstration's, rotated and 0.20 m higher -- against an opponent who plays crosses (``X``).
+
+Scene points (:meth:`TicTacToeWorld.points`), world frame, metres:
+
+- ``board.cellN.tl|tr|br|bl`` for N = 1..9: every cell's corners;
+- ``board.move.tl|tr|br|bl``: the corners of the cell the robot plays next (minimax, never
+  loses; present only while it is the robot's turn);
+- ``arm.park``: where the arm was parked at the start, a seeded random place above the grid;
+- ``arm.lift``: straight above the pen at the park height (see :meth:`TicTacToeWorld.lift_point`).
+
+Questions (:meth:`TicTacToeWorld.query`): ``game_over``, ``robot_to_move``, ``opponent_to_move``,
+``best_move`` (the robot's next cell as a point group, ``"board.cell5"``, so ``c.*`` binds the
+ICPs ``tl``, ``tr``, ``br``, ``bl`` to its corners), ``best_cell`` (the same as a number),
+``last_move`` (the point group of the robot's last circle), ``winner`` (``"robot"``,
+``"opponent"``, ``"draw"`` or None), ``marks`` (number of marks on the board), ``free N``
+(cell N is empty).
+
+Events: ``wait("opponent_moved")`` asks the opponent for a cell, inks its cross on the paper and
+returns the cell.  ``notify("state_done", pen_down=True, executed=TRACE, ...)`` records the robot's
+circle in the cell where the pen actually drew.  The board is printed after every move.
+
+Settings (``--set key=value``): ``first=robot|opponent`` (default robot, as in the paper),
+``template=PATH`` (the demonstration the circles are compared with, default
+``primitives/circle.yaml``), ``report=yes|no`` (write the output folder, default yes).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import HilaRuntimeError, InputError
+from ..robot.scene import SceneSpec, cell_at, cell_corners
+from . import tictactoe as ttt
+from .marks import cross_strokes, on_paper
+from .opponents import make_opponent
+
+#: park height above the paper, metres (low, high)
+PARK_HEIGHT = (0.08, 0.13)
+ROBOT, OPPONENT = "robot", "opponent"
+
+
+def park_position(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
+    """A seeded random place above the grid (within its middle 70 %), shape (3,), metres."""
+    half = 0.35 * spec.grid_size
+    right, far = rng.uniform(-half, half, size=2)
+    point = spec.grid_to_world(right, far)
+    point[2] += rng.uniform(*PARK_HEIGHT)
+    return point
+
+
+class TicTacToeWorld:
+    """One game of tic-tac-toe between the robot and an opponent.
+
+    Parameters
+    ----------
+    options : RunOptions
+        ``seed``, ``opponent``, ``out``, ``settings``, ``stdin``, ``stdout`` are used.
+    """
+
+    default_backend = "pybullet"
+
+    def __init__(self, options) -> None:
+        self.t0 = time.perf_counter()
+        self.options = options
+        self.seed = int(options.seed)
+        self.scene = SceneSpec.game()
+        self.settings = dict(options.settings or {})
+        first = self.settings.get("first", ROBOT)
+        if first not in (ROBOT, OPPONENT):
+            raise InputError(f"expected --set first=robot|opponent, got first={first!r}")
+        self.first = first
+        self.rng = np.random.default_rng([self.seed, 5])
+        self.park = park_position(self.scene, self.rng)
+        self.opponent = make_opponent(options.opponent, self.seed, options.stdin, options.stdout)
+        self.stdout = options.stdout
+        self.board: ttt.Board = ttt.empty_board()
+        self.moves: list[dict[str, Any]] = []
+        self.marks: list[dict[str, Any]] = []  # the robot's circles with their paths
+        self.crosses: list[list[np.ndarray]] = []  # the opponent's ink strokes, per move
+        self.states: list[dict[str, Any]] = []
+        self.backend = None
+        self.fsm = None
+        self._template_draw: np.ndarray | None = None
+
+    def _print(self, text: str = "") -> None:
+        print(text, file=self.stdout, flush=True)
+
+    # -- plug-in hooks -----------------------------------------------------------------------
+    def attach(self, backend) -> None:
+        """Park the arm at :attr:`park` (no drawing) and keep the back end for inking."""
+        self.backend = backend
+        reset = getattr(backend, "reset_hand", None)
+        if callable(reset):
+            reset(self.park)
+        self._print(f"tic-tac-toe: the robot plays O, the opponent ({self.opponent.name}) plays X; "
+                    f"{self.first} starts")
+        self._print(ttt.render(self.board))
+
+    # -- World protocol ----------------------------------------------------------------------
+    def points(self) -> dict[str, np.ndarray]:
+        pts: dict[str, np.ndarray] = {"arm.park": self.park.copy(), "arm.lift": self.lift_point()}
+        for cell in range(1, 10):
+            for name, p in cell_corners(self.scene, cell).items():
+                pts[f"board.cell{cell}.{name}"] = p
+        if self.to_move() == ROBOT:
+            for name, p in cell_corners(self.scene, self.best_move()).items():
+                pts[f"board.move.{name}"] = p
+        return pts
+
+    def query(self, name: str, *args: Any) -> Any:
+        if name == "game_over":
+            return ttt.game_over(self.board)
+        if name == "robot_to_move":
+            return self.to_move() == ROBOT
+        if name == "opponent_to_move":
+            return self.to_move() == OPPONENT
+        if name == "best_move":
+            return f"board.cell{self.best_move()}"
+        if name == "best_cell":
+            return self.best_move()
+        if name == "last_move":
+            if not self.marks:
+                raise HilaRuntimeError("the robot has not drawn a mark yet: there is no last move")
+            return f"board.cell{self.marks[-1]['cell']}"
+        if name == "winner":
+            return self.result()
+        if name == "marks":
+            return 9 - self.board.count(ttt.EMPTY)
+        if name == "free":
+            if len(args) != 1:
+                raise InputError(f"query 'free' takes one cell number, got {len(args)} arguments")
+            cell = args[0]
+            if isinstance(cell, float) and cell.is_integer():
+                cell = int(cell)
+            if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 9:
+                raise InputError(f"query 'free' expects a cell 1..9, got {cell!r}")
+            return self.board[cell - 1] == ttt.EMPTY
+        raise KeyError(name)
+
+    def wait(self, event: str, *args: Any) -> Any:
+        if event != "opponent_moved":
+            raise KeyError(event)
+        if ttt.game_over(self.board):
+            return None
+        if self.to_move() != OPPONENT:
+            raise HilaRuntimeError("waiting for the opponent, but it is the robot's turn")
+        cell = int(self.opponent.choose(self.board))
+        self.board = ttt.play(self.board, cell, ttt.CROSS)
+        strokes = cross_strokes(self.scene, cell, self.rng)
+        ink = getattr(self.backend, "ink_polyline", None)
+        if callable(ink):
+            for stroke in strokes:
+                ink(stroke)
+        self.crosses.append(strokes)
+        self._record_move(OPPONENT, cell)
+        return cell
+
+    def notify(self, event: str, **data: Any) -> None:
+        if event != "state_done":
+            return
+        executed = data.get("executed")
+        planned = data.get("path")
+        entry = {
+            "state": str(data.get("state", "")),
+            "pen_down": bool(data.get("pen_down", False)),
+            "planned": None if planned is None else np.asarray(planned, dtype=float),
+            "executed": None if executed is None else np.asarray(executed, dtype=float),
+        }
+        self.states.append(entry)
+        if entry["pen_down"]:
+            self._record_circle(entry, data.get("template"))
+
+    # -- game logic --------------------------------------------------------------------------
+    def to_move(self) -> str | None:
+        """``"robot"``, ``"opponent"``, or None when the game is over."""
+        if ttt.game_over(self.board):
+            return None
+        placed = 9 - self.board.count(ttt.EMPTY)
+        robot_first = self.first == ROBOT
+        return ROBOT if (placed % 2 == 0) == robot_first else OPPONENT
+
+    def lift_point(self) -> np.ndarray:
+        """Straight above the pen at the park height, shape (3,): the hand's start of a reach.
+
+        After a circle the pen is low over the paper; a reach warped from there would squash
+        the demonstrated approach flat onto the paper, so each reach starts from this point
+        (the back end lifts the pen straight up to it).  At the start it is :attr:`park`.
+        """
+        here = self.park if self.backend is None else np.asarray(self.backend.hand_position(), dtype=float)
+        return np.array([here[0], here[1], max(float(here[2]), float(self.park[2]))])
+
+    def best_move(self) -> int:
+        """The robot's minimax move on the current board (centre first among equals)."""
+        if ttt.game_over(self.board):
+            raise HilaRuntimeError("the game is over: the robot has no move to make")
+        return ttt.best_move(self.board, ttt.CIRCLE)
+
+    def result(self) -> str | None:
+        """``"robot"``, ``"opponent"``, ``"draw"``, or None while the game goes on."""
+        w = ttt.winner(self.board)
+        if w == ttt.CIRCLE:
+            return ROBOT
+        if w == ttt.CROSS:
+            return OPPONENT
+        return "draw" if ttt.EMPTY not in self.board else None
+
+    def _record_circle(self, entry: dict[str, Any], template=None) -> None:
+        from .marks import mark_correlation, outside_cell, tracking_error  # metrics: lazy
+
+        drawn = entry["executed"] if entry["executed"] is not None else entry["planned"]
+        if drawn is None or len(drawn) == 0:
+            raise HilaRuntimeError("the robot drew, but the back end reported no path",
+                                   state=entry["state"])
+        touching = on_paper(drawn, self.scene.surface_z)
+        ink = touching if len(touching) >= 3 else drawn
+        cell = cell_at(self.scene, np.median(ink, axis=0))
+        if cell is None:
+            raise HilaRuntimeError("the robot drew its circle outside the grid", state=entry["state"])
+        if self.to_move() != ROBOT:
+            raise HilaRuntimeError(f"the robot drew in cell {cell}, but it is not its turn",
+                                   state=entry["state"])
+        if self.board[cell - 1] != ttt.EMPTY:
+            raise HilaRuntimeError(f"the robot drew in cell {cell}, which is taken", state=entry["state"])
+        intended = self.best_move()
+        demo = self._demonstrated_draw(template)
+        demo_circle = None if demo is None else on_paper(demo, float(demo[:, 2].min()))
+        planned = entry["planned"]
+        planned_circle = None if planned is None else on_paper(planned, self.scene.surface_z)
+
+        def r_of(circle):
+            ok = demo_circle is not None and circle is not None and len(circle) >= 4 and len(demo_circle) >= 4
+            return mark_correlation(circle, demo_circle) if ok else None
+
+        mark = {
+            "cell": cell,
+            "intended_cell": intended,
+            "state": entry["state"],
+            "planned": planned,
+            "executed": drawn,
+            "contact_points": int(len(touching)),
+            "outside_cell_m": outside_cell(self.scene, cell, ink),
+            "r": r_of(touching),
+            "r_planned": r_of(planned_circle),
+        }
+        if entry["planned"] is not None and entry["executed"] is not None:
+            err = tracking_error(entry["planned"], entry["executed"], prefix=True)
+            mark["tracking_median_m"] = float(np.median(err))
+            mark["tracking_max_m"] = float(err.max())
+        self.marks.append(mark)
+        self.board = ttt.play(self.board, cell, ttt.CIRCLE)
+        self._record_move(ROBOT, cell)
+
+    def _record_move(self, who: str, cell: int) -> None:
+        mark = ttt.CIRCLE if who == ROBOT else ttt.CROSS
+        self.moves.append({"player": who, "mark": mark, "cell": cell,
+                           "t": round(time.perf_counter() - self.t0, 3)})
+        self._print(f"\n{who} ({mark}) plays cell {cell}")
+        self._print(ttt.render(self.board))
+
+    def _demonstrated_draw(self, template=None) -> np.ndarray | None:
+        """The demonstrated circle (the ``draw`` sub-template's path), or None when unknown."""
+        if template is not None and getattr(template, "path", None) is not None:
+            return np.asarray(template.path, dtype=float)
+        if self._template_draw is None:
+            from ..template import load_template
+
+            path = _find_template(self.settings.get("template", "primitives/circle.yaml"))
+            if path is None:
+                return None
+            self._template_draw = load_template(path).sub("draw").path
+        return self._template_draw
+
+    # -- the end -----------------------------------------------------------------------------
+    def finish(self, trace=None, **extra: Any) -> dict[str, Any]:
+        """Print the result and write the output folder; returns the report as a dict."""
+        from .report import build_report, write_outputs
+
+        if extra.get("fsm") is not None:
+            self.fsm = extra["fsm"]
+        result = self.result()
+        text = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw",
+                None: "unfinished"}[result]
+        report = build_report(self, trace)
+        rs = [m["r"] for m in self.marks if m["r"] is not None]
+        self._print(f"\nresult: {text}" + (f"; per-mark R min {min(rs):.3f}" if rs else ""))
+        if self.settings.get("report", "yes").lower() not in ("no", "false", "0", "off"):
+            folder = write_outputs(self, report, extra.get("fsm_dot"))
+            report["out"] = str(folder)
+            self._print(f"outputs written to {folder}")
+        return report
+
+
+def _find_template(name: str) -> Path | None:
+    """``name`` as given (relative to the working folder), else under the checkout's root."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    root = Path(__file__).resolve().parents[2] / name
+    return root if not path.is_absolute() and root.is_file() else None
+
+
+def make_world(options) -> TicTacToeWorld:
+    """Plug-in factory: ``WORLDS["tictactoe"]``."""
+    return TicTacToeWorld(options)

@@ -1,0 +1,28 @@
+"""The hila language: grammar -> AST -> checked program -> FSM -> stepping interpreter.
+
+Every stage is callable on its own (STYLE.md habit 2)::
+
+    from hila_lang.language import parser, transformer, checker, compiler
+    tree = parser.parse_text(text, "x.hila")          # lark tree
+    program = transformer.to_ast(tree, text, "x.hila")  # frozen dataclasses (ast.py)
+    checked = checker.check(program)                  # resolves imports, raises CheckError
+    machine = compiler.compile_program(checked)       # fsm.FSM, plain data
+
+``load_program(path)`` runs the whole front end; ``hila_lang.language.interpreter`` steps the
+FSM over a world and a back end (``plugins.py``).
+"""
+
+
+
+def load_program(path, text: str | None = None):
+    """Read, parse, check and compile a program: returns (CheckedProgram, FSM)."""
+    from .checker import check
+    from .compiler import compile_program
+    from .parser import read_source
+    from .transformer import parse_program
+
+    file = str(path)
+    if text is None:
+        text = read_source(path)
+    checked = check(parse_program(text, file))
+    return checked, compile_program(checked)

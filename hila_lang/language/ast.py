@@ -1,0 +1,348 @@
+"""The hila abstract syntax tree: frozen dataclasses named after grammar rules.
+
+Only :mod:`hila_lang.language.transformer` builds these nodes.  Every node carries ``pos``
+(line, column, end line, end column of its source text, 1-based); positions do not take part
+in equality, so two programs that differ only in layout compare equal.
+
+:func:`dump` renders a tree as indented text (the AST golden files); :func:`expr_text` renders
+an expression back as hila source (FSM dumps, traces, error messages).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, is_dataclass
+from typing import Union
+
+
+@dataclass(frozen=True)
+class Pos:
+    """Source span, 1-based, end exclusive as lark reports it."""
+
+    line: int = 0
+    column: int = 0
+    end_line: int = 0
+    end_column: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.line}:{self.column}"
+
+
+NOPOS = Pos()
+
+
+def _pos():
+    return field(default=NOPOS, compare=False, repr=False)
+
+
+# --------------------------------------------------------------------------- expressions
+
+
+@dataclass(frozen=True)
+class Number:
+    value: float
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class String:
+    value: str
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Bool:
+    value: bool
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class NoneLit:
+    """``none``: as an ICP binding, leaves that ICP out of the warp."""
+
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Name:
+    """A dotted name: a variable (``c``, ``c.tl``), ``hand``, or a scene point (``board.cell5.tl``)."""
+
+    parts: tuple[str, ...]
+    pos: Pos = _pos()
+
+    @property
+    def text(self) -> str:
+        return ".".join(self.parts)
+
+
+@dataclass(frozen=True)
+class Var:
+    """A variable resolved by the compiler to its slot (``main/mark:c``), plus ``.attr`` parts."""
+
+    slot: str
+    attrs: tuple[str, ...] = ()
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Vector:
+    """A literal point ``(x, y)`` or ``(x, y, z)``, metres."""
+
+    items: tuple["Expr", ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Unary:
+    op: str  # "-" or "not"
+    operand: "Expr"
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Binary:
+    op: str  # and or == != < <= > >= + - * /
+    left: "Expr"
+    right: "Expr"
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Ask:
+    """``ask NAME(args)``: a value or predicate computed by the world (``world.query``)."""
+
+    name: str
+    args: tuple["Expr", ...] = ()
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Wait:
+    """``wait EVENT(args)``: block until the world reports the event (``world.wait``)."""
+
+    event: str
+    args: tuple["Expr", ...] = ()
+    pos: Pos = _pos()
+
+
+Expr = Union[Number, String, Bool, NoneLit, Name, Var, Vector, Unary, Binary, Ask]
+
+# --------------------------------------------------------------------------- statements
+
+
+SPREAD = "*"
+
+
+@dataclass(frozen=True)
+class Binding:
+    """``icp = value`` inside ``run``; ``icp`` may name a group (``cell`` binds ``cell.tl``, ...).
+
+    ``c.*`` is a *spread* (``icp == SPREAD``): every scene ICP ``K`` not bound by name is bound
+    to the point ``c.K``.
+    """
+
+    icp: str
+    value: Expr
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class RunStmt:
+    """``run TEMPLATE[.TAG](bindings) [pen up|down]``."""
+
+    template: str
+    tag: str | None
+    bindings: tuple[Binding, ...]
+    pen: str | None = None
+    pos: Pos = _pos()
+    ref_pos: Pos = _pos()  # where ``TEMPLATE.TAG`` is written
+
+    @property
+    def ref(self) -> str:
+        return self.template if self.tag is None else f"{self.template}.{self.tag}"
+
+
+@dataclass(frozen=True)
+class CallStmt:
+    task: str
+    args: tuple[Expr, ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class LetStmt:
+    name: str
+    value: Union[Expr, Wait]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class WaitStmt:
+    wait: Wait
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class IfStmt:
+    """``if c {..} else if c {..} else {..}``: ``branches`` pairs (condition, body)."""
+
+    branches: tuple[tuple[Expr, tuple["Stmt", ...]], ...]
+    orelse: tuple["Stmt", ...] | None = None
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class WhileStmt:
+    cond: Expr
+    body: tuple["Stmt", ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class UntilStmt:
+    """``until c {..}``: test ``c`` before each round, stop when it holds."""
+
+    cond: Expr
+    body: tuple["Stmt", ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class RepeatStmt:
+    count: Expr
+    body: tuple["Stmt", ...]
+    pos: Pos = _pos()
+
+
+Stmt = Union[RunStmt, CallStmt, LetStmt, WaitStmt, IfStmt, WhileStmt, UntilStmt, RepeatStmt]
+
+# --------------------------------------------------------------------------- top level
+
+
+@dataclass(frozen=True)
+class WorldDecl:
+    name: str
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class ImportDecl:
+    """``import NAME`` (``primitives/NAME.yaml``) or ``import "file.yaml" as NAME``."""
+
+    source: str
+    alias: str
+    is_path: bool = False
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class PointDecl:
+    name: str
+    value: Expr
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class HandDecl:
+    value: Expr
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class TaskDef:
+    name: str
+    params: tuple[str, ...]
+    body: tuple[Stmt, ...]
+    pos: Pos = _pos()
+    param_pos: tuple[Pos, ...] = _pos()
+
+
+@dataclass(frozen=True)
+class MainDef:
+    body: tuple[Stmt, ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Program:
+    """A whole ``.hila`` file, items in source order."""
+
+    items: tuple[Union[WorldDecl, ImportDecl, PointDecl, HandDecl, TaskDef, MainDef], ...]
+    file: str = field(default="<program>", compare=False)
+    source: str = field(default="", compare=False, repr=False)
+
+    def of(self, kind: type) -> list:
+        """Items of one kind, in source order."""
+        return [i for i in self.items if isinstance(i, kind)]
+
+
+# --------------------------------------------------------------------------- rendering
+
+_BINARY_PREC = {"or": 1, "and": 2, "==": 4, "!=": 4, "<": 4, "<=": 4, ">": 4, ">=": 4, "+": 5, "-": 5, "*": 6, "/": 6}
+
+
+def _num(v: float) -> str:
+    return str(int(v)) if float(v).is_integer() and abs(v) < 1e15 else repr(float(v))
+
+
+def expr_text(e, prec: int = 0) -> str:
+    """Render an expression as hila source (a :class:`Var` as its slot)."""
+    if isinstance(e, Number):
+        return _num(e.value)
+    if isinstance(e, String):
+        return f'"{e.value}"'
+    if isinstance(e, Bool):
+        return "true" if e.value else "false"
+    if isinstance(e, NoneLit):
+        return "none"
+    if isinstance(e, Name):
+        return e.text
+    if isinstance(e, Var):
+        return "".join([f"{{{e.slot}}}", *(f".{a}" for a in e.attrs)])
+    if isinstance(e, Vector):
+        return "(" + ", ".join(expr_text(i) for i in e.items) + ")"
+    if isinstance(e, Unary):
+        text = f"not {expr_text(e.operand, 3)}" if e.op == "not" else f"-{expr_text(e.operand, 7)}"
+        mine = 3 if e.op == "not" else 7
+        return f"({text})" if mine < prec else text
+    if isinstance(e, Binary):
+        mine = _BINARY_PREC[e.op]
+        text = f"{expr_text(e.left, mine)} {e.op} {expr_text(e.right, mine + 1)}"
+        return f"({text})" if mine < prec else text
+    if isinstance(e, (Ask, Wait)):
+        word, name = ("ask", e.name) if isinstance(e, Ask) else ("wait", e.event)
+        args = f"({', '.join(expr_text(a) for a in e.args)})" if e.args else ""
+        return f"{word} {name}{args}"
+    raise TypeError(f"not an expression: {e!r}")
+
+
+def dump(node, indent: int = 0) -> str:
+    """Indented text of an AST (one node per line, with its ``line:column``)."""
+    pad = "  " * indent
+    if isinstance(node, (tuple, list)):
+        return "\n".join(dump(n, indent) for n in node) if node else f"{pad}()"
+    if not is_dataclass(node):
+        return f"{pad}{node!r}"
+    pos = getattr(node, "pos", None)
+    head = f"{pad}{type(node).__name__}" + (f" @{pos}" if isinstance(pos, Pos) and pos.line else "")
+    scalars, children = [], []
+    for f in fields(node):
+        if not f.compare:  # positions, file name, source text
+            continue
+        value = getattr(node, f.name)
+        if is_dataclass(value) or (isinstance(value, tuple) and value and not all(isinstance(v, str) for v in value)):
+            children.append((f.name, value))
+        elif isinstance(value, float):
+            scalars.append(f"{f.name}={_num(value)}")
+        else:
+            scalars.append(f"{f.name}={value!r}")
+    lines = [head + ("  " + " ".join(scalars) if scalars else "")]
+    for name, value in children:
+        lines.append(f"{pad}  .{name}:")
+        if isinstance(value, tuple) and value and isinstance(value[0], tuple):  # if-branches
+            for cond, body in value:
+                lines.append(dump(cond, indent + 2))
+                lines.append(f"{pad}    then:")
+                lines.append(dump(body, indent + 3))
+        else:
+            lines.append(dump(value, indent + 2))
+    return "\n".join(lines)

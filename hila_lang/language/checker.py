@@ -1,0 +1,323 @@
+"""AST -> checked program: imports resolved, every name known, every ICP bound.
+
+:func:`check` raises :class:`~hila_lang.errors.CheckError` (exit 2) at the first mistake, with
+the source position, the source line and a "did you mean" where one helps.  What it checks:
+
+- the world is a known plug-in; each import resolves to a readable template; aliases, tasks,
+  points and parameters are unique; there is exactly one ``main``;
+- ``run T.TAG(...)``: ``T`` is imported, ``TAG`` is one of its tags, every bound name is an ICP
+  of that sub-template (or a group prefix: ``cell`` binds ``cell.tl``, ``cell.tr``, ...), no
+  ICP is bound twice, and every scene ICP is bound (``start`` defaults to the hand, ``end`` is
+  optional, ``icp = none`` leaves one out on purpose);
+- task calls name a task, with the right number of arguments, and no task calls itself
+  (tasks are compiled inline);
+- a plain (undotted) name is a parameter, a ``let`` before it, a ``point``, or ``hand``;
+  dotted names whose first part is none of those are world points, checked when the program runs.
+
+Unreachable statements are found by the compiler on the FSM graph (also a CheckError).
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import ast as A
+from ..errors import CheckError, HilaError
+from .plugins import DEFAULT_WORLD, WORLDS
+from .parser import source_line
+
+START, END = "start", "end"
+RESERVED = {"hand", "main"}
+
+
+@dataclass
+class CheckedProgram:
+    """A program whose names all resolve, with its templates loaded."""
+
+    program: A.Program
+    world: str
+    templates: dict  # alias -> hila_lang.template.Template
+    template_files: dict  # alias -> Path
+    tasks: dict  # name -> TaskDef
+    main: A.MainDef
+    points: dict  # name -> Expr
+    hand: A.Expr | None
+    warnings: list[str] = field(default_factory=list)
+
+
+def template_search_path(program_file: str) -> list[Path]:
+    """Folders ``import NAME`` looks in for ``NAME.yaml``, in order."""
+    here = Path(program_file).resolve().parent if program_file and not program_file.startswith("<") else Path.cwd()
+    package_root = Path(__file__).resolve().parents[2]
+    candidates = [here, here / "primitives", here.parent / "primitives", Path.cwd() / "primitives",
+                  package_root / "primitives"]
+    seen, result = set(), []
+    for c in candidates:
+        if c not in seen:
+            seen.add(c)
+            result.append(c)
+    return result
+
+
+def did_you_mean(name: str, choices) -> str | None:
+    close = difflib.get_close_matches(name, sorted(set(choices)), n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else None
+
+
+class _Checker:
+    def __init__(self, program: A.Program) -> None:
+        self.p = program
+        self.warnings: list[str] = []
+
+    def error(self, message: str, pos: A.Pos, hint: str | None = None) -> CheckError:
+        line = pos.line or None
+        return CheckError(
+            message, file=self.p.file, line=line, column=pos.column or None,
+            source_line=source_line(self.p.source, line) if line else None, hint=hint,
+        )
+
+    # ------------------------------------------------------------------ top level
+    def run(self) -> CheckedProgram:
+        p = self.p
+        worlds = p.of(A.WorldDecl)
+        if len(worlds) > 1:
+            raise self.error("the world is declared twice", worlds[1].pos)
+        world = worlds[0].name if worlds else DEFAULT_WORLD
+        if worlds and world not in WORLDS:
+            raise self.error(f"unknown world '{world}'", worlds[0].pos,
+                             did_you_mean(world, WORLDS) or f"known worlds: {', '.join(sorted(WORLDS))}")
+        self.templates, self.files = {}, {}
+        for imp in p.of(A.ImportDecl):
+            if imp.alias in self.templates:
+                raise self.error(f"'{imp.alias}' is imported twice", imp.pos, "use 'import ... as OTHER'")
+            self.files[imp.alias], self.templates[imp.alias] = self.load(imp)
+        self.points = {}
+        for pt in p.of(A.PointDecl):
+            if pt.name in self.points:
+                raise self.error(f"point '{pt.name}' is declared twice", pt.pos)
+            self.expr(pt.value, set(), pt.pos)
+            self.points[pt.name] = pt.value
+        hands = p.of(A.HandDecl)
+        if len(hands) > 1:
+            raise self.error("'hand at' is given twice", hands[1].pos)
+        if hands:
+            self.expr(hands[0].value, set(), hands[0].pos)
+        self.tasks = {}
+        for t in p.of(A.TaskDef):
+            if t.name in self.tasks:
+                raise self.error(f"task '{t.name}' is defined twice (first at line {self.tasks[t.name].pos.line})", t.pos)
+            if t.name in RESERVED:
+                raise self.error(f"'{t.name}' is reserved; name the task something else", t.pos)
+            seen = set()
+            for name, pos in zip(t.params, t.param_pos):
+                if name in seen:
+                    raise self.error(f"parameter '{name}' appears twice", pos)
+                if name in RESERVED:
+                    raise self.error(f"'{name}' is reserved and cannot be a parameter", pos)
+                seen.add(name)
+            self.tasks[t.name] = t
+        mains = p.of(A.MainDef)
+        if not mains:
+            lines = p.source.splitlines() or [""]
+            raise CheckError("the program has no entry point", file=p.file, line=max(len(lines), 1),
+                             column=1, source_line=lines[-1] if lines else "",
+                             hint="add 'main { ... }' with the statements to run")
+        if len(mains) > 1:
+            raise self.error(f"'main' is defined twice (first at line {mains[0].pos.line})", mains[1].pos)
+        for t in self.tasks.values():
+            self.body(t.body, set(t.params))
+        self.body(mains[0].body, set())
+        self.recursion(mains[0])
+        return CheckedProgram(p, world, self.templates, self.files, self.tasks, mains[0], self.points,
+                              hands[0].value if hands else None, self.warnings)
+
+    def load(self, imp: A.ImportDecl):
+        from ..template import load_template
+
+        if imp.is_path:
+            base = Path(self.p.file).parent if not self.p.file.startswith("<") else Path.cwd()
+            candidates = [base / imp.source]
+        else:
+            candidates = [d / f"{imp.source}.yaml" for d in template_search_path(self.p.file)]
+        found = next((c for c in candidates if c.is_file()), None)
+        if found is None:
+            known = sorted({f.stem for d in template_search_path(self.p.file) if d.is_dir() for f in d.glob("*.yaml")})
+            hint = did_you_mean(imp.source, known) if not imp.is_path else None
+            where = str(candidates[0]) if imp.is_path else ", ".join(str(c.parent) for c in candidates[:3])
+            raise self.error(f"template '{imp.source}' not found (looked in {where})", imp.pos,
+                             hint or (f"templates found: {', '.join(known)}" if known else None))
+        try:
+            return found, load_template(found)
+        except HilaError as exc:
+            raise self.error(f"cannot load template '{imp.source}': {exc.message}", imp.pos,
+                             f"in {exc.location() or found}") from None
+
+    # ------------------------------------------------------------------ statements
+    def body(self, stmts, defined: set[str]) -> None:
+        for s in stmts:
+            self.stmt(s, defined)
+
+    def stmt(self, s, defined: set[str]) -> None:
+        if isinstance(s, A.RunStmt):
+            self.run_stmt(s, defined)
+        elif isinstance(s, A.CallStmt):
+            task = self.tasks.get(s.task)
+            if task is None:
+                hint = did_you_mean(s.task, self.tasks)
+                if hint is None and s.task in self.templates:
+                    hint = f"to run a template write 'run {s.task}.TAG(...)'"
+                raise self.error(f"unknown task '{s.task}'", s.pos, hint)
+            if len(s.args) != len(task.params):
+                raise self.error(
+                    f"task '{s.task}' takes {len(task.params)} argument(s) ({', '.join(task.params) or 'none'}), "
+                    f"got {len(s.args)}", s.pos, f"defined at line {task.pos.line}")
+            for a in s.args:
+                self.expr(a, defined, s.pos)
+        elif isinstance(s, A.LetStmt):
+            if s.name in RESERVED:
+                raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
+            self.expr(s.value.args if isinstance(s.value, A.Wait) else s.value, defined, s.pos)
+            defined.add(s.name)
+        elif isinstance(s, A.WaitStmt):
+            self.expr(s.wait.args, defined, s.pos)
+        elif isinstance(s, A.IfStmt):
+            for cond, body in s.branches:
+                self.expr(cond, defined, s.pos)
+                self.body(body, defined)
+            if s.orelse is not None:
+                self.body(s.orelse, defined)
+        elif isinstance(s, (A.WhileStmt, A.UntilStmt)):
+            self.expr(s.cond, defined, s.pos)
+            self.body(s.body, defined)
+        elif isinstance(s, A.RepeatStmt):
+            self.expr(s.count, defined, s.pos)
+            if isinstance(s.count, A.Number) and (s.count.value < 0 or not float(s.count.value).is_integer()):
+                raise self.error(f"repeat needs a whole number of times, got {A.expr_text(s.count)}", s.count.pos)
+            if isinstance(s.count, A.Number) and s.count.value == 0:
+                raise self.error("'repeat 0' never runs its block", s.pos, "remove it, or repeat at least once")
+            self.body(s.body, defined)
+        else:  # pragma: no cover - the transformer builds only the kinds above
+            raise TypeError(f"unknown statement {s!r}")
+
+    def template_icps(self, s: A.RunStmt) -> list[str]:
+        """ICP names of the (sub-)template ``s`` runs (raises for unknown template or tag)."""
+        template = self.templates.get(s.template)
+        if template is None:
+            hint = did_you_mean(s.template, self.templates)
+            if hint is None and s.tag is None and s.template in self.tasks:
+                hint = f"'{s.template}' is a task: call it as {s.template}(...)"
+            if hint is None:
+                hint = f"import it first: 'import {s.template}'" if not self.templates else \
+                    f"imported templates: {', '.join(self.templates)}"
+            raise self.error(f"unknown template '{s.template}'", s.ref_pos, hint)
+        if s.tag is None:
+            return list(template.icps)
+        tags = template.tags()
+        if s.tag not in tags:
+            hint = did_you_mean(s.tag, tags) or (
+                f"its tags are: {', '.join(tags)}" if tags else "it has no sub-templates; run it whole: "
+                f"'run {s.template}(...)'")
+            at = A.Pos(s.ref_pos.line, s.ref_pos.column + len(s.template) + 1)
+            raise self.error(f"template '{s.template}' has no sub-template '{s.tag}'", at, hint)
+        return [k for k in template.icps if k not in (START, END)] + [START, END]
+
+    def run_stmt(self, s: A.RunStmt, defined: set[str]) -> None:
+        icps = self.template_icps(s)
+        covered: dict[str, A.Binding] = {}
+        spread = [b for b in s.bindings if b.icp == A.SPREAD]
+        if len(spread) > 1:
+            raise self.error("only one '.*' spread per run", spread[1].pos)
+        for b in s.bindings:
+            if b.icp == A.SPREAD:
+                self.expr(b.value, defined, b.pos)
+                continue
+            members = [b.icp] if b.icp in icps else [k for k in icps if k.startswith(b.icp + ".")]
+            if not members:
+                groups = {k.rsplit(".", 1)[0] for k in icps if "." in k}
+                raise self.error(f"'{s.ref}' has no ICP '{b.icp}'", b.pos,
+                                 did_you_mean(b.icp, list(icps) + list(groups)) or f"its ICPs: {', '.join(icps)}")
+            for m in members:
+                if m in covered:
+                    raise self.error(f"ICP '{m}' is bound twice", b.pos, f"first bound at column {covered[m].pos.column}")
+                covered[m] = b
+            self.expr(b.value, defined, b.pos)
+        unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
+        if unbound:
+            raise self.error(
+                f"unbound ICP{'s' if len(unbound) > 1 else ''} {', '.join(repr(u) for u in unbound)} of '{s.ref}'",
+                s.pos, f"bind {'them' if len(unbound) > 1 else 'it'}, e.g. {unbound[0]} = POINT, "
+                f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
+
+    # ------------------------------------------------------------------ expressions
+    def expr(self, e, defined: set[str], where: A.Pos) -> None:
+        if isinstance(e, tuple):
+            for x in e:
+                self.expr(x, defined, where)
+        elif isinstance(e, A.Name):
+            first = e.parts[0]
+            if first in defined or first == "hand" or len(e.parts) > 1:
+                return
+            if first in self.points or any(p.startswith(first + ".") for p in self.points):
+                return
+            choices = set(defined) | set(self.points) | {"hand"}
+            raise self.error(f"unknown name '{first}'", e.pos if e.pos.line else where,
+                             did_you_mean(first, choices) or
+                             "define it with 'let' or 'point', or write a world point by its full dotted name")
+        elif isinstance(e, A.Vector):
+            if len(e.items) not in (2, 3):
+                raise self.error(f"a point has 2 or 3 coordinates, got {len(e.items)}", e.pos)
+            self.expr(e.items, defined, where)
+        elif isinstance(e, A.Unary):
+            self.expr(e.operand, defined, where)
+        elif isinstance(e, A.Binary):
+            self.expr(e.left, defined, where)
+            self.expr(e.right, defined, where)
+        elif isinstance(e, (A.Ask, A.Wait)):
+            self.expr(e.args, defined, where)
+
+    def recursion(self, main: A.MainDef) -> None:
+        def calls(body):
+            for s in body:
+                if isinstance(s, A.CallStmt):
+                    yield s
+                for sub in _sub_bodies(s):
+                    yield from calls(sub)
+
+        def visit(body, chain: list[str]):
+            for c in calls(body):
+                if c.task in chain:
+                    cycle = " -> ".join(chain[chain.index(c.task):] + [c.task])
+                    raise self.error(f"task '{c.task}' calls itself ({cycle})", c.pos,
+                                     "tasks are compiled inline into the FSM, so recursion is not allowed; use a loop")
+                visit(self.tasks[c.task].body, chain + [c.task])
+
+        visit(main.body, [])
+        used = set()
+
+        def collect(body):
+            for c in calls(body):
+                if c.task not in used:
+                    used.add(c.task)
+                    collect(self.tasks[c.task].body)
+
+        collect(main.body)
+        for name, t in self.tasks.items():
+            if name not in used:
+                self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
+
+
+def _sub_bodies(s):
+    if isinstance(s, A.IfStmt):
+        for _, body in s.branches:
+            yield body
+        if s.orelse is not None:
+            yield s.orelse
+    elif isinstance(s, (A.WhileStmt, A.UntilStmt, A.RepeatStmt)):
+        yield s.body
+
+
+def check(program: A.Program) -> CheckedProgram:
+    """Check ``program``; raise :class:`CheckError` at the first mistake."""
+    return _Checker(program).run()

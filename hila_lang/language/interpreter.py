@@ -1,0 +1,429 @@
+"""The stepping engine: runs an FSM one state at a time over a world and a back end.
+
+``Interpreter.step()`` executes the current state and returns a :class:`TraceEntry`;
+``run(until=STATE)`` steps until the FSM ends or is about to enter a breakpoint.  The REPL
+(:mod:`hila_lang.language.repl`) is a thin layer over this engine, as ``pdb`` sits on ``bdb``.
+
+A ``run`` state evaluates its bindings against the scene (variables, ``hand`` = where the back
+end says the hand is, the program's ``point`` s, then the world's ``points()``), warps the
+(sub-)template with :func:`hila_lang.osila.imitate` — its ``start`` ICP bound to the hand and
+pinned there unless the program binds it (see :func:`start_at`) — moves the back end along the path, and calls
+``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=)``.
+
+Any failure while a state runs (an unknown scene point, a question the world cannot answer,
+contradicted constraints, an unreachable target) is a :class:`HilaRuntimeError` naming the
+state and the program line (exit status 1).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import ast as A
+from ..errors import HilaError, HilaRuntimeError
+from .fsm import FSM, State
+from .parser import source_line
+
+START, END = "start", "end"
+
+
+@dataclass
+class TraceEntry:
+    """What one step did."""
+
+    step: int
+    state: str
+    kind: str
+    line: int
+    text: str
+    next: str | None
+    path: np.ndarray | None = None
+    executed: np.ndarray | None = None
+    icps: dict[str, np.ndarray] = field(default_factory=dict)
+    pen_down: bool | None = None
+    value: Any = None
+
+    def __str__(self) -> str:
+        where = f"line {self.line}" if self.line else "-"
+        return f"{self.step:>3}  {self.state}  [{where}]  {self.text}"
+
+
+def fmt_point(p) -> str:
+    return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
+
+
+def fmt_value(v) -> str:
+    if isinstance(v, np.ndarray):
+        return fmt_point(v)
+    if isinstance(v, bool) or v is None:
+        return {True: "true", False: "false", None: "none"}[v]
+    if isinstance(v, float):
+        return A._num(round(v, 6))
+    if isinstance(v, str):
+        return f'"{v}"'
+    return repr(v)
+
+
+class Interpreter:
+    """Steps ``fsm`` (compiled from ``checked``) with ``world`` and ``backend``.
+
+    Parameters
+    ----------
+    checked : CheckedProgram
+        Gives the loaded templates and the program text (for error messages).
+    fsm : FSM
+    world : World
+    backend : Backend
+    osila_options : dict, optional
+        Extra keyword options for :func:`hila_lang.osila.imitate`.
+    """
+
+    def __init__(self, checked, fsm: FSM, world, backend, osila_options: dict | None = None) -> None:
+        self.checked, self.fsm, self.world, self.backend = checked, fsm, world, backend
+        self.osila_options = dict(osila_options or {})
+        self._subs: dict[tuple[str, str | None], Any] = {}
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        """Back to the start state with no variables; the hand back to ``hand at`` if given."""
+        self.current: str = self.fsm.start
+        self.env: dict[str, Any] = {}
+        self.trace: list[TraceEntry] = []
+        self.last_path: np.ndarray | None = None
+        self.last_icps: dict[str, np.ndarray] = {}
+        self.done = False
+        if self.fsm.hand is not None:
+            state = State("<hand at>", "set", line=self.fsm.hand.pos.line, column=self.fsm.hand.pos.column)
+            self._current_state = state
+            point = self._guard(state, lambda: self.point(self.fsm.hand))
+            reset_hand = getattr(self.backend, "reset_hand", None)
+            if callable(reset_hand):
+                reset_hand(point)
+
+    @property
+    def state(self) -> State:
+        return self.fsm.states[self.current]
+
+    def hand(self) -> np.ndarray:
+        return np.asarray(self.backend.hand_position(), dtype=float)
+
+    # ------------------------------------------------------------------ stepping
+    def step(self) -> TraceEntry:
+        """Execute the current state; return what it did."""
+        if self.done:
+            raise HilaRuntimeError("the program has finished; 'reset' to run it again", state=self.current)
+        state = self.state
+        self._current_state = state
+        entry = self._guard(state, lambda: self._execute(state))
+        self.trace.append(entry)
+        if entry.next is None:
+            self.done = True
+        else:
+            self.current = entry.next
+        return entry
+
+    def run(self, until: str | None = None, max_steps: int | None = None) -> list[TraceEntry]:
+        """Step until the end, ``max_steps`` steps, or just before entering state ``until``."""
+        done: list[TraceEntry] = []
+        while not self.done and (max_steps is None or len(done) < max_steps):
+            if until is not None and done and self.current == until:
+                break
+            done.append(self.step())
+        return done
+
+    def _guard(self, state: State, action):
+        try:
+            return action()
+        except HilaRuntimeError as exc:
+            raise self._locate(exc, state) from None
+        except HilaError as exc:  # bad input met while running (e.g. OSILA's InputError)
+            raise self._locate(HilaRuntimeError(exc.message, hint=exc.hint), state) from None
+        except KeyError as exc:
+            name = exc.args[0] if exc.args else "?"
+            raise self._locate(HilaRuntimeError(f"the world does not know {name!r}"), state) from None
+        except (TypeError, ValueError, ZeroDivisionError, ArithmeticError) as exc:
+            raise self._locate(HilaRuntimeError(str(exc)), state) from None
+
+    def _locate(self, exc: HilaRuntimeError, state: State) -> HilaRuntimeError:
+        if exc.state is None and not state.name.startswith("<"):
+            exc.state = state.name
+        if exc.line is None and state.line:
+            exc.file = self.fsm.file
+            exc.line, exc.column = state.line, state.column
+            exc.source_line = source_line(self.checked.program.source, state.line)
+        return exc
+
+    def _execute(self, st: State) -> TraceEntry:
+        n = len(self.trace) + 1
+        if st.kind == "run":
+            return self._run(st, n)
+        if st.kind in ("set", "call"):
+            values = [(slot, self.eval(e)) for slot, e in st.assign]
+            self.env.update(values)
+            text = ("call " + st.task + (": " if values else "") if st.kind == "call" else "set ") + ", ".join(
+                f"{slot.rsplit(':', 1)[1]} = {fmt_value(v)}" for slot, v in values)
+            return TraceEntry(n, st.name, st.kind, st.line, text, st.next)
+        if st.kind == "wait":
+            args = [self.eval(a) for a in st.args]
+            value = _plain(self.world.wait(st.event, *args))
+            if st.into:
+                self.env[st.into] = value
+            text = f"wait {st.event} -> {fmt_value(value)}"
+            return TraceEntry(n, st.name, st.kind, st.line, text, st.next, value=value)
+        if st.kind == "branch":
+            value = self.eval(st.guard)
+            if not isinstance(value, (bool, np.bool_)):
+                raise HilaRuntimeError(f"a condition must be true or false, got {fmt_value(value)} "
+                                       f"from '{_src(st.guard)}'")
+            nxt = st.then if value else st.orelse
+            text = f"{_src(st.guard)}: {fmt_value(bool(value))} -> {nxt}"
+            return TraceEntry(n, st.name, st.kind, st.line, text, nxt, value=bool(value))
+        notify = getattr(self.world, "notify", None)
+        if callable(notify):
+            notify("program_done")
+        return TraceEntry(n, st.name, "end", st.line, "end", None)
+
+    # ------------------------------------------------------------------ run states
+    def template(self, st: State):
+        key = (st.template, st.tag)
+        if key not in self._subs:
+            t = self.checked.templates[st.template]
+            self._subs[key] = t if st.tag is None else t.sub(st.tag)
+        return self._subs[key]
+
+    def bind(self, st: State) -> dict[str, np.ndarray]:
+        """Task ICPs of a run state: name -> point (3,), in the template's ICP order."""
+        t = self.template(st)
+        scene = [k for k in t.icps if k not in (START, END)]
+        out: dict[str, np.ndarray | None] = {}
+        spread = None
+        for icp, expr in st.bindings:
+            if icp == A.SPREAD:
+                spread = expr
+            elif icp in t.icps:
+                out[icp] = self.point(expr, allow_none=True)
+            else:  # a group prefix: icp.K <- value.K
+                prefix = self.reference(expr)
+                for k in t.icps:
+                    if k.startswith(icp + "."):
+                        out[k] = self.lookup(f"{prefix}.{k[len(icp) + 1:]}")
+        if spread is not None:
+            prefix = self.reference(spread)
+            for k in scene:
+                if k not in out:
+                    out[k] = self.lookup(f"{prefix}.{k}")
+        if START in t.icps and START not in out:
+            out[START] = self.hand()
+        return {k: out[k] for k in t.icps if out.get(k) is not None}
+
+    def _run(self, st: State, n: int) -> TraceEntry:
+        from ..osila import imitate
+
+        t = self.template(st)
+        icps = self.bind(st)
+        if not icps:
+            raise HilaRuntimeError(f"no ICP of '{st.ref}' is bound; bind at least one")
+        names = list(icps)
+        src = np.array([t.icps[k] for k in names], dtype=float)
+        dst = np.array([icps[k] for k in names], dtype=float)
+        if src.shape[1] != dst.shape[1]:
+            raise HilaRuntimeError(f"template '{st.ref}' is {src.shape[1]}-D but the scene points are {dst.shape[1]}-D")
+        options = dict(self.osila_options)
+        if START in icps and "pin" not in options:
+            options["pin"] = (0,)
+        path = np.asarray(imitate(t.path, src, dst, **options), dtype=float)
+        if START in icps:
+            path = start_at(path, icps[START])
+        executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+        executed = None if executed is None else np.asarray(executed, dtype=float)
+        self.last_path, self.last_icps = path, icps
+        notify = getattr(self.world, "notify", None)
+        if callable(notify):
+            notify("state_done", state=st.name, path=path, executed=executed, kind="run",
+                   pen_down=bool(st.pen_down), icps=dict(icps))
+        text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
+                f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
+                + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()))
+        return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
+                          icps=icps, pen_down=bool(st.pen_down))
+
+    # ------------------------------------------------------------------ expressions
+    def scene_points(self) -> dict[str, np.ndarray]:
+        pts = dict(self.world.points())
+        for name, expr in self.fsm.points.items():
+            pts[name] = self.point(expr)
+        return pts
+
+    def lookup(self, name: str, points: dict | None = None):
+        """A scene point by full name -> (3,); a group prefix -> its name (str)."""
+        if name == "hand":
+            return self.hand()
+        if name.startswith("hand.") and name[5:] in ("x", "y", "z"):
+            return float(self.hand()["xyz".index(name[5:])])
+        if name in self.fsm.points:
+            return self.point(self.fsm.points[name])
+        points = self.world.points() if points is None else points
+        if name in points:
+            return np.asarray(points[name], dtype=float)
+        if any(k.startswith(name + ".") for k in points) or any(k.startswith(name + ".") for k in self.fsm.points):
+            return name
+        head, _, attr = name.rpartition(".")
+        if attr in ("x", "y", "z") and head:
+            base = self.lookup(head, points)
+            if isinstance(base, np.ndarray):
+                return float(base["xyz".index(attr)])
+        import difflib
+
+        close = difflib.get_close_matches(name, list(points) + list(self.fsm.points), n=1)
+        raise HilaRuntimeError(f"unknown scene point '{name}'",
+                               hint=f"did you mean '{close[0]}'?" if close else
+                               f"the world has {len(points)} named point(s)")
+
+    def reference(self, expr) -> str:
+        """The dotted name an expression refers to (for ``c.*`` and group bindings)."""
+        if isinstance(expr, A.Name):
+            return expr.text
+        value = self.eval(expr)
+        if isinstance(value, str):
+            return value
+        raise HilaRuntimeError(f"expected the name of a point group, got {fmt_value(value)} "
+                               f"from '{_src(expr)}'")
+
+    def point(self, expr, allow_none: bool = False):
+        value = self.eval(expr)
+        if value is None and allow_none:
+            return None
+        if isinstance(value, str):
+            value = self.lookup(value)
+        if isinstance(value, np.ndarray) and value.shape in ((3,), (2,)):
+            return value
+        raise HilaRuntimeError(f"expected a point, got {fmt_value(value)} from '{_src(expr)}'")
+
+    def eval(self, e) -> Any:
+        if isinstance(e, A.Number):
+            return e.value
+        if isinstance(e, (A.String,)):
+            return e.value
+        if isinstance(e, A.Bool):
+            return e.value
+        if isinstance(e, A.NoneLit):
+            return None
+        if isinstance(e, A.Var):
+            if e.slot not in self.env:
+                name = e.slot.rsplit(":", 1)[1]
+                raise HilaRuntimeError(f"'{name}' has no value yet (its 'let' has not run)")
+            value = self.env[e.slot]
+            for attr in e.attrs:
+                value = self._attr(value, attr)
+            return value
+        if isinstance(e, A.Name):
+            return self.lookup(e.text)
+        if isinstance(e, A.Vector):
+            items = [self.eval(i) for i in e.items]
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items):
+                raise HilaRuntimeError(f"a point's coordinates must be numbers in '{_src(e)}'")
+            return np.array(items, dtype=float)
+        if isinstance(e, A.Unary):
+            v = self.eval(e.operand)
+            if e.op == "not":
+                return not self._bool(v, e.operand)
+            return -self._number_or_point(v, e)
+        if isinstance(e, A.Binary):
+            return self._binary(e)
+        if isinstance(e, A.Ask):
+            args = [self.eval(a) for a in e.args]
+            return _plain(self.world.query(e.name, *args))
+        raise HilaRuntimeError(f"cannot evaluate {e!r}")  # pragma: no cover
+
+    def _attr(self, value, attr: str):
+        if isinstance(value, str):
+            return self.lookup(f"{value}.{attr}")
+        if isinstance(value, np.ndarray) and attr in ("x", "y", "z") and value.shape[0] > "xyz".index(attr):
+            return float(value["xyz".index(attr)])
+        raise HilaRuntimeError(f"{fmt_value(value)} has no part '.{attr}'")
+
+    def _bool(self, v, expr) -> bool:
+        if isinstance(v, (bool, np.bool_)):
+            return bool(v)
+        raise HilaRuntimeError(f"expected true or false, got {fmt_value(v)} from '{_src(expr)}'")
+
+    def _number_or_point(self, v, expr):
+        if isinstance(v, str):
+            v = self.lookup(v)
+        if isinstance(v, (int, float, np.ndarray)) and not isinstance(v, bool):
+            return v
+        raise HilaRuntimeError(f"expected a number or a point, got {fmt_value(v)} in '{_src(expr)}'")
+
+    def _binary(self, e: A.Binary):
+        if e.op in ("and", "or"):
+            left = self._bool(self.eval(e.left), e.left)
+            if (e.op == "and" and not left) or (e.op == "or" and left):
+                return left
+            return self._bool(self.eval(e.right), e.right)
+        a, b = self.eval(e.left), self.eval(e.right)
+        if e.op in ("==", "!="):
+            same = _equal(a, b)
+            return same if e.op == "==" else not same
+        if e.op == "+" and (isinstance(a, str) or isinstance(b, str)):
+            return _text(a) + _text(b)
+        a, b = self._number_or_point(a, e.left), self._number_or_point(b, e.right)
+        if e.op in ("<", "<=", ">", ">="):
+            if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+                raise HilaRuntimeError(f"cannot order points in '{_src(e)}'")
+            return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[e.op]
+        if e.op == "/" and not isinstance(b, np.ndarray) and b == 0:
+            raise HilaRuntimeError(f"division by zero in '{_src(e)}'")
+        if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape != b.shape:
+            raise HilaRuntimeError(f"points of different sizes in '{_src(e)}'")
+        return {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b, "/": lambda: a / b}[e.op]()
+
+
+def start_at(path: np.ndarray, start: np.ndarray, fraction: float = 0.25) -> np.ndarray:
+    """Make ``path`` (T, D) begin exactly at ``start`` (D,) without a jump.
+
+    OSILA pins the start stamp to its mapped point, but when the template's start coincides with
+    another template ICP (a sub-template that begins at an object it touched) the two are merged
+    and the mapped start can miss the hand by a fraction of a millimetre.  The offset is removed
+    at the first stamp and faded out smoothly (cosine) over the first ``fraction`` of the path.
+    """
+    offset = np.asarray(start, float) - path[0]
+    if not np.any(offset):
+        return path
+    n = max(int(len(path) * fraction), 1)
+    weights = np.zeros(len(path))
+    weights[:n] = 0.5 * (1 + np.cos(np.pi * np.arange(n) / n))
+    return path + weights[:, None] * offset[None, :]
+
+
+def _src(expr) -> str:
+    """An expression as the user wrote it (variables by name, not by slot)."""
+    return re.sub(r"\{[^{}]*:([^{}]*)\}", r"\1", A.expr_text(expr))
+
+
+def _plain(value):
+    """World answers as hila values: numpy scalars -> Python, sequences of 2-3 numbers -> points."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)) and len(value) in (2, 3) and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        return np.asarray(value, dtype=float)
+    return value
+
+
+def _text(v) -> str:
+    if isinstance(v, float) and v.is_integer():
+        return str(int(v))
+    return v if isinstance(v, str) else fmt_value(v)
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape and bool(np.allclose(a, b))
+    if isinstance(a, bool) or isinstance(b, bool):
+        return a is b or (isinstance(a, bool) and isinstance(b, bool) and a == b)
+    return a == b

@@ -1,0 +1,61 @@
+"""Draw a generated path with OpenCV (matplotlib is not a dependency): top and side views."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+
+def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.ndarray | None = None,
+              title: str = "") -> Path:
+    """Write a PNG with the path seen from above (x, y) and from the side (x, z).
+
+    ``path`` (T, 3) in metres is drawn blue with its start as a green dot; ``executed`` (T', 3),
+    if given, red; ``icps`` (name -> (3,)) as labelled black circles.
+    """
+    import cv2
+
+    path = np.asarray(path, dtype=float)
+    if path.ndim != 2 or path.shape[1] not in (2, 3) or len(path) == 0:
+        raise InputError(f"expected a path of shape (T, 3) to plot, got {path.shape}")
+    if path.shape[1] == 2:
+        path = np.column_stack([path, np.zeros(len(path))])
+    icps = {k: np.resize(np.asarray(v, float), 3) for k, v in (icps or {}).items()}
+    everything = np.vstack([path] + list(icps.values()) + ([executed] if executed is not None else []))
+    lo, hi = everything.min(0), everything.max(0)
+    span = max(float((hi - lo).max()), 1e-6) * 1.1
+    mid = (lo + hi) / 2
+    size, pad = 400, 30
+    img = np.full((size + 2 * pad + 20, 2 * (size + 2 * pad), 3), 255, np.uint8)
+    views = [((0, 1), "top (x right, y up)", 0), ((0, 2), "side (x right, z up)", size + 2 * pad)]
+
+    def px(p, axes, x0):
+        u = (p[axes[0]] - mid[axes[0]]) / span + 0.5
+        v = (p[axes[1]] - mid[axes[1]]) / span + 0.5
+        return int(x0 + pad + u * size), int(20 + pad + (1 - v) * size)
+
+    for axes, label, x0 in views:
+        cv2.rectangle(img, (x0 + pad, 20 + pad), (x0 + pad + size, 20 + pad + size), (200, 200, 200), 1)
+        cv2.putText(img, label, (x0 + pad, 20 + pad - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (60, 60, 60), 1, cv2.LINE_AA)
+        for line, colour in ((path, (200, 80, 0)), (executed, (0, 0, 220))):
+            if line is not None and len(line) > 1:
+                pts = np.array([px(p, axes, x0) for p in line], np.int32)
+                cv2.polylines(img, [pts], False, colour, 1, cv2.LINE_AA)
+        cv2.circle(img, px(path[0], axes, x0), 4, (0, 160, 0), -1)
+        for name, p in icps.items():
+            c = px(p, axes, x0)
+            cv2.circle(img, c, 5, (0, 0, 0), 1)
+            cv2.putText(img, name, (c[0] + 6, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"{title}  ({len(path)} points, view {span * 100:.1f} cm; blue planned, red executed)", (pad, 16),
+                cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+    file = Path(file)
+    file.parent.mkdir(parents=True, exist_ok=True)
+    ok, buf = cv2.imencode(".png", img)
+    if not ok:  # pragma: no cover
+        raise InputError(f"cannot encode the plot for {file}")
+    from ..fileio import atomic_write_bytes
+
+    return atomic_write_bytes(file, buf.tobytes())

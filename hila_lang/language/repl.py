@@ -1,0 +1,243 @@
+"""The REPL: a thin ``cmd.Cmd`` over :class:`~hila_lang.language.interpreter.Interpreter`.
+
+Commands: ``step [n]``, ``run`` / ``continue`` (until a breakpoint or the end), ``break
+[STATE]`` (glob patterns allowed: ``break main/*/draw``; no argument lists them), ``clear
+[STATE]``, ``where``, ``icps``, ``vars``, ``path [--plot FILE.png]``, ``fsm``, ``reset``,
+``help``, ``quit``.  An error in a command is reported and the session goes on.  Reading a pipe,
+each command is echoed after the prompt, so a transcript reads like a session; on a terminal,
+readline gives history (``~/.hila_history``) and tab completion of commands and state names.
+"""
+
+from __future__ import annotations
+
+import cmd
+import difflib
+import fnmatch
+import os
+import shlex
+import sys
+from pathlib import Path
+
+from ..errors import HilaError
+from .interpreter import Interpreter, fmt_point, fmt_value
+
+HISTORY = Path(os.path.expanduser("~")) / ".hila_history"
+
+
+class Repl(cmd.Cmd):
+    prompt = "(hila) "
+
+    def __init__(self, interp: Interpreter, stdin=None, stdout=None) -> None:
+        stdin = stdin or sys.stdin
+        stdout = stdout or sys.stdout
+        super().__init__(stdin=stdin, stdout=stdout)
+        self.interp = interp
+        self.breakpoints: list[str] = []
+        self.interactive = bool(getattr(stdin, "isatty", lambda: False)())
+        self.use_rawinput = self.interactive and stdin is sys.stdin
+        if not self.interactive:  # cmd would print the prompt with no newline; precmd echoes instead
+            self.prompt = ""
+        fsm = interp.fsm
+        self.intro = (f"hila repl: {fsm.file}, {len(fsm.states)} states, world {fsm.world}, "
+                      f"back end {getattr(interp.backend, 'name', '?')}. Type 'help' for commands.\n"
+                      f"at {interp.current}")
+
+    # ------------------------------------------------------------------ plumbing
+    def say(self, text: str = "") -> None:
+        self.stdout.write(text + "\n")
+        self.stdout.flush()
+
+    def preloop(self) -> None:
+        if self.use_rawinput:
+            try:
+                import readline
+
+                readline.set_completer_delims(" \t\n")
+                if HISTORY.is_file():
+                    readline.read_history_file(str(HISTORY))
+            except (ImportError, OSError):
+                pass
+
+    def postloop(self) -> None:
+        if self.use_rawinput:
+            try:
+                import readline
+
+                readline.write_history_file(str(HISTORY))
+            except (ImportError, OSError):
+                pass
+
+    def precmd(self, line: str) -> str:
+        if not self.interactive and line != "EOF":
+            self.say(f"{Repl.prompt}{line.rstrip()}")
+        return line
+
+    def onecmd(self, line: str) -> bool:
+        try:
+            return bool(super().onecmd(line))
+        except HilaError as exc:
+            self.say(str(exc))
+        except (ValueError, OSError) as exc:
+            self.say(f"error: {exc}")
+        return False
+
+    def emptyline(self) -> bool:  # do not repeat the last command
+        return False
+
+    def default(self, line: str) -> None:
+        word = line.split()[0]
+        close = difflib.get_close_matches(word, self.get_names_as_commands(), n=1)
+        self.say(f"error: unknown command '{word}'" + (f"; did you mean '{close[0]}'?" if close else "; try 'help'"))
+
+    def get_names(self) -> list[str]:  # hide the EOF handler from 'help' and completion
+        return [n for n in super().get_names() if n != "do_EOF"]
+
+    def get_names_as_commands(self) -> list[str]:
+        return [n[3:] for n in self.get_names() if n.startswith("do_") and n != "do_EOF"]
+
+    def complete_states(self, text: str, *ignored) -> list[str]:
+        return [s for s in self.interp.fsm.states if s.startswith(text)]
+
+    complete_break = complete_clear = complete_states
+
+    # ------------------------------------------------------------------ commands
+    def do_step(self, arg: str) -> None:
+        """step [N]: execute the next N states (default 1)."""
+        try:
+            n = int(arg) if arg.strip() else 1
+        except ValueError:
+            raise ValueError(f"expected 'step' or 'step N' with a whole number N, got {arg.strip()!r}") from None
+        if n < 1:
+            raise ValueError(f"expected a positive number of steps, got {n}")
+        for _ in range(n):
+            if self.interp.done:
+                self.say("the program has finished; 'reset' to run it again")
+                break
+            self.say(str(self.interp.step()))
+        self._at()
+
+    def do_run(self, arg: str) -> None:
+        """run: execute until a breakpoint or the end."""
+        if self.interp.done:
+            self.say("the program has finished; 'reset' to run it again")
+            return
+        first = True
+        while not self.interp.done:
+            if not first and self._hit():
+                self.say(f"breakpoint: {self.interp.current}")
+                break
+            self.say(str(self.interp.step()))
+            first = False
+        self._at()
+
+    def do_continue(self, arg: str) -> None:
+        """continue: execute until the next breakpoint or the end (same as run)."""
+        self.do_run(arg)
+
+    do_c = do_continue
+
+    def _hit(self) -> bool:
+        return any(fnmatch.fnmatchcase(self.interp.current, b) for b in self.breakpoints)
+
+    def _at(self) -> None:
+        self.say("finished" if self.interp.done else f"at {self.interp.current}")
+
+    def do_break(self, arg: str) -> None:
+        """break [STATE]: stop before entering STATE (glob patterns allowed); no argument lists them."""
+        pattern = arg.strip()
+        if not pattern:
+            self.say("breakpoints: " + (", ".join(self.breakpoints) if self.breakpoints else "none"))
+            return
+        states = list(self.interp.fsm.states)
+        if not any(fnmatch.fnmatchcase(s, pattern) for s in states):
+            close = difflib.get_close_matches(pattern, states, n=1)
+            raise ValueError(f"no state matches '{pattern}'" + (f"; did you mean '{close[0]}'?" if close else ""))
+        if pattern not in self.breakpoints:
+            self.breakpoints.append(pattern)
+        self.say(f"breakpoint set: {pattern}")
+
+    def do_clear(self, arg: str) -> None:
+        """clear [STATE]: remove one breakpoint, or all of them."""
+        pattern = arg.strip()
+        if pattern and pattern not in self.breakpoints:
+            raise ValueError(f"no breakpoint '{pattern}'")
+        self.breakpoints = [b for b in self.breakpoints if pattern and b != pattern]
+        self.say("breakpoints: " + (", ".join(self.breakpoints) if self.breakpoints else "none"))
+
+    def do_where(self, arg: str) -> None:
+        """where: the current state, its program line and where the hand is."""
+        it = self.interp
+        self.say(f"step {len(it.trace)}, hand at {fmt_point(it.hand())}")
+        if it.done:
+            self.say("finished")
+            return
+        st = it.state
+        self.say(f"at {st.name} ({st.kind}): {st.describe()}")
+        if st.line:
+            from .parser import source_line
+
+            src = source_line(it.checked.program.source, st.line) or ""
+            self.say(f"  {it.fsm.file}:{st.line}: {src.strip()}")
+
+    def do_icps(self, arg: str) -> None:
+        """icps: the ICP bindings of the current run state, or of the last run."""
+        it = self.interp
+        if not it.done and it.state.kind == "run":
+            icps, what = it._guard(it.state, lambda: it.bind(it.state)), f"{it.current} will bind"
+        elif it.last_icps:
+            icps, what = it.last_icps, "the last run bound"
+        else:
+            self.say("no ICPs yet: no run state is current or has run")
+            return
+        self.say(f"{what}:")
+        for k, v in icps.items():
+            self.say(f"  {k:<12} = {fmt_point(v)}")
+
+    def do_vars(self, arg: str) -> None:
+        """vars: the program's variables and their values."""
+        if not self.interp.env:
+            self.say("no variables yet")
+        for slot, v in self.interp.env.items():
+            self.say(f"  {slot} = {fmt_value(v)}")
+
+    def do_path(self, arg: str) -> None:
+        """path [--plot FILE.png]: the last generated path (and a picture of it)."""
+        it = self.interp
+        if it.last_path is None:
+            self.say("no path yet: no run state has run")
+            return
+        words = shlex.split(arg)
+        p = it.last_path
+        runs = [t for t in it.trace if t.kind == "run"]
+        self.say(f"{runs[-1].state}: {len(p)} points, {fmt_point(p[0])} -> {fmt_point(p[-1])}, "
+                 f"length {float(((p[1:] - p[:-1]) ** 2).sum(1).__pow__(0.5).sum()):.3f} m")
+        if words:
+            if words[0] != "--plot" or len(words) != 2:
+                raise ValueError("usage: path [--plot FILE.png]")
+            from .plot import plot_path
+
+            out = plot_path(p, words[1], icps=it.last_icps, executed=runs[-1].executed, title=runs[-1].state)
+            self.say(f"wrote {out}")
+
+    def do_fsm(self, arg: str) -> None:
+        """fsm: the state machine, '>' at the current state."""
+        for line in self.interp.fsm.to_text().splitlines():
+            name = line.strip().split(" ")[0] if line.startswith("  ") else None
+            mark = ">" if name == self.interp.current and not self.interp.done else " "
+            self.say(mark + line[1:] if line.startswith("  ") else line)
+
+    def do_reset(self, arg: str) -> None:
+        """reset: back to the start state, variables cleared, hand back to its start."""
+        self.interp.reset()
+        self.say(f"reset; at {self.interp.current}")
+
+    def do_quit(self, arg: str) -> bool:
+        """quit: leave the REPL."""
+        return True
+
+    do_exit = do_quit
+
+    def do_EOF(self, arg: str) -> bool:
+        """End of input: leave the REPL."""
+        self.say("")
+        return True

@@ -1,0 +1,94 @@
+"""A scripted test world: fixed scene points, answers and events read from a script.
+
+``ScriptedWorld(points, answers, events)``:
+
+- ``points``: name -> (x, y, z), metres (``points()`` returns them);
+- ``answers``: question -> value, or a list of values handed out in order (``query``); a list
+  that runs out is a runtime error, so a test fails loudly instead of looping;
+- ``events``: event -> list of values handed out in order by ``wait``.
+
+Every ``notify`` is kept in :attr:`log` as ``(event, data)``.  From the command line,
+``--set script=FILE.yaml`` loads a YAML mapping with the keys ``points``, ``answers``,
+``events`` (and optionally ``home``: where the dry back end starts the hand); without a script
+the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import HilaRuntimeError, InputError
+
+
+class ScriptedWorld:
+    default_backend = "dry"
+
+    def __init__(self, points=None, answers=None, events=None, home=None) -> None:
+        self._points = {str(k): _point(v, f"point {k!r}") for k, v in (points or {}).items()}
+        self.answers = {k: (list(v) if isinstance(v, list) else v) for k, v in (answers or {}).items()}
+        self.events = {k: list(v) for k, v in (events or {}).items()}
+        self.home = None if home is None else _point(home, "home")
+        self.log: list[tuple[str, dict]] = []
+
+    def points(self) -> dict[str, np.ndarray]:
+        return dict(self._points)
+
+    def query(self, name: str, *args: Any) -> Any:
+        if name not in self.answers:
+            raise KeyError(name)
+        value = self.answers[name]
+        if isinstance(value, list):
+            if not value:
+                raise HilaRuntimeError(f"the script has no more answers to '{name}'")
+            return value.pop(0)
+        return value
+
+    def wait(self, event: str, *args: Any) -> Any:
+        if event not in self.events:
+            raise KeyError(event)
+        if not self.events[event]:
+            raise HilaRuntimeError(f"the script has no more '{event}' events")
+        return self.events[event].pop(0)
+
+    def notify(self, event: str, **data: Any) -> None:
+        self.log.append((event, data))
+
+    def finish(self, trace=None) -> dict:
+        runs = [t for t in (trace or []) if t.kind == "run"]
+        return {"states": len(trace or []), "runs": len(runs)}
+
+
+def _point(value, what: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InputError(f"expected {what} as 3 numbers, got {value!r}") from None
+    if arr.shape != (3,) or not np.isfinite(arr).all():
+        raise InputError(f"expected {what} as 3 finite numbers, got {value!r}")
+    return arr
+
+
+def load_script(path) -> ScriptedWorld:
+    """A :class:`ScriptedWorld` from a YAML script file."""
+    from ..fileio import load_yaml
+
+    doc = load_yaml(path, "world script", unique_keys=True) or {}
+    if not isinstance(doc, dict):
+        raise InputError("expected a world script mapping with keys points, answers, events, home", file=str(path))
+    unknown = set(doc) - {"points", "answers", "events", "home"}
+    if unknown:
+        raise InputError(f"unknown key {sorted(unknown)[0]!r} in world script; expected points, answers, events, home",
+                         file=str(path))
+    try:
+        return ScriptedWorld(doc.get("points"), doc.get("answers"), doc.get("events"), doc.get("home"))
+    except InputError as exc:
+        exc.file = str(path)
+        raise
+
+
+def make_world(options) -> ScriptedWorld:
+    """Plug-in factory: ``--set script=FILE.yaml`` or an empty world."""
+    script = options.settings.get("script") if options is not None else None
+    return load_script(script) if script else ScriptedWorld()

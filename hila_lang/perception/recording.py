@@ -1,0 +1,242 @@
+"""Recording a demonstration with the iCub's eyes, and reading recorded frames back.
+
+A *recording* is a folder::
+
+    left/frame_00000.png ...      left eye, 320x240, 20 Hz, distorted like the real lens
+    right/frame_00000.png ...     right eye, same count
+    calibration/left/*.png        chessboard images shown to each eye before the demonstration
+    calibration/right/*.png
+    calibration/stereo/left/*.png a larger card seen by both eyes at once (pairs, same names)
+    calibration/stereo/right/*.png
+    cameras.yaml                  what the robot knows without looking: the eyes' poses from the
+                                  head kinematics (world_T_camera), image size, frame rate, the
+                                  plane of the demonstration table, the marker's offset above
+                                  the pen tip
+    truth.yaml                    ground truth for benchmarks and tests only (the pipeline
+                                  never reads it): pen-tip path, times, ICPs, true K and lens
+
+The folder is built under a temporary name beside the target and renamed into place when
+complete, so a crash never leaves a half-written recording; every file is written atomically.
+
+:func:`load_frames` reads a folder of images (sorted by name; numbered names must not skip a
+number) or a video file, and turns every problem into :class:`~hila_lang.errors.InputError`
+naming the file.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..fileio import atomic_write_bytes, dump_yaml, load_yaml
+from .camera import Camera
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm")
+#: supersampling of the chessboard images (the demonstration frames use 2x)
+CALIBRATION_SUPERSAMPLE = 4
+VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg")
+
+
+def write_png(path: str | os.PathLike, rgb: np.ndarray) -> Path:
+    """Write an RGB image (H, W, 3) uint8 as PNG, atomically."""
+    import cv2
+
+    ok, buf = cv2.imencode(".png", cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2BGR))
+    if not ok:  # pragma: no cover - cv2 cannot fail on a valid uint8 array
+        raise InputError(f"cannot encode image for {path}")
+    return atomic_write_bytes(path, buf.tobytes())
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """An image file as RGB (H, W, 3) uint8; :class:`InputError` when it cannot be read."""
+    import cv2
+
+    path = Path(path)
+    try:
+        data = np.frombuffer(path.read_bytes(), np.uint8)
+    except OSError as exc:
+        raise InputError(f"cannot read frame: {exc.strerror}", file=str(path)) from None
+    img = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    if img is None:
+        raise InputError("unreadable frame: not an image file (or a truncated one)", file=str(path))
+    return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+
+
+def frame_files(folder: str | os.PathLike, what: str = "frames") -> list[Path]:
+    """Image files in ``folder``, sorted by name; a gap in their numbering is an error."""
+    folder = Path(folder)
+    if not folder.exists():
+        raise InputError(f"{what} folder not found", file=str(folder))
+    if not folder.is_dir():
+        raise InputError(f"expected a folder of {what} or a video file", file=str(folder))
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith("."))
+    if not files:
+        raise InputError(f"no image files ({', '.join(IMAGE_SUFFIXES)}) in the {what} folder", file=str(folder))
+    numbers = [re.findall(r"\d+", p.stem) for p in files]
+    if all(numbers):
+        nums = [int(n[-1]) for n in numbers]
+        expected = set(range(nums[0], nums[0] + len(nums)))
+        missing = sorted(set(range(min(nums), max(nums) + 1)) - set(nums))
+        if missing or set(nums) != expected:
+            shown = ", ".join(str(m) for m in missing[:10]) + (" ..." if len(missing) > 10 else "")
+            raise InputError(f"missing {what}: frame number(s) {shown} absent between "
+                             f"{files[0].name} and {files[-1].name}", file=str(folder))
+    return files
+
+
+def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[np.ndarray], list[str]]:
+    """All frames of a folder of images or a video file: (images RGB uint8, names).
+
+    Raises
+    ------
+    InputError
+        Missing folder or file, no images, a gap in the numbering, an unreadable image or video,
+        or frames of different sizes.
+    """
+    source = Path(source)
+    if source.is_file() and source.suffix.lower() in VIDEO_SUFFIXES:
+        images = _read_video(source)
+        names = [f"{source.name}#{i}" for i in range(len(images))]
+    else:
+        if source.is_file():
+            raise InputError(f"expected a folder of images or a video file ({', '.join(VIDEO_SUFFIXES)})",
+                             file=str(source))
+        files = frame_files(source, what)
+        images = [read_image(p) for p in files]
+        names = [p.name for p in files]
+    shapes = {im.shape for im in images}
+    if len(shapes) > 1:
+        first = images[0].shape
+        odd = next(n for n, im in zip(names, images) if im.shape != first)
+        raise InputError(f"{what} differ in size: {names[0]} is {first[1]}x{first[0]}, {odd} is not",
+                         file=str(source))
+    return images, names
+
+
+def _read_video(path: Path) -> list[np.ndarray]:
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise InputError("cannot open video file", file=str(path))
+    frames = []
+    try:
+        while True:
+            ok, frame = cap.read()
+            if not ok:
+                break
+            frames.append(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
+    finally:
+        cap.release()
+    if not frames:
+        raise InputError("video file has no readable frames", file=str(path))
+    return frames
+
+
+def camera_to_dict(camera: Camera) -> dict:
+    """The pose and size of a camera (not its intrinsics: those come from calibration)."""
+    return {"world_T_camera": np.asarray(camera.world_T_camera).tolist(), "width": camera.width,
+            "height": camera.height}
+
+
+def load_cameras(path: str | os.PathLike) -> dict:
+    """Read ``cameras.yaml``: ``{"left": {"world_T_camera": (4, 4), ...}, "right": ..., "fps": ...}``."""
+    data = load_yaml(path, "cameras file")
+    try:
+        out = {"fps": float(data.get("fps", 20.0)), "surface_z": float(data["surface_z"]),
+               "marker_offset": np.asarray(data.get("marker_offset", [0, 0, 0]), float).reshape(3)}
+        for eye in ("left", "right"):
+            T = np.asarray(data[eye]["world_T_camera"], float)
+            if T.shape != (4, 4) or not np.isfinite(T).all():
+                raise ValueError(f"{eye}.world_T_camera must be 4x4 numbers, got shape {T.shape}")
+            out[eye] = {"world_T_camera": T, "width": int(data[eye]["width"]), "height": int(data[eye]["height"])}
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise InputError(f"cameras file: expected left/right world_T_camera, width, height and surface_z; "
+                         f"problem: {exc}", file=str(path)) from None
+    return out
+
+
+def record_demonstration(out_dir: str | os.PathLike, seed: int = 0, *, n_calibration: int = 40,
+                         n_stereo: int = 16, overwrite: bool = False, frames: int | None = None) -> Path:
+    """Record the seeded demonstration (:func:`hila_lang.games.demonstration.demonstrate`).
+
+    The hand marker's centre follows the pen tip plus :data:`~.simworld.MARKER_OFFSET` while the
+    distorted left and right eye cameras take one image per demonstration sample (20 Hz).
+
+    Parameters
+    ----------
+    out_dir : path
+        The recording folder to create.
+    seed : int
+        Seed of the demonstration.
+    n_calibration : int
+        Chessboard images per eye.
+    n_stereo : int
+        Chessboard image pairs seen by both eyes at once (0: none; the eyes' relative pose then
+        comes from the kinematics alone).
+    overwrite : bool
+        Replace an existing folder (otherwise an existing non-empty folder is an error).
+    frames : int, optional
+        Record only the first ``frames`` samples (for quick tests).
+
+    Returns
+    -------
+    Path
+        ``out_dir``.
+    """
+    from ..games.demonstration import demonstrate
+    from ..robot.scene import SceneSpec
+    from .calibration import chessboard_views, stereo_views
+    from .distortion import TRUE_DISTORTION, DistortedCamera
+    from .rig import FPS, demonstration_rig
+    from .simworld import MARKER_OFFSET, SimWorld
+
+    out = Path(out_dir)
+    if out.exists() and any(out.iterdir()) and not overwrite:
+        raise InputError("recording folder exists and is not empty (use overwrite)", file=str(out))
+    spec = SceneSpec.demonstration()
+    demo = demonstrate(seed, spec)
+    n = len(demo.path) if frames is None else max(2, min(int(frames), len(demo.path)))
+    rig = demonstration_rig(spec)
+    cams = {eye: DistortedCamera(rig.camera(eye), TRUE_DISTORTION) for eye in ("left", "right")}
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        for eye in ("left", "right"):
+            # corner localisation needs faithful edge profiles: the card is rendered at 4x
+            dcam = DistortedCamera(rig.camera(eye), TRUE_DISTORTION, supersample=CALIBRATION_SUPERSAMPLE)
+            for i, img in enumerate(chessboard_views(dcam, n_calibration, seed=seed + (0 if eye == "left" else 1000))):
+                write_png(tmp / "calibration" / eye / f"chess_{i:03d}.png", img)
+        if n_stereo:
+            sl, sr = (DistortedCamera(rig.camera(e), TRUE_DISTORTION, supersample=CALIBRATION_SUPERSAMPLE)
+                      for e in ("left", "right"))
+            for i, (a, b) in enumerate(zip(*stereo_views(sl, sr, rig, n_stereo, seed=seed + 2000))):
+                write_png(tmp / "calibration" / "stereo" / "left" / f"pair_{i:03d}.png", a)
+                write_png(tmp / "calibration" / "stereo" / "right" / f"pair_{i:03d}.png", b)
+        with SimWorld(spec, seed=seed) as world:
+            for i in range(n):
+                world.set_marker(demo.path[i] + MARKER_OFFSET)
+                for eye, dcam in cams.items():
+                    write_png(tmp / eye / f"frame_{i:05d}.png", dcam.distort(world.render(dcam.render_camera)))
+        dump_yaml(tmp / "cameras.yaml", {
+            "fps": FPS, "surface_z": spec.surface_z, "marker_offset": MARKER_OFFSET.tolist(),
+            "left": camera_to_dict(rig.left), "right": camera_to_dict(rig.right)},
+            header="eye camera poses from the iCub's head kinematics while it watched (world frame, metres)")
+        dump_yaml(tmp / "truth.yaml", {
+            "seed": seed, "times": demo.times[:n].tolist(), "path": demo.path[:n].tolist(),
+            "icps": {k: v.tolist() for k, v in demo.icps.items()}, "cell": demo.cell,
+            "K": rig.left.K.tolist(), "dist": list(TRUE_DISTORTION)},
+            header="ground truth of the simulated recording: for benchmarks and tests only")
+        if out.exists():
+            shutil.rmtree(out)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out

@@ -1,0 +1,321 @@
+"""Forward kinematics and damped-least-squares IK for the torso + right arm (pure numpy).
+
+The chain is read from the generated URDF (:mod:`hila_lang.robot.model`): the joints from the
+root link to the pen tip, with their fixed origins, axes and limits.  Forward kinematics and the
+geometric Jacobian are computed here from those joint frames and axes; PyBullet's
+``calculateJacobian`` disagreed with finite differences on this model and its IK treats limits
+as soft (``DESIGN.md`` section 4), so neither is used.
+
+Task: put the pen tip at a point and keep the pen vertical (its axis, +z of the tip frame,
+pointing down -z world); rotation about the pen axis is free.  That is 5 constraints for 10
+joints.  Each iteration takes a damped least-squares step ``dq = J^T (J J^T + l^2 I)^-1 e``
+(damping ``l`` = 0.01, step at most 0.3 rad), clamps to the joint limits and drops joints that
+sit at a limit and are pushed further out.
+
+Frames and units: world frame, metres, radians.  ``q`` is ordered as
+:data:`hila_lang.robot.model.ARM_CHAIN`.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+
+#: weight of the pen-axis error against the position error, metres per radian
+ORIENTATION_WEIGHT = 0.1
+
+
+def rpy_to_matrix(rpy) -> np.ndarray:
+    """URDF roll-pitch-yaw (radians) to a rotation matrix, shape (3, 3): ``Rz(y) Ry(p) Rx(r)``."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def matrix_to_rpy(rotation: np.ndarray) -> tuple[float, float, float]:
+    """Inverse of :func:`rpy_to_matrix`: URDF (roll, pitch, yaw), radians, of a rotation (3, 3)."""
+    r = np.asarray(rotation, dtype=float)
+    pitch = math.atan2(-r[2, 0], math.hypot(r[0, 0], r[1, 0]))
+    if math.hypot(r[0, 0], r[1, 0]) < 1e-9:  # gimbal lock: put everything in yaw
+        return 0.0, pitch, math.atan2(-r[0, 1], r[1, 1])
+    return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
+
+
+def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix (3, 3) of ``angle`` radians about the unit ``axis`` (3,) (Rodrigues)."""
+    x, y, z = axis
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    return np.array(
+        [
+            [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+            [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+            [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
+        ]
+    )
+
+
+def transform(rotation: np.ndarray | None = None, translation=None) -> np.ndarray:
+    """Homogeneous transform (4, 4) from a rotation (3, 3) and a translation (3,)."""
+    out = np.eye(4)
+    if rotation is not None:
+        out[:3, :3] = rotation
+    if translation is not None:
+        out[:3, 3] = translation
+    return out
+
+
+@dataclass(frozen=True)
+class KinematicChain:
+    """A serial chain of revolute joints between fixed transforms.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The movable joints, root to tip (n of them).
+    origins : ndarray, shape (n, 4, 4)
+        ``origins[i]`` is the fixed transform from joint ``i-1``'s rotated frame (or the world
+        for ``i = 0``) to joint ``i``'s frame, all fixed joints between them folded in.
+    axes : ndarray, shape (n, 3)
+        Each joint's unit axis in its own frame.
+    tip : ndarray, shape (4, 4)
+        Fixed transform from the last joint's rotated frame to the tip frame.
+    lower, upper : ndarray, shape (n,)
+        Joint limits, radians.
+    """
+
+    names: tuple[str, ...]
+    origins: np.ndarray
+    axes: np.ndarray
+    tip: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @classmethod
+    def from_urdf(cls, urdf_text: str, tip_link: str, world_T_root: np.ndarray, base_link: str = "root_link") -> "KinematicChain":
+        """Read the chain ``base_link`` -> ``tip_link`` from URDF text.
+
+        ``world_T_root`` (4, 4) places the base link in the world.  Only revolute and fixed
+        joints may lie on the path.
+        """
+        robot = ET.fromstring(urdf_text)
+        by_child = {j.find("child").get("link"): j for j in robot.findall("joint")}
+        path = []
+        link = tip_link
+        while link != base_link:
+            if link not in by_child:
+                raise ValueError(f"link {link!r} is not below {base_link!r} in the URDF")
+            joint = by_child[link]
+            path.append(joint)
+            link = joint.find("parent").get("link")
+        path.reverse()
+        names, origins, axes, lower, upper = [], [], [], [], []
+        pending = np.asarray(world_T_root, dtype=float).copy()
+        for joint in path:
+            origin = joint.find("origin")
+            xyz = [float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()]
+            rpy = [float(v) for v in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()]
+            pending = pending @ transform(rpy_to_matrix(rpy), xyz)
+            kind = joint.get("type")
+            if kind == "fixed":
+                continue
+            if kind != "revolute":
+                raise ValueError(f"joint {joint.get('name')!r} is {kind}; only revolute and fixed are supported")
+            axis = np.array([float(v) for v in joint.find("axis").get("xyz").split()])
+            limit = joint.find("limit")
+            names.append(joint.get("name"))
+            origins.append(pending)
+            axes.append(axis / np.linalg.norm(axis))
+            lower.append(float(limit.get("lower")))
+            upper.append(float(limit.get("upper")))
+            pending = np.eye(4)
+        return cls(tuple(names), np.array(origins), np.array(axes), pending, np.array(lower), np.array(upper))
+
+    @property
+    def dof(self) -> int:
+        return len(self.names)
+
+    def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Forward kinematics.
+
+        Parameters
+        ----------
+        q : ndarray, shape (n,)
+            Joint angles, radians.
+
+        Returns
+        -------
+        world_T_tip : ndarray, shape (4, 4)
+        joint_positions : ndarray, shape (n, 3)
+            Each joint's origin, world frame, metres.
+        joint_axes : ndarray, shape (n, 3)
+            Each joint's unit axis, world frame.
+        """
+        frame = np.eye(4)
+        positions = np.empty((self.dof, 3))
+        world_axes = np.empty((self.dof, 3))
+        for i in range(self.dof):
+            frame = frame @ self.origins[i]
+            positions[i] = frame[:3, 3]
+            world_axes[i] = frame[:3, :3] @ self.axes[i]
+            rot = np.eye(4)
+            rot[:3, :3] = axis_angle_matrix(self.axes[i], q[i])
+            frame = frame @ rot
+        return frame @ self.tip, positions, world_axes
+
+    def tip_position(self, q: np.ndarray) -> np.ndarray:
+        """Tip position (3,), world frame, metres."""
+        return self.forward(q)[0][:3, 3]
+
+    def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Geometric Jacobian of the tip, shape (6, n): rows 0-2 linear, rows 3-5 angular.
+
+        Returns the Jacobian and the tip pose (4, 4).
+        """
+        pose, positions, world_axes = self.forward(q)
+        linear = np.cross(world_axes, pose[:3, 3] - positions).T
+        return np.vstack([linear, world_axes.T]), pose
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Outcome of one IK solve.
+
+    ``q`` (n,) radians, ``position`` (3,) the tip reached, ``error`` metres from the target,
+    ``tilt`` radians between the pen axis and the wanted one, ``iterations``, ``converged``.
+    """
+
+    q: np.ndarray
+    position: np.ndarray
+    error: float
+    tilt: float
+    iterations: int
+    converged: bool
+
+
+def solve(
+    chain: KinematicChain,
+    target: np.ndarray,
+    q0: np.ndarray,
+    *,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+    pen_axis=(0.0, 0.0, -1.0),
+    tolerance: float = 1e-5,
+    tilt_tolerance: float = 1e-3,
+    max_iterations: int = 200,
+    damping: float = 0.01,
+    max_step: float = 0.3,
+    weights: np.ndarray | None = None,
+) -> IKResult:
+    """Damped least-squares IK: tip at ``target`` (3,), tip +z along ``pen_axis``.
+
+    Parameters
+    ----------
+    chain : KinematicChain
+    target : ndarray, shape (3,)
+        Wanted tip position, world frame, metres.
+    q0 : ndarray, shape (n,)
+        Start (warm start), radians; clamped into the limits first.
+    lower, upper : ndarray, shape (n,), optional
+        Limits to respect (default: the chain's URDF limits).  Never exceeded.
+    pen_axis : array-like, shape (3,)
+        Wanted direction of the tip frame's +z, world frame (``None``: position only).
+    tolerance : float
+        Position residual to stop at, metres.
+    tilt_tolerance : float
+        Pen-axis residual to stop at, radians.
+    weights : ndarray, shape (n,), optional
+        Relative willingness of each joint to move (weighted least norm: a joint with weight
+        0.3 moves less than one with 1); 0 freezes a joint.  Default all ones.
+
+    Returns
+    -------
+    IKResult
+        The best pose found; ``converged`` says whether both residuals are within tolerance.
+    """
+    lo = chain.lower if lower is None else np.asarray(lower, dtype=float)
+    hi = chain.upper if upper is None else np.asarray(upper, dtype=float)
+    target = np.asarray(target, dtype=float)
+    want = None if pen_axis is None else np.asarray(pen_axis, dtype=float) / np.linalg.norm(pen_axis)
+    q = np.clip(np.asarray(q0, dtype=float), lo, hi)
+    w = np.ones(chain.dof) if weights is None else np.asarray(weights, dtype=float)
+    rows = 3 if want is None else 6
+    eye = np.eye(rows)
+    best = None
+    for iteration in range(max_iterations + 1):
+        jac, pose = chain.jacobian(q)
+        pos_err = target - pose[:3, 3]
+        err = np.linalg.norm(pos_err)
+        if want is None:
+            tilt, e, jac = 0.0, pos_err, jac[:3]
+        else:
+            z = pose[:3, 2]
+            rot_err = np.cross(z, want)  # rotation that turns z towards want (|.| = sin angle)
+            tilt = math.atan2(np.linalg.norm(rot_err), float(z @ want))
+            # angular rows projected on the plane normal to z: spinning about the pen is free
+            proj = np.eye(3) - np.outer(z, z)
+            e = np.concatenate([pos_err, ORIENTATION_WEIGHT * rot_err])
+            jac = np.vstack([jac[:3], ORIENTATION_WEIGHT * (proj @ jac[3:])])
+        if best is None or err + ORIENTATION_WEIGHT * tilt < best[0]:
+            best = (err + ORIENTATION_WEIGHT * tilt, q.copy(), pose[:3, 3].copy(), err, tilt, iteration)
+        if err <= tolerance and tilt <= tilt_tolerance:
+            return IKResult(q, pose[:3, 3].copy(), err, tilt, iteration, True)
+        if iteration == max_iterations:
+            break
+        free = w > 0
+        for _ in range(2):  # drop joints pinned at a limit and pushed outwards, then re-solve
+            jw = jac * (w * free)
+            dq = (w * free) * (jac.T @ np.linalg.solve(jw @ jac.T + damping**2 * eye, e))
+            pinned = ((q <= lo + 1e-9) & (dq < 0)) | ((q >= hi - 1e-9) & (dq > 0))
+            if not np.any(pinned & free):
+                break
+            free &= ~pinned
+        biggest = np.max(np.abs(dq))
+        if biggest > max_step:
+            dq *= max_step / biggest
+        q = np.clip(q + dq, lo, hi)
+    _, q_best, pos_best, err_best, tilt_best, it = best
+    return IKResult(q_best, pos_best, err_best, tilt_best, it, False)
+
+
+def aim(
+    chain: KinematicChain,
+    q0: np.ndarray,
+    target: np.ndarray,
+    weights: np.ndarray,
+    *,
+    iterations: int = 50,
+    tolerance: float = 1e-4,
+) -> tuple[np.ndarray, float]:
+    """Turn the tip frame's +z towards ``target`` (3,) (a look-at), moving joints with weight > 0.
+
+    Weighted damped least squares on the angle between +z and the direction to the target;
+    joints are clamped to the chain's limits.  Returns ``(q, angle)``: the joint angles (n,)
+    and the remaining angle, radians (not zero when the limits forbid looking there).
+    """
+    q = np.clip(np.asarray(q0, dtype=float), chain.lower, chain.upper)
+    w = np.asarray(weights, dtype=float)
+    angle = math.pi
+    for _ in range(iterations):
+        jac, pose = chain.jacobian(q)
+        z = pose[:3, 2]
+        d = np.asarray(target, dtype=float) - pose[:3, 3]
+        d /= np.linalg.norm(d)
+        e = np.cross(z, d)
+        angle = math.atan2(np.linalg.norm(e), float(z @ d))
+        if angle <= tolerance:
+            break
+        jw = jac[3:] * w
+        dq = w * (jac[3:].T @ np.linalg.solve(jw @ jac[3:].T + 1e-4 * np.eye(3), e))
+        q = np.clip(q + np.clip(dq, -0.3, 0.3), chain.lower, chain.upper)
+    return q, angle

@@ -1,0 +1,212 @@
+"""``hila eval``: outputs on a small stand-in grid, ``--dataset`` round trip, and bad input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from hila_lang import cli
+from hila_lang.evaluation.dataset import generate, save_dataset
+
+
+@pytest.fixture
+def hila(monkeypatch, capsys):
+    """Run ``hila ARGS`` in-process; returns (status, stdout, stderr).
+
+    The command is looked up as ``eval`` -> ``hila_lang.commands.eval_``, whether or not the
+    registry lists it yet (:func:`test_eval_is_registered` checks the registry itself).
+    """
+    monkeypatch.setitem(cli.COMMANDS, "eval", "eval_")
+
+    def run(*argv: str):
+        status = cli.main(list(argv))
+        out, err = capsys.readouterr()
+        assert "Traceback" not in err
+        return status, out, err
+
+    return run
+
+
+def test_eval_is_registered():
+    assert cli.COMMANDS.get("eval") == "eval_"
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("eval")
+    mp = pytest.MonkeyPatch()
+    mp.setitem(cli.COMMANDS, "eval", "eval_")
+    try:
+        status = cli.main(["eval", "--out", str(out), "--trials-per-setup", "2", "--seed", "3", "--no-progress"])
+    finally:
+        mp.undo()
+    return status, out
+
+
+def test_writes_tables_csv_json_and_heatmaps(small_run):
+    import cv2
+
+    status, out = small_run
+    assert status == 0
+    text = (out / "tables.txt").read_text()
+    assert "stand-in" in text and "not public" in text
+    for title in ("TABLE I:", "TABLE II:", "TABLE III:", "R < 0.8 unsegmented"):
+        assert title in text
+    lines = (out / "pairs.csv").read_text().splitlines()
+    assert lines[0] == "method,segments,template,template_setup,task,task_setup,r,msd,seconds"
+    assert len(lines) == 1 + 4 * 10 * 10
+    doc = json.loads((out / "results.json").read_text())
+    assert np.array(doc["ours"]["osila"]["table_ii"]).shape == (4, 5, 5)
+    assert np.array(doc["paper"]["table_iii"])[0, 0, 4] == 8390
+    assert doc["run"]["seed"] == 3 and doc["run"]["threshold"] == 2.0
+    for metric in ("r", "msd"):
+        img = cv2.imread(str(out / f"heatmap_{metric}_osila.png"))
+        assert img is not None and img.shape[0] > 200 and img.shape[1] > 4 * 200
+        assert len(np.unique(img.reshape(-1, 3), axis=0)) > 20  # a real picture, not a blank
+    assert (out / "dataset" / "exp1" / "trial01.csv").is_file()
+
+
+def test_dataset_folder_round_trip_gives_the_same_numbers(small_run, hila, tmp_path):
+    _, out = small_run
+    status, text, _ = hila("eval", "--out", str(tmp_path / "again"), "--dataset", str(out / "dataset"),
+                           "--threshold", "2", "--no-progress")
+    assert status == 0
+    a = (out / "pairs.csv").read_text().splitlines()
+    b = (tmp_path / "again" / "pairs.csv").read_text().splitlines()
+    strip = lambda rows: [r.rsplit(",", 1)[0] for r in rows]  # drop the timing column
+    assert strip(a) == strip(b)
+    assert "Data: dataset" in text
+
+
+@pytest.fixture(scope="module")
+def good_folder(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("good")
+    save_dataset(generate(seed=0, trials_per_setup=1), folder)
+    return folder
+
+
+def _copy(good_folder, tmp_path):
+    dst = tmp_path / "ds"
+    shutil.copytree(good_folder, dst)
+    return dst
+
+
+def test_missing_dataset_folder(hila, tmp_path):
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(tmp_path / "nope"))
+    assert status == 2 and "nope: error: dataset folder not found" in err
+
+
+def test_dataset_without_setup_folders(hila, tmp_path):
+    (tmp_path / "empty").mkdir()
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(tmp_path / "empty"))
+    assert status == 2 and "expected one sub-folder per set-up" in err
+
+
+def test_trial_without_icps(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    (ds / "exp2" / "trial01.icps.yaml").unlink()
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "trial01.csv: error: trial has no ICP file (expected trial01.icps.yaml beside it)" in err
+
+
+def test_icps_without_trial(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    shutil.copy(ds / "exp2" / "trial01.icps.yaml", ds / "exp2" / "trial09.icps.yaml")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "ICP file without its path file trial09.csv" in err
+
+
+def test_bad_path_csv_names_file_and_line(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    f = ds / "exp3" / "trial01.csv"
+    rows = f.read_text().splitlines()
+    rows[4] = "0.15,12.0,oops"
+    f.write_text("\n".join(rows) + "\n")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "trial01.csv:5: error:" in err and "'oops'" in err
+
+
+def test_bad_header(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    f = ds / "exp1" / "trial01.csv"
+    f.write_text("a,b\n" + "\n".join(f.read_text().splitlines()[1:]) + "\n")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "expected the header" in err
+
+
+def test_too_short_path(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    f = ds / "exp1" / "trial01.csv"
+    f.write_text("\n".join(f.read_text().splitlines()[:5]) + "\n")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "expected at least 8 path points" in err and "got 4" in err
+
+
+def test_icps_of_wrong_dimension(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    (ds / "exp4" / "trial01.icps.yaml").write_text("hand: [1, 2, 3]\n")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "trial01.icps.yaml: error:" in err and "hand" in err
+
+
+def test_no_shared_icp_names(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    (ds / "exp4" / "trial01.icps.yaml").write_text("other: [1, 2]\n")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "share no ICP name" in err and "exp4/trial01 (other)" in err
+
+
+def test_mixed_dimensions(hila, good_folder, tmp_path):
+    ds = _copy(good_folder, tmp_path)
+    rows = (ds / "exp5" / "trial01.csv").read_text().splitlines()
+    (ds / "exp5" / "trial01.csv").write_text("x,y,z\n" + "\n".join(r.split(",", 1)[1] + ",0" for r in rows[1:]) + "\n")
+    (ds / "exp5" / "trial01.icps.yaml").write_text("hand: [1, 2, 0]\n")
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(ds))
+    assert status == 2 and "same dimension" in err
+
+
+def test_trials_per_setup_is_for_the_stand_in_only(hila, good_folder, tmp_path):
+    status, _, err = hila("eval", "--out", str(tmp_path / "o"), "--dataset", str(good_folder), "--trials-per-setup", "3")
+    assert status == 2 and "--trials-per-setup applies to the generated stand-in" in err
+
+
+def test_out_must_be_a_folder(hila, tmp_path):
+    (tmp_path / "file").write_text("x")
+    status, _, err = hila("eval", "--out", str(tmp_path / "file"), "--trials-per-setup", "1")
+    assert status == 2 and "expected --out to be a folder" in err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--jobs", "0"], "expected --jobs >= 1 or -1"),
+    (["--trials-per-setup", "0"], "expected an integer >= 1, got 0"),
+    (["--threshold", "-1"], "expected a threshold >= 0"),
+    (["--jobs", "2", "--dask", "tcp://x:1"], "not allowed with argument"),
+])
+def test_bad_options_exit_2(hila, capsys, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        hila("eval", *argv)
+    assert exc.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_peers_side_by_side(hila, tmp_path):
+    pytest.importorskip("movement_primitives")
+    status, text, _ = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--peers", "--no-progress")
+    assert status == 0
+    peers = text[text.index("Peers on the same grid"):].splitlines()
+    assert "ms/path" in peers[1]
+    assert [ln.split("|")[0].strip() for ln in peers[2:14]] == ["osila"] * 4 + ["tps"] * 4 + ["dmp"] * 4
+    for m in ("osila", "tps", "dmp"):
+        assert (tmp_path / f"heatmap_r_{m}.png").is_file()
+
+
+def test_peers_without_movement_primitives(hila, tmp_path, monkeypatch):
+    from hila_lang.evaluation import peers
+
+    monkeypatch.setattr(peers, "dmp_available", lambda: False)
+    status, _, err = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--peers", "--no-progress")
+    assert status == 2
+    assert "the DMP peer needs the optional package movement_primitives" in err
+    assert "hint: pip install 'hila-lang[peers]'" in err

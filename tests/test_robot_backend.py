@@ -1,0 +1,259 @@
+"""The PyBullet iCub back end: reaching, drawing, ink, joint limits, cameras, errors.
+
+One robot is loaded per module (loading is the slow part); tests that need a clean sheet use
+their own small moves and check only what they drew.
+"""
+
+import numpy as np
+import pytest
+
+from hila_lang.errors import InputError, UnreachableError
+from hila_lang.interfaces import Backend
+from hila_lang.metrics import correlation
+from hila_lang.robot.backend import PyBulletBackend, make_backend
+from hila_lang.robot.ink import INK_RGB
+from hila_lang.robot.scene import SceneSpec, cell_center, cell_corners
+
+LIFT = np.array([0.0, 0.0, 0.02])
+
+
+@pytest.fixture(scope="module")
+def robot():
+    backend = PyBulletBackend(SceneSpec.game())
+    yield backend
+    backend.close()
+
+
+def circle(scene, cell, radius, n=90):
+    right, far = scene.axes()
+    angle = np.linspace(0, 2 * np.pi, n + 1)
+    return cell_center(scene, cell) + radius * (np.cos(angle)[:, None] * right + np.sin(angle)[:, None] * far)
+
+
+def park(robot):
+    """Move the hand beside the board so cameras see all of it."""
+    half = robot.scene.grid_size / 2
+    robot.move(np.array([robot.hand_position() + LIFT, robot.scene.grid_to_world(half + 0.06, -half) + 4 * LIFT]))
+
+
+@pytest.fixture(scope="module")
+def drawn(robot):
+    """Draw a circle in cell 3 (far-right) with images of the board before and after."""
+    park(robot)
+    before = robot.camera_image("left")
+    planned = circle(robot.scene, 3, 0.018)
+    robot.move(np.array([planned[0] + LIFT, planned[0]]), label="reach")
+    robot.move(planned, pen_down=True, label="draw")
+    trace = robot.traces[-1]
+    park(robot)
+    after = robot.camera_image("left")
+    return planned, trace, before, after
+
+
+def test_is_a_backend(robot):
+    assert isinstance(robot, Backend) and robot.name == "pybullet"
+
+
+def test_every_cell_corner_is_reached_within_1_mm(robot):
+    for cell in range(1, 10):
+        for name, corner in cell_corners(robot.scene, cell).items():
+            executed = robot.move(np.array([corner + LIFT, corner]), label=f"cell{cell}.{name}")
+            assert np.linalg.norm(executed[-1] - corner) < 1e-3, (cell, name)
+            assert np.linalg.norm(robot.hand_position() - corner) < 1e-3, (cell, name)
+    assert not any(t.inked for t in robot.traces)  # pen up: no ink
+
+
+def test_drawn_circle_inked_trace_correlates_with_the_plan(robot, drawn):
+    planned, trace, _, _ = drawn
+    touching = robot._touching(trace.executed)
+    assert trace.pen_down and trace.inked == touching.sum() > 0.9 * len(trace.executed)
+    inked = trace.executed[touching]
+    assert correlation(inked[:, :2], planned[:, :2]) >= 0.99
+    tracking = np.linalg.norm(trace.executed - trace.reference, axis=1)
+    assert np.median(tracking) < 1e-3 and tracking.max() < 3e-3
+
+
+def test_ink_lands_in_the_paper_texture_under_the_planned_circle(robot, drawn):
+    planned, _, _, _ = drawn
+    image = robot.ink_image().astype(int)
+    pix = np.round(robot.canvas.to_pixels(planned)).astype(int)
+    colours = image[pix[:, 1], pix[:, 0]]
+    ink = np.array(INK_RGB["robot"])
+    assert np.mean(np.abs(colours - ink).sum(axis=1) < 120) > 0.95
+    # and not at the circle's centre
+    centre = np.round(robot.canvas.to_pixels(cell_center(robot.scene, 3)[None])).astype(int)[0]
+    assert np.abs(image[centre[1], centre[0]] - ink).sum() > 200
+
+
+def test_joint_limits_are_never_exceeded_over_a_whole_drawing(robot, drawn):
+    chain = robot.chain
+    joints = np.vstack([t.joints for t in robot.traces])
+    assert len(joints) > 1000
+    assert np.all(joints >= chain.lower) and np.all(joints <= chain.upper)
+
+
+def test_eye_camera_sees_ink_where_it_was_drawn(drawn):
+    planned, _, before, after = drawn
+    assert after.rgb.shape == (240, 320, 3) and after.rgb.dtype == np.uint8
+    uv = np.round(after.project(planned)).astype(int)
+    assert np.all((uv >= 0) & (uv < [320, 240]))
+
+    def blue(img):
+        rgb = img.rgb[uv[:, 1], uv[:, 0]].astype(int)
+        return (rgb[:, 2] - rgb[:, 0] > 40) & (rgb[:, 2] - rgb[:, 1] > 30)
+
+    assert blue(after).mean() > 0.8
+    assert blue(before).mean() < 0.05
+
+
+def test_top_view_sees_the_grid_and_the_ink(robot, drawn):
+    planned, _, _, _ = drawn
+    top = robot.top_view_image(240)
+    assert top.rgb.shape == (240, 240, 3)
+    uv = np.round(top.project(planned)).astype(int)
+    rgb = top.rgb[uv[:, 1], uv[:, 0]].astype(int)
+    assert np.mean(rgb[:, 2] - rgb[:, 0] > 40) > 0.8
+    # cell 3 is far-right: top-right quadrant of the image
+    assert np.all(uv[:, 0] > 120) and np.all(uv[:, 1] < 120)
+
+
+def test_unreachable_target_raises_and_the_arm_stays(robot):
+    start = robot.hand_position()
+    far = np.array([0.90, -0.10, 0.60])
+    with pytest.raises(UnreachableError, match=r"cannot reach \(0\.900, -0\.100, 0\.600\) m \(waypoint 2 of 2\): "
+                       r"the pen gets no closer than \d+\.\d mm") as info:
+        robot.move(np.array([start, far]), label="reach cell")
+    assert info.value.exit_code == 1 and info.value.state == "reach cell"
+    assert "(in state reach cell)" in str(info.value)
+    np.testing.assert_allclose(robot.hand_position(), start, atol=1e-9)
+    below = cell_center(robot.scene, 5) - np.array([0, 0, 0.01])
+    with pytest.raises(UnreachableError, match=r"10\.0 mm below the paper"):
+        robot.move(np.array([below]))
+
+
+@pytest.mark.parametrize("path", [np.zeros(3), np.zeros((0, 3)), np.zeros((4, 2)), [[0.3, 0.0, float("nan")]], "abc"])
+def test_malformed_path_is_an_input_error(robot, path):
+    with pytest.raises(InputError, match="path"):
+        robot.move(path)
+
+
+def test_reset_hand_puts_the_pen_there_at_once(robot):
+    point = cell_center(robot.scene, 7) + np.array([0, 0, 0.1])
+    n = len(robot.traces)
+    robot.reset_hand(point)
+    np.testing.assert_allclose(robot.hand_position(), point, atol=1e-4)
+    assert len(robot.traces) == n
+    with pytest.raises(UnreachableError):
+        robot.reset_hand([1.5, 0.0, 0.6])
+
+
+def test_markers_and_textured_quads_show_in_the_eye_cameras(robot):
+    point = cell_center(robot.scene, 8) + np.array([0, 0, 0.02])
+    marker = robot.add_marker(0.012, (0.0, 1.0, 0.0, 1.0))
+    robot.set_marker(marker, point)
+    image = robot.camera_image("right")
+    u, v = np.round(image.project(point[None])[0]).astype(int)
+    r, g, b = image.rgb[v, u].astype(int)
+    assert g > r + 60 and g > b + 60
+    robot.remove(marker)
+    # a red square facing the left eye, 0.3 m in front of it
+    eye = robot.camera_pose("left")
+    pose = eye.copy()
+    pose[:3, 3] = eye[:3, 3] + 0.3 * eye[:3, 2]
+    pose[:3, :3] = eye[:3, :3] @ np.diag([1.0, -1.0, -1.0])  # quad +z towards the camera
+    square = np.zeros((8, 8, 3), np.uint8)
+    square[:] = (220, 0, 0)
+    quad = robot.show_texture_quad(square, pose, (0.05, 0.05))
+    rgb = robot.camera_image("left").rgb[120, 160].astype(int)
+    robot.remove(quad)
+    assert rgb[0] > 120 and rgb[1] < 60 and rgb[2] < 60
+
+
+def test_ink_polyline_draws_without_the_robot(robot):
+    centre = cell_center(robot.scene, 1)  # far-left cell: top-left of the texture
+    robot.ink_polyline(np.array([centre - [0.01, 0, 0], centre + [0.01, 0, 0]]), color="opponent")
+    image = robot.ink_image()
+    red = (image[:, :, 0] > 150) & (image[:, :, 1] < 80)
+    rows, cols = np.nonzero(red)
+    assert len(rows) > 20
+    assert rows.max() < image.shape[0] / 2 and cols.max() < image.shape[1] / 2
+    with pytest.raises(InputError):
+        robot.ink_polyline(np.zeros((0, 3)))
+
+
+def test_demonstration_scene_sheet_is_in_both_eyes_and_the_arm_out_of_the_way(capfd):
+    with PyBulletBackend(SceneSpec.demonstration()) as demo:
+        out, err = capfd.readouterr()
+        assert out == "" and err == ""  # nothing from the URDF importer reaches the console
+        for eye in ("left", "right"):
+            image = demo.camera_image(eye)
+            uv = image.project(demo.scene.paper_corners())
+            assert np.all((uv > 0) & (uv < [320, 240])), (eye, uv)
+            # the sheet's centre pixel is paper, not the robot's hand
+            u, v = np.round(image.project(demo.scene.grid_to_world(0.05, 0.05)[None])[0]).astype(int)
+            assert np.ptp(image.rgb[v, u].astype(int)) < 20 and image.rgb[v, u].min() > 120
+
+
+def test_make_backend_uses_the_worlds_scene_and_gui_needs_a_display(monkeypatch):
+    class World:
+        scene = SceneSpec((0.30, -0.08), 0.12, 0.0, 0.571)
+
+    class Options:
+        gui = False
+        seed = 3
+
+    with make_backend(World(), Options()) as backend:
+        assert backend.scene == World.scene
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(InputError, match="needs a display"):
+        PyBulletBackend(gui=True)
+
+
+def run_snapshot(*argv):
+    """``hila snapshot ARGV`` through the command module (independent of the CLI registry)."""
+    import argparse
+
+    from hila_lang.commands import snapshot
+
+    parser = argparse.ArgumentParser()
+    snapshot.add_arguments(parser)
+    return snapshot.run(parser.parse_args(list(argv)))
+
+
+SNAPSHOT_SCRIPT = (
+    "import argparse, sys\n"
+    "from hila_lang.commands import snapshot\n"
+    "parser = argparse.ArgumentParser()\n"
+    "snapshot.add_arguments(parser)\n"
+    "sys.exit(snapshot.run(parser.parse_args(sys.argv[1:])))\n"
+)
+
+
+def test_snapshot_command_writes_two_pngs(tmp_path, capsys):
+    import cv2
+
+    assert run_snapshot("--out", str(tmp_path), "--size", "200") == 0
+    eye = cv2.imread(str(tmp_path / "eye_left.png"))
+    top = cv2.imread(str(tmp_path / "board_top.png"))
+    assert eye.shape == (240, 320, 3) and top.shape == (200, 200, 3)
+    assert capsys.readouterr().out.split() == [str(tmp_path / "eye_left.png"), str(tmp_path / "board_top.png")]
+    # the opponent's cross (red) and the robot's circle (blue) are both on the board
+    rgb = top[:, :, ::-1].astype(int)
+    assert ((rgb[:, :, 0] - rgb[:, :, 2]) > 80).sum() > 50
+    assert ((rgb[:, :, 2] - rgb[:, :, 0]) > 60).sum() > 50
+    with pytest.raises(InputError, match="--cell must be 1..9"):
+        run_snapshot("--out", str(tmp_path), "--cell", "12")
+
+
+def test_nothing_but_the_paths_reaches_the_console(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", SNAPSHOT_SCRIPT, "--out", str(tmp_path), "--size", "64"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == [str(tmp_path / "eye_left.png"), str(tmp_path / "board_top.png")]
+    assert done.stderr == ""

@@ -1,0 +1,109 @@
+"""Generated URDF, forward kinematics and IK of the torso + right arm."""
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hila_lang.robot import ik, model
+
+
+@pytest.fixture(scope="module")
+def urdf_text():
+    return model.urdf_path().read_text()
+
+
+@pytest.fixture(scope="module")
+def chain(urdf_text):
+    world_T_root = ik.transform(ik.rpy_to_matrix((0, 0, model.ROOT_YAW)), model.ROOT_POSITION)
+    return ik.KinematicChain.from_urdf(urdf_text, model.PEN_TIP_LINK, world_T_root)
+
+
+def test_generated_urdf_is_pruned_and_carries_pen_and_eyes(urdf_text):
+    robot = ET.fromstring(urdf_text)
+    links = {link.get("name") for link in robot.findall("link")}
+    assert 40 <= len(links) <= 50  # the shipped model has 212
+    assert {"pen", model.PEN_TIP_LINK, *model.EYE_LINKS.values(), "r_hand_dh_frame"} <= links
+    assert not any("skin" in name for name in links)
+    assert robot.find(".//collision") is None
+    meshes = [m.get("filename") for m in robot.iter("mesh")]
+    assert meshes and all(Path(m).is_absolute() and Path(m).is_file() for m in meshes)
+    assert all(link.find("inertial") is not None for link in robot.findall("link"))
+
+
+def test_chain_is_torso_plus_right_arm(chain):
+    assert chain.names == model.ARM_CHAIN
+    assert np.all(chain.lower < chain.upper)
+
+
+def test_forward_kinematics_matches_pybullet(chain):
+    from hila_lang.robot.console import import_pybullet, quiet_c_output
+
+    pb = import_pybullet()
+    with quiet_c_output():
+        client = pb.connect(pb.DIRECT)
+        robot = pb.loadURDF(
+            str(model.urdf_path()), model.ROOT_POSITION, pb.getQuaternionFromEuler([0, 0, model.ROOT_YAW]),
+            useFixedBase=True, physicsClientId=client,
+        )
+    try:
+        index = {}
+        for i in range(pb.getNumJoints(robot, physicsClientId=client)):
+            info = pb.getJointInfo(robot, i, physicsClientId=client)
+            index[info[1].decode()] = i
+            index[info[12].decode()] = i
+        rng = np.random.default_rng(3)
+        for _ in range(5):
+            q = rng.uniform(chain.lower, chain.upper)
+            for name, value in zip(chain.names, q):
+                pb.resetJointState(robot, index[name], value, physicsClientId=client)
+            state = pb.getLinkState(robot, index[model.PEN_TIP_LINK], computeForwardKinematics=True, physicsClientId=client)
+            pose = chain.forward(q)[0]
+            np.testing.assert_allclose(pose[:3, 3], state[4], atol=1e-6)
+            np.testing.assert_allclose(pose[:3, :3], np.reshape(pb.getMatrixFromQuaternion(state[5]), (3, 3)), atol=1e-6)
+    finally:
+        pb.disconnect(physicsClientId=client)
+
+
+def test_jacobian_matches_finite_differences(chain):
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q = rng.uniform(chain.lower, chain.upper)
+        jac, pose = chain.jacobian(q)
+        h = 1e-6
+        for i in range(chain.dof):
+            dq = np.zeros(chain.dof)
+            dq[i] = h
+            plus, minus = chain.forward(q + dq)[0], chain.forward(q - dq)[0]
+            np.testing.assert_allclose(jac[:3, i], (plus[:3, 3] - minus[:3, 3]) / (2 * h), atol=1e-6)
+            # angular column: d(pen axis)/dq_i = omega_i x z
+            dz = (plus[:3, 2] - minus[:3, 2]) / (2 * h)
+            np.testing.assert_allclose(np.cross(jac[3:, i], pose[:3, 2]), dz, atol=1e-6)
+
+
+def test_ik_reaches_forward_kinematics_targets_with_the_pen_vertical(chain):
+    from hila_lang.robot.backend import SEED_POSTURE
+
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        target = np.array([rng.uniform(0.22, 0.40), rng.uniform(-0.20, 0.02), rng.uniform(0.575, 0.70)])
+        result = ik.solve(chain, target, SEED_POSTURE)
+        assert result.converged, (target, result.error)
+        np.testing.assert_allclose(chain.tip_position(result.q), target, atol=1e-5)
+        assert chain.forward(result.q)[0][2, 2] == pytest.approx(-1.0, abs=1e-5)  # pen axis points down
+        assert np.all(result.q >= chain.lower) and np.all(result.q <= chain.upper)
+
+
+def test_ik_never_leaves_the_limits_it_is_given(chain):
+    from hila_lang.robot.backend import SEED_POSTURE
+
+    lower, upper = chain.lower.copy(), chain.upper.copy()
+    lower[:3] = upper[:3] = 0.0  # torso frozen upright
+    upper[6] = 0.6  # elbow hardly bent
+    for target in ([0.25, -0.10, 0.58], [0.80, -0.10, 0.60]):
+        result = ik.solve(chain, np.array(target), SEED_POSTURE, lower=lower, upper=upper)
+        assert not result.converged and result.error > 1e-3
+        assert np.all(result.q >= lower - 1e-12) and np.all(result.q <= upper + 1e-12)
+        # the pose reported is the one the joints give
+        np.testing.assert_allclose(chain.tip_position(result.q), result.position, atol=1e-12)
