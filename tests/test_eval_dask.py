@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hila_lang import cli
+from hila_lang.cli import main
 from hila_lang.evaluation.dataset import generate
 from hila_lang.evaluation.run import run_grid
 
@@ -34,20 +34,13 @@ def test_dask_equals_local(address):
     assert not np.isnan(remote.r["osila"]).any()
 
 
-@pytest.fixture
-def main(monkeypatch):
-    """``cli.main`` with ``eval`` looked up whether or not the registry lists it yet."""
-    monkeypatch.setitem(cli.COMMANDS, "eval", "eval_")
-    return cli.main
-
-
-def test_cli_on_dask(main, address, tmp_path, capsys):
+def test_cli_on_dask(address, tmp_path, capsys):
     assert main(["eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--dask", address, "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert f"dask({address})" in out and "TABLE II" in out
 
 
-def test_unreachable_scheduler_is_a_clear_error(main, tmp_path, capsys, monkeypatch):
+def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys, monkeypatch):
     from hila_lang.evaluation import run
 
     monkeypatch.setattr(run, "CONNECT_TIMEOUT", "1s")

@@ -84,7 +84,7 @@ def test_table2_table3_group_pairs_by_setup(result):
 
 def test_printed_tables_have_the_papers_layout(result):
     text = tables.render(result)
-    for title in ("TABLE I:", "TABLE II:", "TABLE III:", "Summary", "Peers"):
+    for title in ("TABLE I:", "TABLE II:", "TABLE III:", "Summary", "Methods side by side"):
         assert title in text
     t1 = tables.format_table1(result).splitlines()
     assert t1[1].split("|")[1:] and [c.strip() for c in t1[1].split("|")[1:]] == ["exp1", "exp2", "exp3", "exp4", "exp5"]
@@ -138,6 +138,26 @@ def test_dmp_peer_hits_start_boundaries_and_goal(trials):
         cuts = boundaries(len(template.path), n)
         for a, b in zip(cuts, boundaries(len(task.path), n)):
             assert np.allclose(path[a], task.path[b], atol=1e-9)
+
+
+def test_hila_variant_stitches_one_osila_per_segment(trials):
+    from hila_lang.evaluation.grid import _generator
+    from hila_lang.segmentation import equal_segments
+
+    template, task = trials[2], trials[7]  # exp2 -> exp4
+    gen = _generator("hila", template, OPTIONS)
+    assert np.array_equal(gen(task, 1), _generator("osila", template, OPTIONS)(task, 1))
+    for n in (2, 4):
+        path = gen(task, n)
+        assert len(template.path) - (n - 1) <= len(path) <= len(template.path)  # joints kept once
+        # starts at the task's hand, passes each inner segment end of the task path (threshold 2)
+        assert np.allclose(path[0], task.icps[task.icp_names.index("hand")])
+        for _, stop in equal_segments(len(task.path), n)[:-1]:
+            assert np.linalg.norm(path - task.path[stop - 1], axis=1).min() <= 2.0 + 1e-9
+    row = evaluate_row(trials, 2, methods=("osila", "hila"), options=OPTIONS)
+    assert not row.failures["hila"]
+    assert row.r["hila"][:, 2].min() >= 0.998  # self-mapping
+    assert np.abs(np.nanmean(row.r["hila"], 1) - np.nanmean(row.r["osila"], 1)).max() < 0.02
 
 
 def test_peer_rows_report_time_per_path(result):

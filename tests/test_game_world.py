@@ -102,7 +102,8 @@ def test_output_folder(tmp_path):
     folder = Path(report["out"])
     on_disk = json.loads((folder / "report.json").read_text())
     assert on_disk["result"] == report["result"]
-    assert on_disk["files"] == ["paper.png", "report.json", "top.png", "traces.csv"]  # no camera on the dry back end
+    assert on_disk["files"] == ["fsm.dot", "paper.png", "report.json", "top.png", "traces.csv"]  # no camera on the dry back end
+    assert (folder / "fsm.dot").read_text().startswith("digraph hila {")
     assert on_disk["wall_time_s"] > 0
     csv = (folder / "traces.csv").read_text().splitlines()
     assert csv[0] == "source,state,pen_down,kind,index,x,y,z"

@@ -19,7 +19,8 @@ By default the data is a seeded STAND-IN for the paper's 75 human trials, which 
 OUT/dataset in the --dataset format.  --dataset FOLDER evaluates your own demonstrations instead:
 FOLDER/<set-up>/<trial>.csv (header t,x,y[,z] or x,y[,z], as for 'hila learn') and
 <trial>.icps.yaml beside it ('name: [x, y]'); trials are paired on shared ICP names.
---peers adds a bare TPS warp and DMPs (pip install 'hila-lang[peers]') on the same grid."""
+--peers adds a bare TPS warp and DMPs (pip install 'hila-lang[peers]') on the same grid; --hila adds
+the per-segment generation of the hierarchical generator (sub-templates imitated one by one, stitched)."""
 
 
 def _positive_int(text: str) -> int:
@@ -63,6 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dataset", default=None, metavar="FOLDER",
                         help="evaluate your own trials (format above) instead of the stand-in")
     parser.add_argument("--peers", action="store_true", help="also run the bare TPS warp and DMPs")
+    parser.add_argument("--hila", action="store_true",
+                        help="also run the segments through the hierarchical generator (one OSILA per "
+                             "segment, stitched) beside the one-OSILA-with-boundary-pairs of the Tables")
     parser.add_argument("--trials-per-setup", type=_positive_int, default=None, metavar="N",
                         help="stand-in only: trials per set-up (default 15, as in the paper)")
     parser.add_argument("--seed", type=int, default=0, help="stand-in only: dataset seed (default 0)")
@@ -94,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         threshold = 2.0 if args.threshold is None else args.threshold
         source = f"stand-in (seed {args.seed}, {per} trials per set-up; the paper's human data is not public)"
         ds.save_dataset(trials, out / "dataset")
-    methods = ("osila", "tps", "dmp") if args.peers else ("osila",)
+    methods = ("osila",) + (("hila",) if args.hila else ()) + (("tps", "dmp") if args.peers else ())
     options = {} if threshold is None else {"threshold": threshold}
     print(f"hila eval: {len(trials)} trials from the {source}; {len(trials) ** 2 * 4 * len(methods)} generations",
           file=sys.stderr)

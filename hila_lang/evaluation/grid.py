@@ -10,8 +10,16 @@ count N, the constraint pairs are
 
 The generated path is compared with trial j's own human path by R (eq. 1) and MSD (eq. 2) after
 the shorter of the two is resampled by cubic spline to the longer's length
-(:mod:`hila_lang.metrics`).  Methods: ``osila`` (:func:`hila_lang.osila.imitate`) and the peers
-of :mod:`.peers` (``tps``: the bare warp; ``dmp``: per-segment DMPs).
+(:mod:`hila_lang.metrics`).  Methods:
+
+- ``osila`` (the Tables): one :func:`hila_lang.osila.imitate` of the whole template with the
+  scene pairs plus the boundary pairs;
+- ``hila``: the segmented template run through the hierarchical generator
+  (:func:`hila_lang.hierarchy.generate`): one OSILA per equal segment (a sub-template carrying
+  ``start`` and ``end`` ICPs), the start pinned to the task's hand (then to where the previous
+  piece ended), each inner ``end`` bound to the task path's point at the same equal split, the
+  pieces stitched (a joint shared by two pieces appears once);
+- the peers of :mod:`.peers` (``tps``: the bare warp; ``dmp``: per-segment DMPs).
 
 A pair whose generation fails (a :class:`~hila_lang.errors.HilaError`, e.g. on a user's
 degenerate ICPs) scores NaN and is counted, never aborts the grid.
@@ -29,7 +37,7 @@ from ..errors import HilaError
 from .dataset import Trial
 
 SEGMENTS = (1, 2, 3, 4)
-METHODS = ("osila", "tps", "dmp")
+METHODS = ("osila", "hila", "tps", "dmp")
 
 
 def boundaries(length: int, n: int) -> list[int]:
@@ -100,6 +108,8 @@ def _generator(method: str, template: Trial, options: dict[str, Any]):
             return imitate(template.path, src, dst, **options)
 
         return run
+    if method == "hila":
+        return _hila_generator(template, options)
     from . import peers
 
     if method == "tps":
@@ -107,6 +117,35 @@ def _generator(method: str, template: Trial, options: dict[str, Any]):
     if method == "dmp":
         return peers.DmpPeer(template.path).generate
     raise ValueError(f"unknown method {method!r}; expected one of {', '.join(METHODS)}")
+
+
+def _hila_generator(template: Trial, options: dict[str, Any]):
+    """(task, n) -> stitched path of the equal-N sub-templates, via the hierarchical generator."""
+    from ..hierarchy import generate
+    from ..segmentation import equal_segments, segment_template
+    from ..template import Template
+
+    steps_cache: dict[tuple[frozenset, int], list] = {}
+
+    def steps(shared: tuple[str, ...], n: int) -> list:
+        key = (frozenset(shared), n)
+        if key not in steps_cache:
+            icps = {name: p for name, p in zip(template.icp_names, template.icps) if name in key[0]}
+            whole = Template(template.label, template.path, icps, units="px")
+            tags = [f"s{k + 1}" for k in range(n)]
+            cut = segment_template(whole, n, tags, method="equal") if n > 1 else None
+            steps_cache[key] = [cut.sub(t) for t in tags] if cut is not None else [whole]
+        return steps_cache[key]
+
+    def run(task: Trial, n: int) -> np.ndarray:
+        shared = tuple(name for name in template.icp_names if name in task.icp_names)
+        scene = {name: task.icps[task.icp_names.index(name)] for name in shared}
+        ends = [stop - 1 for _, stop in equal_segments(len(task.path), n)]
+        tasks = [{**scene, "end": task.path[e]} for e in ends[:-1]] + [scene]
+        hand = scene.get("hand", task.path[0])
+        return generate(steps(shared, n), tasks, start=hand if n > 1 else None, **options).path
+
+    return run
 
 
 def evaluate_row(

@@ -91,7 +91,9 @@ def _pct(x: float) -> str:
 def _num(x: float, kind: str) -> str:
     if not np.isfinite(x):
         return "n/a"
-    return f"{x:.3f}" if kind == "r" else f"{x:.0f}"
+    if kind == "r":
+        return f"{x:.3f}"
+    return f"{x:.0f}" if abs(x) >= 100 else f"{x:.3g}"  # metre-scale data keeps its digits
 
 
 def _cell(ours: float, ref: float | None, kind: str) -> str:
@@ -103,10 +105,15 @@ def _with_paper(result: GridResult) -> bool:
     return len(result.setups) == 5 and tuple(result.segments) == (1, 2, 3, 4)
 
 
+def _width(result: GridResult, with_ref: bool, kind: str) -> int:
+    base = (15 if kind == "r" else 13) if with_ref else 7
+    return max(base, *(len(name) for name in result.setups))
+
+
 def format_table1(result: GridResult, method: str = "osila") -> str:
     """Table I in the paper's layout: rows N, columns set-ups."""
     ours, ref = table1(result, method), (paper.TABLE_I if _with_paper(result) else None)
-    width = 15 if ref is not None else 7
+    width = _width(result, ref is not None, "r")
     lines = ["TABLE I: averaged R of the self-mapping cases, grouped in experiments"
              + (" -- ours (paper)" if ref is not None else ""),
              "N segments | " + " | ".join(f"{name:^{width}}" for name in result.setups)]
@@ -117,18 +124,19 @@ def format_table1(result: GridResult, method: str = "osila") -> str:
 
 
 def _format_cross(result: GridResult, ours: np.ndarray, ref: np.ndarray | None, kind: str, title: str) -> str:
-    width = (15 if kind == "r" else 13) if ref is not None else 7
+    width = _width(result, ref is not None, kind)
+    head = max(7, *(len(name) for name in result.setups)) + 1
     lines = [title + (" -- ours (paper)" if ref is not None else ""),
              "Columns: input (template) experiment; rows: output (task) experiment; "
              f"the lines of a cell: N = {', '.join(map(str, result.segments))} segments.",
-             f"{'output':<8}| {'N':>2} | " + " | ".join(f"{name:^{width}}" for name in result.setups)]
+             f"{'output':<{head}}| {'N':>2} | " + " | ".join(f"{name:^{width}}" for name in result.setups)]
     k_all = range(len(result.setups))
     for o, name in enumerate(result.setups):
         lines.append("-" * len(lines[2]))
         for s, n in enumerate(result.segments):
             cells = [_cell(ours[s, o, i], None if ref is None else ref[s, o, i], kind) for i in k_all]
-            head = name if s == 0 else ""
-            lines.append(f"{head:<8}| {n:>2} | " + " | ".join(f"{c:^{width}}" for c in cells))
+            label = name if s == 0 else ""
+            lines.append(f"{label:<{head}}| {n:>2} | " + " | ".join(f"{c:^{width}}" for c in cells))
     return "\n".join(lines)
 
 
@@ -173,8 +181,8 @@ def peer_rows(result: GridResult) -> list[dict[str, Any]]:
 
 
 def format_peers(result: GridResult) -> str:
-    """OSILA and its peers side by side on the same grid."""
-    lines = ["Peers on the same grid (every template onto every task):",
+    """OSILA, its per-segment variant and its peers side by side on the same grid."""
+    lines = ["Methods side by side on the same grid (every template onto every task):",
              f"{'method':<7}| {'N':>2} | {'mean R':>7} | {'median R':>8} | {'R>=0.8':>6} | {'mean MSD':>9} | "
              f"{'ms/path':>7} | {'failed':>6}"]
     for row in peer_rows(result):

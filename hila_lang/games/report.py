@@ -193,23 +193,7 @@ def top_view(world) -> np.ndarray:
     return _overlay(np.ascontiguousarray(image.rgb).copy(), world, image.project)
 
 
-def fsm_dot(fsm) -> str | None:
-    """DOT text of the compiled FSM, or None when it is unknown."""
-    if fsm is None:
-        return None
-    for attr in ("to_dot", "dot"):
-        fn = getattr(fsm, attr, None)
-        if callable(fn):
-            return fn()
-    try:
-        from ..language import fsm as fsm_module  # the language's renderer, when present
-    except ImportError:
-        return None
-    fn = getattr(fsm_module, "to_dot", None)
-    return fn(fsm) if callable(fn) else None
-
-
-def write_outputs(world, report: dict[str, Any], dot: str | None = None) -> Path:
+def write_outputs(world, report: dict[str, Any]) -> Path:
     """Write the output folder of ``world``'s game; returns the folder."""
     folder = output_folder(world.options.out, world.seed)
     files = ["paper.png", "report.json", "traces.csv", "top.png"]
@@ -220,9 +204,8 @@ def write_outputs(world, report: dict[str, Any], dot: str | None = None) -> Path
     if callable(camera):
         atomic_write_bytes(folder / "eye.png", _png(camera("left").rgb))
         files.append("eye.png")
-    dot = dot if dot is not None else fsm_dot(world.fsm)
-    if dot:
-        atomic_write_text(folder / "fsm.dot", dot)
+    if world.fsm is not None:
+        atomic_write_text(folder / "fsm.dot", world.fsm.to_dot())
         files.append("fsm.dot")
     report = dict(report, files=sorted(files))
     atomic_write_text(folder / "report.json", json.dumps(report, indent=2) + "\n")

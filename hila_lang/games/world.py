@@ -291,7 +291,7 @@ class TicTacToeWorld:
         rs = [m["r"] for m in self.marks if m["r"] is not None]
         self._print(f"\nresult: {text}" + (f"; per-mark R min {min(rs):.3f}" if rs else ""))
         if self.settings.get("report", "yes").lower() not in ("no", "false", "0", "off"):
-            folder = write_outputs(self, report, extra.get("fsm_dot"))
+            folder = write_outputs(self, report)
             report["out"] = str(folder)
             self._print(f"outputs written to {folder}")
         return report

@@ -8,7 +8,8 @@ A ``run`` state evaluates its bindings against the scene (variables, ``hand`` = 
 end says the hand is, the program's ``point`` s, then the world's ``points()``), warps the
 (sub-)template with :func:`hila_lang.osila.imitate` — its ``start`` ICP bound to the hand and
 pinned there unless the program binds it (see :func:`start_at`) — moves the back end along the path, and calls
-``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=)``.
+``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
+(``template`` is the sub-template that ran).
 
 Any failure while a state runs (an unknown scene point, a question the world cannot answer,
 contradicted constraints, an unreachable target) is a :class:`HilaRuntimeError` naming the
@@ -245,7 +246,7 @@ class Interpreter:
         notify = getattr(self.world, "notify", None)
         if callable(notify):
             notify("state_done", state=st.name, path=path, executed=executed, kind="run",
-                   pen_down=bool(st.pen_down), icps=dict(icps))
+                   pen_down=bool(st.pen_down), icps=dict(icps), template=t)
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()))

@@ -46,10 +46,10 @@ def prepare(path, options: RunOptions, backend: str | None = None) -> Interprete
 
 
 def finish(interp: Interpreter):
-    """``world.finish(trace)`` if the world has it (its dict, or None), then close the back end."""
+    """``world.finish(trace, fsm=FSM)`` if the world has it (its dict, or None), then close the back end."""
     try:
         fin = getattr(interp.world, "finish", None)
-        return fin(interp.trace) if callable(fin) else None
+        return fin(interp.trace, fsm=interp.fsm) if callable(fin) else None
     finally:
         close = getattr(interp.backend, "close", None)
         if callable(close):

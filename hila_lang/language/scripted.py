@@ -55,7 +55,7 @@ class ScriptedWorld:
     def notify(self, event: str, **data: Any) -> None:
         self.log.append((event, data))
 
-    def finish(self, trace=None) -> dict:
+    def finish(self, trace=None, **extra) -> dict:
         runs = [t for t in (trace or []) if t.kind == "run"]
         return {"states": len(trace or []), "runs": len(runs)}
 
