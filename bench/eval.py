@@ -2,7 +2,7 @@
 plus their R and MSD — on the seeded stand-in dataset.
 
 Prints the wall time (target <= 60 s on the 2-core project machine) and the time per generation;
-``--peers`` times the bare TPS warp and the DMPs too.  Not a test.
+``--peers`` times the bare TPS warp and the DMPs too, ``--hila`` the per-segment variant.  Not a test.
 
     /work/venv/bin/python bench/eval.py [--jobs 2] [--peers] [--seed 0]
 """
@@ -24,12 +24,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2, help="joblib processes (default 2, the machine's cores)")
     ap.add_argument("--peers", action="store_true", help="also time the TPS and DMP peers")
+    ap.add_argument("--hila", action="store_true", help="also time the per-segment (hierarchical) variant")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     t0 = time.perf_counter()
     trials = generate(seed=args.seed)
     t_data = time.perf_counter() - t0
-    methods = ("osila", "tps", "dmp") if args.peers else ("osila",)
+    methods = ("osila",) + (("hila",) if args.hila else ()) + (("tps", "dmp") if args.peers else ())
     result = run_grid(trials, methods=methods, options={"threshold": 2.0}, jobs=args.jobs, progress=False)
     n_gen = len(trials) ** 2 * len(result.segments)
     print(f"machine: {os.cpu_count()} cores; jobs = {args.jobs}; dataset of {len(trials)} trials in {t_data:.2f} s")

@@ -6,7 +6,8 @@ PyBullet through both distorted eye cameras (320x240) with the default chessboar
 ``hila learn --from-sim`` does.  Reports, headless on this machine:
 
 - reconstruction error: every frame's triangulated pen tip against the ground-truth path, mm
-  (median, 95th percentile, max), and the ICPs (cell corners, hand start) against the truth, mm;
+  (median, 95th percentile, max), the same for the template's path (points near the paper put
+  on it), and the ICPs (cell corners, hand start) against the truth, mm;
 - calibration: RMS chessboard reprojection error per eye, px, and the calibrated focal length
   and principal point against the renderer's true intrinsics, px;
 - triangulation: median reprojection error of the 3-D path into each eye, px;
@@ -45,6 +46,7 @@ def run(seed: int, folder: Path) -> dict:
     truth = load_yaml(folder / "truth.yaml")
     gt = np.array(truth["path"])
     err = np.linalg.norm(perc.path - gt, axis=1) * 1000
+    err_tpl = np.linalg.norm(template.path - gt, axis=1) * 1000
     K = np.array(truth["K"])
     icp_err = {k: float(np.linalg.norm(template.icps[k] - np.array(truth["icps"][k])) * 1000) for k in template.icps}
     from hila_lang.games.demonstration import demonstrate
@@ -52,7 +54,7 @@ def run(seed: int, folder: Path) -> dict:
     phases = demonstrate(seed).phases
     return {
         "seed": seed, "frames": len(gt), "median": float(np.median(err)), "p95": float(np.percentile(err, 95)),
-        "max": float(err.max()), "icp": icp_err, "cell": (perc.cell, truth["cell"]),
+        "max": float(err.max()), "tpl": (float(np.median(err_tpl)), float(err_tpl.max())), "icp": icp_err, "cell": (perc.cell, truth["cell"]),
         "rms": {e: c.rms for e, c in perc.calibration.items()},
         "dK": {e: np.abs(np.array([c.K[0, 0], c.K[1, 1], c.K[0, 2], c.K[1, 2]])
                          - [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]).max() for e, c in perc.calibration.items()},
@@ -74,7 +76,8 @@ def main() -> None:
             r = run(seed, base / f"seed{seed}")
             rows.append(r)
             print(f"seed {seed}: {r['frames']} frames  path error median {r['median']:.2f} mm, "
-                  f"p95 {r['p95']:.2f} mm, max {r['max']:.2f} mm")
+                  f"p95 {r['p95']:.2f} mm, max {r['max']:.2f} mm; template path (contact snapped to the "
+                  f"paper) median {r['tpl'][0]:.2f} mm, max {r['tpl'][1]:.2f} mm")
             print(f"  ICP error mm: " + ", ".join(f"{k} {v:.2f}" for k, v in r["icp"].items())
                   + f"; demonstrated cell {r['cell'][0]} (true {r['cell'][1]})")
             print(f"  calibration RMS px: left {r['rms']['left']:.3f}, right {r['rms']['right']:.3f}; "

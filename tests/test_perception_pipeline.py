@@ -72,6 +72,11 @@ def test_triangulated_path_against_ground_truth(learned, recording):
     assert err_mm.max() < 6.0, err_mm.max()
     assert max(perception.reprojection_px.values()) < 0.2
     assert template.path.shape == (FRAMES, 3)
+    # the pen-down part of the template lies exactly on the paper (the robot inks within 0.5 mm)
+    surface_z = load_yaml(recording / "cameras.yaml")["surface_z"]
+    contact = np.array(load_yaml(recording / "truth.yaml")["path"])[:, 2] <= surface_z + 1e-9
+    on_paper = np.isclose(template.path[contact, 2], surface_z, rtol=0, atol=1e-12)
+    assert contact.sum() >= 10 and on_paper.mean() >= 0.9, template.path[contact, 2] - surface_z
 
 
 def test_icps_detected_from_the_images(learned, recording):

@@ -10,9 +10,10 @@ The human-like model of one trial
 ---------------------------------
 - *Scene*: the set-up's nominal object (a 40 × 24 px rectangle), jittered per trial (σ = 4 px,
   σ = 4°); the resting hand position jittered (σ = 8 px); the waypoint area (e) jittered (σ = 3 px).
-- *Geometry*: a cubic Hermite curve from the hand through any via points (the waypoint area,
-  or for (c) a point above the object) to the approach point, a few pixels in front of the
-  strip.  Its start heading, the tangent lengths (how round the curve is) and the side the
+- *Geometry*: a cubic Hermite curve from the hand through the set-up's via points (a point
+  above the object for (c), a point past the object's far side for (d), a point inside the
+  waypoint area for (e)) to the approach point, a few pixels in front of the strip; via points
+  jitter by σ = 6 px.  Its start heading, the tangent lengths (how round the curve is) and the side the
   curve bulges to vary per trial; the end tangent is the required approach direction.
 - *Timing*: a minimum-jerk speed profile per stroke (one stroke per via point, overlapping like
   human sub-movements), skewed per trial (peak speed earlier or later); duration 1.6–3.2 s
@@ -20,6 +21,10 @@ The human-like model of one trial
 - *Noise*: a slow tremor (two sinusoids of 0.4–1.8 px, vanishing at both ends) plus marker noise
   (σ = 0.3–0.8 px, as the paper's 0.5 px uncertainty).  The hand ICP is the first path point seen
   through the same marker noise.
+
+The five set-ups (:data:`SETUPS`; the paper's Exp 1–5 = Fig. 5 (a)–(e)) start from different
+places and approach from different sides, so mapping one onto another changes the path's shape,
+not only its placement.
 
 ICPs per trial, paired by name across trials: ``hand`` (the resting hand), ``object.1`` ..
 ``object.4`` (corners: the two ends of the approach side, then the far side, so the TPS carries the

@@ -21,6 +21,9 @@ the shorter of the two is resampled by cubic spline to the longer's length
   pieces stitched (a joint shared by two pieces appears once);
 - the peers of :mod:`.peers` (``tps``: the bare warp; ``dmp``: per-segment DMPs).
 
+Times are per generated path, measured in the worker around the generation only (not the
+metrics); work a method does once per template (fitting the DMPs) is shared over its row.
+
 A pair whose generation fails (a :class:`~hila_lang.errors.HilaError`, e.g. on a user's
 degenerate ICPs) scores NaN and is counted, never aborts the grid.
 """

@@ -93,7 +93,7 @@ def _num(x: float, kind: str) -> str:
         return "n/a"
     if kind == "r":
         return f"{x:.3f}"
-    return f"{x:.0f}" if abs(x) >= 100 else f"{x:.3g}"  # metre-scale data keeps its digits
+    return f"{x:.0f}" if kind == "msd" else f"{x:.3g}"
 
 
 def _cell(ours: float, ref: float | None, kind: str) -> str:
@@ -106,7 +106,7 @@ def _with_paper(result: GridResult) -> bool:
 
 
 def _width(result: GridResult, with_ref: bool, kind: str) -> int:
-    base = (15 if kind == "r" else 13) if with_ref else 7
+    base = (15 if kind == "r" else 13) if with_ref else (7 if kind != "msd_small" else 9)
     return max(base, *(len(name) for name in result.setups))
 
 
@@ -148,9 +148,12 @@ def format_table2(result: GridResult, method: str = "osila") -> str:
 
 
 def format_table3(result: GridResult, method: str = "osila") -> str:
-    """Table III (mean MSD) in the paper's layout."""
+    """Table III (mean MSD) in the paper's layout: whole numbers as the paper (pixels²), or three
+    significant digits when every value is below 100 (e.g. metre-scale data)."""
     ref = paper.TABLE_III if _with_paper(result) else None
-    return _format_cross(result, table3(result, method), ref, "msd",
+    ours = table3(result, method)
+    kind = "msd" if np.nanmax(ours, initial=0.0) >= 100 else "msd_small"
+    return _format_cross(result, ours, ref, kind,
                          "TABLE III: averaged mean squared difference MSD, mapping one experiment onto another")
 
 

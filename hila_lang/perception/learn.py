@@ -6,7 +6,8 @@
 2. undistorted with each eye's calibration, smoothed with Gaussian RBFs (0.5 pixel),
 3. triangulated with the calibrated intrinsics and the eyes' poses; the marker sits a known
    offset above the pen tip, which is subtracted,
-4. the ICPs detected in the first frames: the grid read in each undistorted image
+4. the ICPs detected in the images: the grid read in each undistorted image (the first frame,
+   else the last or the middle one when the hand hides the grid)
    (:func:`hila_lang.perception.board.read_board`, left and right averaged); the demonstrated
    cell is the one the pen touches (path points within ``CONTACT_TOLERANCE`` of the paper),
    its corners become ``tl``, ``tr``, ``br``, ``bl``; the hand's start ``hand`` is the first
@@ -14,12 +15,13 @@
 
 :func:`template_from_frames` (a recording folder, or left/right folders or videos) and
 :func:`template_from_sim` (record the seeded demonstration in PyBullet first) then segment the
-path with k-means (:func:`hila_lang.segmentation.segment_template`).
+path with k-means (:func:`hila_lang.segmentation.segment_template`), after putting pen-tip
+points within ``CONTACT_SNAP`` of the known paper plane on it (:attr:`Perception.path` keeps
+the raw triangulation).
 """
 
 from __future__ import annotations
 
-import os
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -30,8 +32,12 @@ import numpy as np
 from ..errors import InputError
 from .calibration import Calibration
 
-#: a path point within this height of the paper counts as touching it, metres
+#: a path point within this height of the paper counts as touching it (demonstrated cell), metres
 CONTACT_TOLERANCE = 0.004
+#: template points at most this far above (or below) the paper are put on it, metres: the
+#: triangulated pen tip scatters about +-2 mm in height, and the robot's pen only inks within
+#: 0.5 mm of the paper, so a drawn stroke must lie exactly on the known table plane
+CONTACT_SNAP = 0.0025
 DEFAULT_TAGS = ("reach", "draw", "retract")
 DEFAULT_CONTACT = ("draw",)
 
@@ -156,17 +162,35 @@ def perceive(left: list[np.ndarray], right: list[np.ndarray], calibration: dict[
     readings = []
     for eye, K, T in (("left", KL, TL), ("right", KR, TR)):
         cal = calibration[eye]
-        img = _Undistorted(undistort_image(frames[eye][0], cal.K, cal.dist), K, T)
-        try:
-            readings.append(read_board(img, surface_z))
-        except InputError as exc:
-            raise InputError(f"reading the grid in the first {eye} frame: {exc.message}", hint=exc.hint) from None
+        problems = []
+        for i in dict.fromkeys([0, len(left) - 1, len(left) // 2]):  # the hand may hide the grid
+            img = _Undistorted(undistort_image(frames[eye][i], cal.K, cal.dist), K, T)
+            try:
+                readings.append(read_board(img, surface_z))
+                break
+            except InputError as exc:
+                problems.append(f"{_name(names[eye], i)}: {exc.message}")
+        else:
+            raise InputError(f"no grid found in the {eye} frames tried ({'; '.join(problems)})",
+                             hint="the ICPs (cell corners) are read from the first, last or middle frame")
     cell = _touched_cell(path, readings[0], surface_z)
     icps = {name: (readings[0].corners[cell][name] + readings[1].corners[cell][name]) / 2
             for name in ("tl", "tr", "br", "bl")}
     icps["hand"] = path[0].copy()
     seconds["icps"] = time.perf_counter() - t0
     return Perception(path, times, icps, cell, uv, bridged, reproj, dict(calibration), stereo, seconds)
+
+
+def _name(names, i: int) -> str:
+    return f"frame {names[i]}" if names is not None else f"frame {i}"
+
+
+def snap_contact(path: np.ndarray, surface_z: float, tolerance: float = CONTACT_SNAP) -> np.ndarray:
+    """``path`` (T, 3) with every point within ``tolerance`` of the plane z = ``surface_z`` put on it."""
+    out = np.array(path, dtype=float)
+    near = np.abs(out[:, 2] - surface_z) <= tolerance
+    out[near, 2] = surface_z
+    return out
 
 
 def _touched_cell(path: np.ndarray, reading, surface_z: float) -> int:
@@ -276,9 +300,10 @@ def template_from_frames(left, right=None, *, calibration_left=None, calibration
         f"{cams['fps']:g} Hz in {root}: hand marker detected sub-pixel in both iCub eye cameras, "
         f"undistorted with chessboard calibrations (RMS reprojection "
         f"{calibration['left'].rms:.3f} / {calibration['right'].rms:.3f} px), Gaussian RBF smoothed "
-        f"(0.5 px), triangulated; ICPs tl, tr, br, bl = corners of cell {result.cell} read from the "
+        f"(0.5 px), triangulated; points within {CONTACT_SNAP * 1000:g} mm of the paper put on it; ICPs tl, tr, br, bl = corners of cell {result.cell} read from the "
         f"images, hand = the first triangulated point. Segmented by k-means (k = {k}).")
-    whole = Template(name=name, path=result.path, icps=result.icps, times=result.times, description=desc)
+    path = snap_contact(result.path, float(cams["surface_z"]))
+    whole = Template(name=name, path=path, icps=result.icps, times=result.times, description=desc)
     template = segment_template(whole, k, list(tags), method="kmeans", seed=seed, contact=tuple(contact))
     return (template, result) if return_perception else template
 
