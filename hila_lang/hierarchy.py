@@ -142,6 +142,11 @@ def _pairs(step: Template, task: Mapping[str, Any], hand: np.ndarray | None, i: 
     return src, np.array(targets), start_bound
 
 
+def _extent(path: np.ndarray) -> float:
+    """Bounding-box diagonal of ``path`` (at least 1, so a point-like path keeps a tolerance)."""
+    return max(float(np.linalg.norm(np.ptp(path, axis=0))), 1.0)
+
+
 def generate(
     steps: Sequence[Template],
     task_icps: Mapping[str, Any] | Sequence[Mapping[str, Any]],
@@ -198,7 +203,9 @@ def generate(
             step.path, src, dst, forced=forced.get(i), obstacles=obstacles, pin=(0,) if pinned else (), **options
         )
         piece, skip = res.path, 0
-        if parts and np.allclose(piece[0], parts[-1][-1], rtol=0, atol=1e-12):
+        # A pinned start is the hand, i.e. the previous piece's last point: keep that joint once.
+        # (The warp meets it only to rounding, or to the merge of coincident ICPs.)
+        if parts and (pinned or np.allclose(piece[0], parts[-1][-1], rtol=0, atol=1e-9 * _extent(piece))):
             piece, skip = piece[1:], 1
         if clocks is not None:
             rel = step.times - step.times[0]

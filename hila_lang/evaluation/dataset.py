@@ -316,10 +316,10 @@ def save_dataset(trials: list[Trial], folder: str | os.PathLike) -> Path:
 def read_trial(path: Path, setup: str) -> Trial:
     """One trial: ``path`` (the demonstration CSV) and the ``.icps.yaml`` beside it.
 
-    Both files use the formats of ``hila learn`` (its ``read_demo_csv`` and ``load_icps``), so
+    Both files use the formats of ``hila learn`` (:mod:`hila_lang.demofile`), so
     a trial folder doubles as input to ``hila learn DEMO.csv --icps DEMO.icps.yaml``.
     """
-    from ..commands.learn import load_icps, read_demo_csv
+    from ..demofile import load_icps, read_demo_csv
 
     icp_path = path.with_name(path.stem + ".icps.yaml")
     if not icp_path.is_file():
