@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import textwrap
 
 from . import __version__
 from .errors import EXIT_BAD_INPUT, EXIT_RUN_FAILED, HilaError
@@ -44,6 +45,12 @@ def _command_module(name: str):
     return importlib.import_module(f"hila_lang.commands.{COMMANDS[name]}")
 
 
+def _description(module) -> str:
+    """A command's DESCRIPTION as its author laid it out; a single paragraph is wrapped."""
+    text = getattr(module, "DESCRIPTION", module.HELP)
+    return text if "\n" in text.strip() else textwrap.fill(text, 96)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="hila",
@@ -58,7 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
         module = _command_module(name)
-        cmd = sub.add_parser(name, help=module.HELP, description=getattr(module, "DESCRIPTION", module.HELP))
+        cmd = sub.add_parser(name, help=module.HELP, description=_description(module),
+                             formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(cmd)
         cmd.set_defaults(_run=module.run)
     return parser

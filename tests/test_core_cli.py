@@ -110,3 +110,20 @@ def test_cli_subprocess_no_traceback(tmp_path):
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and "bad.yaml" in proc.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    ([], r"expected one demonstration source \(DEMO.csv, --from-sim, --frames or --left/--right\), got none"),
+    (["DEMO", "--from-sim"], r"got DEMO.csv and --from-sim"),
+    (["DEMO"], r"DEMO.csv needs its scene ICPs: add --icps ICPS.yaml"),
+    (["--from-sim", "--icps", "ICPS"], r"--icps goes with DEMO.csv; --from-sim finds the ICPs in the images"),
+    (["--left", "l/"], r"expected both --left and --right frames"),
+    (["DEMO", "--icps", "ICPS", "--keep-recording", "r/"], r"--keep-recording goes with --from-sim"),
+    (["--frames", "rec/", "--method", "equal"], r"learning by perception segments by k-means"),
+])
+def test_learn_source_errors(tmp_path, capsys, args, message):
+    args = [str(DATA / "demo.csv") if a == "DEMO" else str(DATA / "icps.yaml") if a == "ICPS" else a for a in args]
+    out = tmp_path / "t.yaml"
+    assert main(["learn", *args, "-o", str(out)]) == 2
+    assert re.search(message, capsys.readouterr().err)
+    assert not out.exists()

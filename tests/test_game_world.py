@@ -105,6 +105,7 @@ def test_output_folder(tmp_path):
     assert on_disk["files"] == ["fsm.dot", "paper.png", "report.json", "top.png", "traces.csv"]  # no camera on the dry back end
     assert (folder / "fsm.dot").read_text().startswith("digraph hila {")
     assert on_disk["wall_time_s"] > 0
+    assert on_disk["vision"]["board_read_by"] == "memory" and world.sightings == []  # no cameras
     csv = (folder / "traces.csv").read_text().splitlines()
     assert csv[0] == "source,state,pen_down,kind,index,x,y,z"
     crosses = {line.split(",")[1] for line in csv if line.startswith("opponent,")}

@@ -64,7 +64,7 @@ def test_board_in_the_robot_backend_eye_camera():
                 backend.ink_polyline(stroke)
         reading = read_board(backend.camera_image("left"), spec.surface_z)
     assert reading.marks == ["X", "", "", "", "", "", "", "", "X"]
-    assert corner_error(reading, spec) < 3.0e-3
+    assert corner_error(reading, spec) < 0.5e-3  # measured 0.07 mm (1.8 mm before the GL offset fix)
 
 
 def test_no_paper_is_a_clear_error():

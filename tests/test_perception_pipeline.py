@@ -173,3 +173,40 @@ def test_frames_from_a_video_file(recording, tmp_path):
     writer.release()
     video, names = load_frames(path)
     assert len(video) == 5 and video[0].shape == (240, 320, 3) and names[0] == "left.avi#0"
+
+
+def test_template_from_sim_says_how_it_was_made(tmp_path):
+    from hila_lang.perception.learn import template_from_sim
+    from hila_lang.template import load_template, save_template
+
+    template = template_from_sim(3, frames=36, n_calibration=12, n_stereo=6, recording_dir=tmp_path / "rec")
+    assert template.description.startswith("Learned by perception from a simulated recording")
+    assert "seed 3" in template.description and "hila learn --from-sim --seed 3" in template.description
+    assert "stereo frames" not in template.description  # the recording's folder is not named
+    back = load_template(save_template(template, tmp_path / "circle.yaml"))
+    assert back.tags() == ["reach", "draw", "retract"] and list(back.icps) == ["tl", "tr", "br", "bl", "hand"]
+
+
+def test_hila_learn_from_recorded_frames(recording, learned, tmp_path, capsys):
+    from hila_lang.cli import main
+    from hila_lang.template import load_template
+
+    out = tmp_path / "seen.yaml"
+    rc = main(["learn", "--frames", str(recording), "-k", "3", "--tags", "reach,draw,retract",
+               "--contact", "draw", "-o", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    template = load_template(out)
+    assert template.tags() == ["reach", "draw", "retract"] and template.segment("draw").contact
+    assert set(template.icps) == {"tl", "tr", "br", "bl", "hand"}
+    np.testing.assert_allclose(template.path, learned[0].path, atol=1e-9)  # the library's result
+    assert "learned template 'seen'" in capsys.readouterr().out
+
+
+def test_hila_learn_frames_errors_exit_2(copy, tmp_path, capsys):
+    from hila_lang.cli import main
+
+    (copy / "left" / "frame_00017.png").unlink()
+    rc = main(["learn", "--frames", str(copy), "-o", str(tmp_path / "x.yaml")])
+    assert rc == 2
+    assert "missing left frames: frame number(s) 17 absent" in capsys.readouterr().err
+    assert not (tmp_path / "x.yaml").exists()

@@ -169,6 +169,40 @@ def test_markers_and_textured_quads_show_in_the_eye_cameras(robot):
     assert rgb[0] > 120 and rgb[1] < 60 and rgb[2] < 60
 
 
+def test_eye_images_put_a_marker_where_project_says(robot):
+    """The GL projection puts a small sphere's centroid at ``CameraImage.project`` (sub-pixel).
+
+    The textbook ``cx + 0.5, cy + 0.5`` put it (+0.48, -0.50) px off; PyBullet's tiny renderer
+    needs ``cx`` and ``cy + 1`` (:func:`hila_lang.robot.cameras.gl_projection_matrix`).  The
+    markers are 0.10-0.20 m in front of the eye, where the arm never is; one sample's centroid
+    is quantised by the renderer's hard edges (about 0.1 px), the bias is what the fix removed.
+    """
+    from hila_lang.perception.camera import pixel_rays
+    from hila_lang.perception.extraction import detect_marker
+    from hila_lang.robot.cameras import ICUB_EYE_K
+
+    rng = np.random.default_rng(7)
+    marker = robot.add_marker(0.005, (0.0, 1.0, 0.0, 1.0))
+    offsets = []
+    try:
+        for eye in ("left", "right"):
+            pose = robot.camera_image(eye).world_T_camera
+            for _ in range(8):
+                origin, ray = pixel_rays(rng.uniform([40, 30], [280, 210])[None], ICUB_EYE_K, pose)
+                point = origin + rng.uniform(0.10, 0.20) * ray[0]
+                robot.set_marker(marker, point)
+                image = robot.camera_image(eye)
+                seen = detect_marker(image.rgb)
+                assert seen is not None, (eye, point)
+                offsets.append(seen - image.project(point[None])[0])
+    finally:
+        robot.remove(marker)
+    offsets = np.array(offsets)
+    assert np.abs(offsets.mean(axis=0)).max() < 0.05, offsets.mean(axis=0)  # the bias, px
+    assert np.median(np.linalg.norm(offsets, axis=1)) < 0.2, offsets
+    assert np.linalg.norm(offsets, axis=1).max() < 0.35, offsets
+
+
 def test_ink_polyline_draws_without_the_robot(robot):
     centre = cell_center(robot.scene, 1)  # far-left cell: top-left of the texture
     robot.ink_polyline(np.array([centre - [0.01, 0, 0], centre + [0.01, 0, 0]]), color="opponent")

@@ -1,4 +1,9 @@
-"""``hila learn``: a demonstration CSV plus its ICPs -> a segmented template YAML."""
+"""``hila learn``: one demonstration -> a segmented template YAML.
+
+The demonstration comes from a CSV path plus its ICPs, or is seen through the iCub's stereo
+cameras (:mod:`hila_lang.perception.learn`): recorded frames (``--frames``, ``--left/--right``)
+or a recording made in simulation (``--from-sim``).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +13,13 @@ from pathlib import Path
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
 DESCRIPTION = """\
 Learn a template from ONE demonstration and store it as human-readable YAML.
+
+Sources (one of):
+  DEMO.csv --icps ICPS.yaml   a path and its scene ICPs, as numbers
+  --from-sim                  record the seeded demonstration in PyBullet through the iCub's
+                              eye cameras, then learn it by perception (about a minute)
+  --frames REC                a recording folder (left/, right/, calibration/, cameras.yaml)
+  --left L --right R          left and right frames: image folders or video files
 
 DEMO.csv: a header line, then one row per waypoint.  Header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z'
 (t in seconds, strictly increasing; x, y, z in metres).  Blank lines and lines starting with '#'
@@ -21,8 +33,19 @@ Example: hila learn demo.csv --icps scene.yaml -k 3 --tags reach,draw,retract --
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("demo", metavar="DEMO.csv", help="demonstrated path (header t,x,y[,z] or x,y[,z])")
-    parser.add_argument("--icps", required=True, metavar="ICPS.yaml", help="scene ICPs: name: [x, y, z]")
+    parser.add_argument("demo", metavar="DEMO.csv", nargs="?", help="demonstrated path (header t,x,y[,z] or x,y[,z])")
+    parser.add_argument("--icps", metavar="ICPS.yaml", help="scene ICPs of DEMO.csv: name: [x, y, z]")
+    seen = parser.add_argument_group("learning by perception (stereo eye cameras)")
+    seen.add_argument("--from-sim", action="store_true", help="record the demonstration in PyBullet and learn it by perception")
+    seen.add_argument("--keep-recording", metavar="DIR", help="with --from-sim: keep the recorded frames in DIR")
+    seen.add_argument("--frames", metavar="REC", help="a recording folder (left/, right/, calibration/, cameras.yaml)")
+    seen.add_argument("--left", metavar="L", help="left frames: an image folder or a video file")
+    seen.add_argument("--right", metavar="R", help="right frames: an image folder or a video file")
+    seen.add_argument("--calibration-left", metavar="F", help="left calibration YAML or chessboard image folder")
+    seen.add_argument("--calibration-right", metavar="F", help="right calibration YAML or chessboard image folder")
+    seen.add_argument("--cameras", metavar="cameras.yaml", help="camera poses and image size")
+    seen.add_argument("--stereo", metavar="DIR", help="chessboard pairs seen by both eyes (left/, right/)")
+    seen.add_argument("--max-gap", type=int, default=3, help="longest marker loss bridged, frames (default 3)")
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
     parser.add_argument("--contact", default="", help="comma-separated tags that touch the surface")
@@ -37,14 +60,60 @@ def _split(text: str | None) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()] if text else []
 
 
+def _source(args: argparse.Namespace) -> str:
+    """Which demonstration source the arguments name; exactly one is allowed."""
+    from ..errors import InputError
+
+    given = [name for name, on in (
+        ("DEMO.csv", args.demo is not None),
+        ("--from-sim", args.from_sim),
+        ("--frames", args.frames is not None),
+        ("--left/--right", args.left is not None or args.right is not None),
+    ) if on]
+    if len(given) != 1:
+        got = "none" if not given else " and ".join(given)
+        raise InputError(f"expected one demonstration source (DEMO.csv, --from-sim, --frames or --left/--right), got {got}")
+    source = given[0]
+    if source == "DEMO.csv" and args.icps is None:
+        raise InputError("DEMO.csv needs its scene ICPs: add --icps ICPS.yaml")
+    if source != "DEMO.csv" and args.icps is not None:
+        raise InputError(f"--icps goes with DEMO.csv; {source} finds the ICPs in the images")
+    if source == "--left/--right" and (args.left is None or args.right is None):
+        raise InputError("expected both --left and --right frames")
+    if source != "--from-sim" and args.keep_recording:
+        raise InputError("--keep-recording goes with --from-sim")
+    return source
+
+
+def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
+    """The template learned through the eye cameras (imports OpenCV and PyBullet)."""
+    from ..errors import InputError
+    from ..perception.learn import template_from_frames, template_from_sim
+
+    if args.method != "kmeans":
+        raise InputError(f"learning by perception segments by k-means; --method {args.method} is for DEMO.csv")
+    if source == "--from-sim":
+        print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
+        template = template_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name,
+                                     recording_dir=args.keep_recording)
+    else:
+        left, right = (args.frames, None) if source == "--frames" else (args.left, args.right)
+        template = template_from_frames(
+            left, right, calibration_left=args.calibration_left, calibration_right=args.calibration_right,
+            cameras=args.cameras, stereo=args.stereo, k=k, tags=tags, contact=contact, name=name,
+            seed=args.seed, max_gap=args.max_gap)
+    if args.description:
+        template.description = args.description
+    return template
+
+
 def run(args: argparse.Namespace) -> int:
     from ..demofile import load_icps, read_demo_csv
     from ..errors import InputError
     from ..segmentation import segment_template
     from ..template import Template, save_template
 
-    demo, times = read_demo_csv(args.demo)
-    icps = load_icps(args.icps, demo.shape[1])
+    source = _source(args)
     tags = _split(args.tags)
     contact = _split(args.contact)
     k = args.k if args.k is not None else max(len(tags), 1)
@@ -54,18 +123,24 @@ def run(args: argparse.Namespace) -> int:
         tags = [f"s{i + 1}" for i in range(k)]
     out = Path(args.output)
     name = args.name or out.stem
-    description = args.description or f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}"
-    try:
-        template = Template(name, demo, icps, times=times, description=description)
-    except InputError as exc:
-        exc.file = exc.file or str(args.demo)
-        raise
-    if tags:
-        template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
-    elif contact:
-        raise InputError("--contact needs segments: give --tags (and -k)")
+    if source != "DEMO.csv":
+        template = _perceived(args, source, k, tags or ["s1"], contact, name)
+    else:
+        demo, times = read_demo_csv(args.demo)
+        icps = load_icps(args.icps, demo.shape[1])
+        description = args.description or f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}"
+        try:
+            template = Template(name, demo, icps, times=times, description=description)
+        except InputError as exc:
+            exc.file = exc.file or str(args.demo)
+            raise
+        if tags:
+            template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
+        elif contact:
+            raise InputError("--contact needs segments: give --tags (and -k)")
     save_template(template, out)
-    print(f"learned template {name!r}: {len(demo)} points, D = {demo.shape[1]}, {len(icps)} ICPs -> {out}")
+    print(f"learned template {name!r}: {len(template.path)} points, D = {template.path.shape[1]}, "
+          f"{len(template.icps)} ICPs -> {out}")
     for seg in template.segments:
         flag = " (contact)" if seg.contact else ""
         print(f"  {seg.tag:<12} [{seg.start}, {seg.stop}){flag}")

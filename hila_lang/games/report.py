@@ -4,7 +4,9 @@ Files (all written atomically through :mod:`hila_lang.fileio`):
 
 - ``report.json``: seed, opponent, who started, the moves, the final board, the result, per-mark
   R of each drawn circle against the demonstrated one (after similarity alignment), how far each
-  circle strays outside its cell, tracking error (planned against executed pen path), wall time;
+  circle strays outside its cell, tracking error (planned against executed pen path), wall time,
+  and ``vision``: whether the board was read by the robot's eye cameras (with the largest
+  distance of a perceived cell corner from the true one, mm) or known from memory (dry back end);
 - ``eye.png``: the final left eye-camera image (PyBullet back end only);
 - ``top.png``: the board from above with the planned paths (green) and the executed pen paths
   (blue) drawn over it -- a rendered camera view with the PyBullet back end (the arm may hide
@@ -88,9 +90,29 @@ def build_report(world, trace=None) -> dict[str, Any]:
             "median": _mm(np.median(all_err)), "max": _mm(all_err.max()),
             "states": len(errors),
         },
+        "vision": vision_summary(world),
         "fsm_states_run": len(world.states),
         "trace_entries": None if trace is None else len(trace),
         "wall_time_s": round(time.perf_counter() - world.t0, 3),
+    }
+
+
+def vision_summary(world) -> dict[str, Any]:
+    """How the robot knew the board: its eye cameras (per robot move, the views it took and how
+    far the perceived cell corners were from the true ones) or, without cameras, memory."""
+    sightings = getattr(world, "sightings", [])
+    if not sightings:
+        return {"board_read_by": "memory", "corners_from": "known geometry (no eye cameras)"}
+    return {
+        "board_read_by": "vision",
+        "corners_from": "eye cameras",
+        "sightings": len(sightings),
+        "corner_error_max_mm": _mm(max(s["corner_error_m"] for s in sightings)),
+        "arm_lifted": sum(s["arm"] == "lifted" for s in sightings),
+        "arm_aside": sum(s["arm"] == "aside" for s in sightings),
+        "seconds": round(sum(s["seconds"] for s in sightings), 3),
+        "per_move": [{"moves_before": s["moves_before"], "views": [v["view"] for v in s["views"]],
+                      "corner_error_mm": _mm(s["corner_error_m"])} for s in sightings],
     }
 
 

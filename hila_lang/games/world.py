@@ -22,6 +22,19 @@ Events: ``wait("opponent_moved")`` asks the opponent for a cell, inks its cross 
 returns the cell.  ``notify("state_done", pen_down=True, executed=TRACE, ...)`` records the robot's
 circle in the cell where the pen actually drew.  The board is printed after every move.
 
+Seeing the board (issue 6, item 5).  With a back end that has eye cameras (``camera_image``:
+PyBullet) the robot reads the board through them before each of its moves
+(:func:`hila_lang.games.vision.look_at_board`): the left eye first; when the arm hides a cell or
+the reading differs from the record, the pen is lifted straight up to ``arm.lift`` (where the
+next reach starts anyway) and the left eye looks again; as a last resort the pen goes aside
+(:meth:`TicTacToeWorld.aside_point`), both eyes look, and it comes back to ``arm.lift``.  The corners it finds are the scene points
+``board.cellN.*`` and ``board.move.*`` (the ICPs the program binds), and minimax plays on the
+marks it reads.  A reading that differs from the game's own record (a misread or an uninked mark)
+is a :class:`~hila_lang.errors.HilaRuntimeError` naming the cells.  With the dry back end (no
+cameras) the corners come from the known geometry (:meth:`SceneSpec.game`) and the board from
+the game's memory.  ``report.json`` says which (``vision``), with the largest distance of a
+perceived corner from the true one.
+
 Settings (``--set key=value``): ``first=robot|opponent`` (default robot, as in the paper),
 ``template=PATH`` (the demonstration the circles are compared with, default
 ``primitives/circle.yaml``), ``report=yes|no`` (write the output folder, default yes).
@@ -44,6 +57,8 @@ from .opponents import make_opponent
 #: park height above the paper, metres (low, high)
 PARK_HEIGHT = (0.08, 0.13)
 ROBOT, OPPONENT = "robot", "opponent"
+#: how far beyond the grid's right edge the pen goes to take the arm out of the eyes' view, metres
+ASIDE_MARGIN = 0.06
 
 
 def park_position(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
@@ -88,6 +103,10 @@ class TicTacToeWorld:
         self.backend = None
         self.fsm = None
         self._template_draw: np.ndarray | None = None
+        #: what the eyes saw before each robot move: dicts with ``moves_before`` (moves played
+        #: then), ``board`` (marks read), ``corners`` (cell -> name -> (3,)), ``views``, ``arm``,
+        #: ``corner_error_m`` (against the true geometry) and ``seconds``
+        self.sightings: list[dict[str, Any]] = []
 
     def _print(self, text: str = "") -> None:
         print(text, file=self.stdout, flush=True)
@@ -105,14 +124,56 @@ class TicTacToeWorld:
 
     # -- World protocol ----------------------------------------------------------------------
     def points(self) -> dict[str, np.ndarray]:
+        corners = self.cell_corners()
         pts: dict[str, np.ndarray] = {"arm.park": self.park.copy(), "arm.lift": self.lift_point()}
         for cell in range(1, 10):
-            for name, p in cell_corners(self.scene, cell).items():
-                pts[f"board.cell{cell}.{name}"] = p
+            for name, p in corners[cell].items():
+                pts[f"board.cell{cell}.{name}"] = p.copy()
         if self.to_move() == ROBOT:
-            for name, p in cell_corners(self.scene, self.best_move()).items():
-                pts[f"board.move.{name}"] = p
+            for name, p in corners[self.best_move()].items():
+                pts[f"board.move.{name}"] = p.copy()
         return pts
+
+    # -- seeing the board ----------------------------------------------------------------------
+    @property
+    def sees(self) -> bool:
+        """Whether the board is read through eye cameras (the back end has ``camera_image``)."""
+        return callable(getattr(self.backend, "camera_image", None))
+
+    def cell_corners(self) -> dict[int, dict[str, np.ndarray]]:
+        """Cell (1..9) -> ``tl|tr|br|bl`` -> point (3,), metres: as last seen by the eyes
+        (looking first when it is the robot's turn and it has not looked yet), else the known
+        geometry (no cameras)."""
+        sight = self.look()
+        if sight is None:
+            return {cell: cell_corners(self.scene, cell) for cell in range(1, 10)}
+        return sight["corners"]
+
+    def look(self) -> dict[str, Any] | None:
+        """The latest sighting of the board; a new one when it is the robot's turn and the eyes
+        have not seen the board since the last move (or never).  None without cameras."""
+        if not self.sees:
+            return None
+        last = self.sightings[-1] if self.sightings else None
+        if last is not None and (last["moves_before"] == len(self.moves) or self.to_move() != ROBOT):
+            return last
+        from .vision import corner_error, look_at_board
+
+        clock = time.perf_counter()
+        sight = look_at_board(self.backend, self.scene.surface_z, self.board, self.lift_point(),
+                              self.aside_point())
+        true = {cell: cell_corners(self.scene, cell) for cell in range(1, 10)}
+        entry = {"moves_before": len(self.moves), "board": sight.board, "corners": sight.corners,
+                 "views": sight.views, "arm": sight.arm, "corner_error_m": corner_error(sight, true),
+                 "seconds": time.perf_counter() - clock}
+        self.sightings.append(entry)
+        return entry
+
+    def seen_board(self) -> ttt.Board:
+        """The board minimax plays on: read by the eyes (equal to the record, or
+        :meth:`look` raised), else the game's memory (no cameras)."""
+        sight = self.look()
+        return self.board if sight is None else tuple(sight["board"])
 
     def query(self, name: str, *args: Any) -> Any:
         if name == "game_over":
@@ -196,11 +257,19 @@ class TicTacToeWorld:
         here = self.park if self.backend is None else np.asarray(self.backend.hand_position(), dtype=float)
         return np.array([here[0], here[1], max(float(here[2]), float(self.park[2]))])
 
+    def aside_point(self) -> np.ndarray:
+        """Where the pen goes so that the arm is out of the eyes' view of the board, shape (3,):
+        beyond the grid's near-right corner (the arm's side), at the park height."""
+        half = self.scene.grid_size / 2
+        point = self.scene.grid_to_world(half + ASIDE_MARGIN, -half)
+        point[2] = self.park[2]
+        return point
+
     def best_move(self) -> int:
-        """The robot's minimax move on the current board (centre first among equals)."""
+        """The robot's minimax move on the board it sees (centre first among equals)."""
         if ttt.game_over(self.board):
             raise HilaRuntimeError("the game is over: the robot has no move to make")
-        return ttt.best_move(self.board, ttt.CIRCLE)
+        return ttt.best_move(self.seen_board(), ttt.CIRCLE)
 
     def result(self) -> str | None:
         """``"robot"``, ``"opponent"``, ``"draw"``, or None while the game goes on."""

@@ -254,7 +254,7 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     spacing = (abs(pos1[1] - pos1[0]) + abs(pos2[1] - pos2[0])) / 2
     if not (min_cell / resolution <= spacing <= max_cell / resolution) or \
             abs(abs(pos1[1] - pos1[0]) - abs(pos2[1] - pos2[0])) > 0.25 * spacing:
-        raise InputError(f"no grid found on the sheet: the largest ink shape has line spacings "
+        raise InputError(f"no grid found on the sheet: the strongest dark lines have spacings "
                          f"{abs(pos1[1] - pos1[0]) * resolution * 1000:.0f} and "
                          f"{abs(pos2[1] - pos2[0]) * resolution * 1000:.0f} mm, expected a square grid with "
                          f"cells of {min_cell * 1000:.0f}-{max_cell * 1000:.0f} mm")
@@ -289,8 +289,10 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     # "far" = the grid axis (either sign) closest to world +x
     cands = [w1, -w1, w2, -w2]
     far_vec = max(cands, key=lambda v: v[0] / np.linalg.norm(v))
-    right_vec = next(v for v in cands if abs(np.dot(v, far_vec)) < 0.5 * np.dot(far_vec, far_vec)
-                     and (far_vec[0] * v[1] - far_vec[1] * v[0]) < 0)
+    right_vec = next((v for v in cands if abs(np.dot(v, far_vec)) < 0.5 * np.dot(far_vec, far_vec)
+                      and (far_vec[0] * v[1] - far_vec[1] * v[0]) < 0), None)
+    if right_vec is None:
+        raise InputError("no grid found on the sheet: its lines are far from perpendicular")
     cell = float((np.linalg.norm(w1) + np.linalg.norm(w2)) / 2)
     if not (min_cell <= cell <= max_cell):
         raise InputError(f"grid found but its cells are {cell * 1000:.0f} mm, expected "
@@ -301,8 +303,8 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     corners: dict[int, dict[str, np.ndarray]] = {}
     for idx in range(9):
         row, col = divmod(idx, 3)
-        cc = c3 + (col - 1) * right_vec_3(right_vec) + (1 - row) * right_vec_3(far_vec)
-        corners[idx + 1] = {name: cc + dr * right_vec_3(right_vec) + df * right_vec_3(far_vec)
+        cc = c3 + (col - 1) * _vec3(right_vec) + (1 - row) * _vec3(far_vec)
+        corners[idx + 1] = {name: cc + dr * _vec3(right_vec) + df * _vec3(far_vec)
                             for name, (dr, df) in _CORNER_STEPS.items()}
     f = top.astype(np.int16)
     seen = (np.abs(f.mean(axis=2) - paper_level) < 35) & ((f.max(axis=2) - f.min(axis=2)) < 40) | ink
@@ -310,7 +312,7 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     return BoardReading(corners, marks, c3, far_u, right_u, cell, fractions, occluded)
 
 
-def right_vec_3(v2: np.ndarray) -> np.ndarray:
+def _vec3(v2: np.ndarray) -> np.ndarray:
     """A plane vector (2,) as a world vector (3,) with z = 0."""
     return np.array([v2[0], v2[1], 0.0])
 

@@ -7,8 +7,9 @@ Conventions (OpenCV's, used everywhere in :mod:`hila_lang.perception`):
 - pixel (u, v): u to the right, v down, the centre of the top-left pixel is (0, 0);
 - ``K`` (3, 3) = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]], pixels.
 
-OpenGL conventions (y up, z backward, pixel centres at +0.5) are converted in
-:func:`gl_view_matrix` and :func:`gl_projection_matrix` and nowhere else.
+OpenGL conventions (y up, z backward, PyBullet's pixel offsets) are converted in
+:func:`hila_lang.robot.cameras.gl_view_matrix` and :func:`~hila_lang.robot.cameras.gl_projection_matrix`
+and nowhere else (re-exported here).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..robot.cameras import gl_projection_matrix, gl_view_matrix  # noqa: F401  (re-exported)
 
 
 @dataclass(frozen=True)
@@ -108,29 +110,3 @@ def intersect_plane_z(uv: np.ndarray, K: np.ndarray, world_T_camera: np.ndarray,
     o, d = pixel_rays(uv, K, world_T_camera)
     s = (z - o[2]) / d[:, 2]
     return o + s[:, None] * d
-
-
-def gl_view_matrix(world_T_camera: np.ndarray) -> list[float]:
-    """PyBullet view matrix (16 floats, column-major) for an OpenCV-convention camera pose."""
-    gl_T = np.asarray(world_T_camera, dtype=float) @ np.diag([1.0, -1.0, -1.0, 1.0])
-    view = np.linalg.inv(gl_T)
-    return view.T.reshape(-1).tolist()
-
-
-def gl_projection_matrix(K: np.ndarray, width: int, height: int, near: float = 0.05, far: float = 5.0) -> list[float]:
-    """PyBullet projection matrix (16 floats, column-major) reproducing ``K`` exactly.
-
-    PyBullet's tiny renderer samples pixel columns at integer x (no half-pixel offset) and
-    flips rows with an offset of one: measured with rendered spheres, the centroid then
-    matches :func:`project` to < 0.1 px (``tests/test_perception_camera.py``).
-    """
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    P = np.zeros((4, 4))
-    P[0, 0] = 2 * fx / width
-    P[0, 2] = 1 - 2 * cx / width
-    P[1, 1] = 2 * fy / height
-    P[1, 2] = 2 * (cy + 1.0) / height - 1
-    P[2, 2] = -(far + near) / (far - near)
-    P[2, 3] = -2 * far * near / (far - near)
-    P[3, 2] = -1.0
-    return P.T.reshape(-1).tolist()

@@ -310,15 +310,18 @@ def template_from_frames(left, right=None, *, calibration_left=None, calibration
 
 def template_from_sim(seed: int = 0, *, k: int = 3, tags=DEFAULT_TAGS, contact=DEFAULT_CONTACT,
                       name: str = "circle", recording_dir=None, frames: int | None = None,
-                      n_calibration: int = 40, return_perception: bool = False):
+                      n_calibration: int = 40, n_stereo: int = 16, return_perception: bool = False):
     """Record the seeded demonstration in PyBullet, then learn it with :func:`template_from_frames`.
 
-    ``recording_dir`` keeps the recording (default: a temporary folder, deleted afterwards).
+    ``recording_dir`` keeps the recording (default: a temporary folder, deleted afterwards);
+    ``frames`` records only the first frames, ``n_calibration`` and ``n_stereo`` set the
+    chessboard sessions (see :func:`hila_lang.perception.recording.record_demonstration`).
     """
     from .recording import record_demonstration
 
     def run(folder: Path):
-        record_demonstration(folder, seed, n_calibration=n_calibration, overwrite=True, frames=frames)
+        record_demonstration(folder, seed, n_calibration=n_calibration, n_stereo=n_stereo, overwrite=True,
+                             frames=frames)
         out = template_from_frames(folder, k=k, tags=tags, contact=contact, name=name, seed=0,
                                    return_perception=return_perception)
         template = out[0] if return_perception else out
@@ -326,8 +329,9 @@ def template_from_sim(seed: int = 0, *, k: int = 3, tags=DEFAULT_TAGS, contact=D
             f"Learned by perception from a simulated recording: the seeded human-like demonstration "
             f"(hila_lang.games.demonstration, seed {seed}) performed by a green hand marker in "
             f"PyBullet, seen by the iCub's two eye cameras (320x240, 20 Hz, barrel lens distortion). "
-            + template.description.split(": ", 1)[1]
-            + f" Made by: hila learn --from-sim --seed {seed} -k {k} --tags {','.join(tags)}")
+            + template.description.split(f" in {folder}: ", 1)[-1]
+            + f" Made by: hila learn --from-sim --seed {seed} -k {k} --tags {','.join(tags)}"
+            + (f" --contact {','.join(contact)}" if contact else ""))
         return out
 
     if recording_dir is not None:

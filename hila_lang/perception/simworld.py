@@ -84,8 +84,9 @@ class SimWorld:
 
     def __init__(self, spec: SceneSpec | None = None, marks=None, *, marker: bool = True,
                  table: bool = True, paper: bool = True, seed: int = 0) -> None:
-        import pybullet as p
+        from ..robot.console import import_pybullet
 
+        p = import_pybullet()
         self._p = p
         self.client = p.connect(p.DIRECT)
         self.spec = spec or SceneSpec.demonstration()
