@@ -83,16 +83,17 @@ def main(argv: list[str] | None = None) -> int:
     except HilaError as exc:
         print(str(exc), file=sys.stderr)
         return exc.exit_code
+    except OSError as exc:  # a path the user gave cannot be read or written (e.g. --out on a file)
+        if isinstance(exc, BrokenPipeError):
+            return 0
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"{where}error: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_RUN_FAILED
-    except BrokenPipeError:
-        return 0
 
 
 def entry() -> None:  # pragma: no cover - thin wrapper for python -m
     sys.exit(main())
 
-
-if __name__ == "__main__":  # pragma: no cover
-    entry()
