@@ -32,11 +32,14 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError) and not isinstance(exc, BrokenPipeError):
+            # name the file the user asked for, not the temporary one (e.g. a directory in the way)
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
         raise
     return path
 
@@ -46,17 +49,22 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def read_text(path: str | os.PathLike, what: str = "file") -> str:
-    """Read a UTF-8 text file, turning every OS or decoding failure into :class:`InputError`."""
+def read_bytes(path: str | os.PathLike, what: str = "file") -> bytes:
+    """Read a file, turning every OS failure into an :class:`InputError` naming ``what`` and the path."""
     path = Path(path)
     try:
-        data = path.read_bytes()
+        return path.read_bytes()
     except FileNotFoundError:
         raise InputError(f"{what} not found", file=str(path)) from None
     except IsADirectoryError:
         raise InputError(f"expected a {what}, got a directory", file=str(path)) from None
     except OSError as exc:
         raise InputError(f"cannot read {what}: {exc.strerror}", file=str(path)) from None
+
+
+def read_text(path: str | os.PathLike, what: str = "file") -> str:
+    """Read a UTF-8 text file, turning every OS or decoding failure into :class:`InputError`."""
+    data = read_bytes(path, what)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:

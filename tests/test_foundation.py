@@ -167,3 +167,12 @@ def test_unwritable_output_path_is_a_message_not_a_traceback(tmp_path, capsys):
     assert rc == 2
     assert str(blocker) in err and "error:" in err and "Traceback" not in err
     assert blocker.read_text() == "not a folder"
+
+
+def test_atomic_write_onto_a_directory_names_the_destination(tmp_path):
+    target = tmp_path / "out.yaml"
+    target.mkdir()
+    with pytest.raises(OSError) as exc:
+        atomic_write_text(target, "a: 1\n")
+    assert exc.value.filename == str(target)
+    assert os.listdir(tmp_path) == ["out.yaml"]  # no temporary file left behind

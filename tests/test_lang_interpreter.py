@@ -164,3 +164,15 @@ def test_make_backend_uses_world_default_and_attach():
     be = plugins.make_backend(w, plugins.RunOptions())
     assert be.name == "dry" and w.attached is be
     np.testing.assert_allclose(be.hand_position(), [0.1, 0.2, 0.3])
+
+
+def test_a_bad_hand_at_point_names_its_line(tmp_path):
+    with pytest.raises(HilaRuntimeError, match="expected a hand position of 3 finite numbers") as info:
+        make(tmp_path, "hand at (1, 2)\nmain { }")
+    assert info.value.line == 1 and info.value.exit_code == 1
+
+
+def test_a_point_of_the_wrong_size_names_the_icp(tmp_path):
+    interp, _ = make(tmp_path, "import reach\nmain { run reach.reach(object = (0.3, 0), home = hand) }")
+    with pytest.raises(HilaRuntimeError, match=r"'reach.reach' is 3-D but ICP 'object' is bound to the 2-D point"):
+        interp.step()

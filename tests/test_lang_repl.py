@@ -81,6 +81,8 @@ def test_errors_are_reported_and_the_session_goes_on():
     assert "error: no state matches 'nowhere'" in out
     assert "no path yet: no run state has run" in out
     assert interp.current == "main/b"  # the later 'step' still ran
+    out = feed(interp, "path --plot", "quit")
+    assert "error: usage: path [--plot FILE.png]" in out and "points" not in out  # refused before printing
 
 
 def test_runtime_error_keeps_the_session(tmp_path):

@@ -178,7 +178,7 @@ class _Checker:
         elif isinstance(s, A.LetStmt):
             if s.name in RESERVED:
                 raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
-            self.expr(s.value.args if isinstance(s.value, A.Wait) else s.value, defined, s.pos)
+            self.expr(s.value, defined, s.pos)
             defined.add(s.name)
         elif isinstance(s, A.WaitStmt):
             self.expr(s.wait.args, defined, s.pos)

@@ -66,11 +66,19 @@ def movement(points, seconds, lifts, rng: np.random.Generator) -> tuple[np.ndarr
     return path + _tremor(rng, len(path)), marks
 
 
-def make_abc(seed: int = 0):
-    """The A-B-C demonstration (see the module docstring), segmented a, b, c."""
+def _demonstration(name: str, path: np.ndarray, icps: dict, seed: int, what: str, tags: list[str]):
+    """A 20 Hz recording as a :class:`~hila_lang.template.Template`, segmented equal-N into ``tags``."""
     from ..segmentation import segment_template
     from ..template import Template
 
+    t = Template(name, path, icps, times=np.arange(len(path)) / RATE, description=(
+        f"Stand-in demonstration made by hila_lang.language.demos (seed {seed}; python -m "
+        f"hila_lang.language.demos): {what}"))
+    return segment_template(t, len(tags), tags, method="equal")
+
+
+def make_abc(seed: int = 0):
+    """The A-B-C demonstration (see the module docstring), segmented a, b, c."""
     rng = np.random.default_rng(seed)
     icps = {
         "hand": np.array([0.20, -0.28, 0.72]),
@@ -80,30 +88,23 @@ def make_abc(seed: int = 0):
     }
     pts = [icps["hand"], icps["p"], icps["q"], icps["r"]]
     path, _ = movement(pts, seconds=[1.6, 1.6, 1.6], lifts=[0.03, 0.08, 0.08], rng=rng)
-    times = np.arange(len(path)) / RATE
-    t = Template("abc", path, icps, times=times, description=(
-        f"Stand-in demonstration made by hila_lang.language.demos (seed {seed}; python -m "
-        "hila_lang.language.demos): minimum-jerk legs of 1.6 s with a lift arc (height varied +-20%), 0.3 mm "
+    return _demonstration("abc", path, icps, seed, (
+        "minimum-jerk legs of 1.6 s with a lift arc (height varied +-20%), 0.3 mm "
         "tremor, 20 Hz, world frame, metres. The hand starts at ICP 'hand', touches object 'p' (a), "
-        "then 'q' (b), then 'r' (c). Segmented equal-N (N = 3; the legs are equally long) into tags a, b, c."))
-    return segment_template(t, 3, ["a", "b", "c"], method="equal")
+        "then 'q' (b), then 'r' (c). Segmented equal-N (N = 3; the legs are equally long) into tags a, b, c."),
+        ["a", "b", "c"])
 
 
 def make_reach(seed: int = 0):
     """Reach an object and come back (see the module docstring), segmented reach, back."""
-    from ..segmentation import segment_template
-    from ..template import Template
-
     rng = np.random.default_rng(seed + 1)
     icps = {"home": np.array([0.18, -0.25, 0.75]), "object": np.array([0.34, -0.10, TABLE_Z + 0.03])}
     path, _ = movement([icps["home"], icps["object"], icps["home"]], seconds=[1.8, 1.8], lifts=[0.04, 0.04], rng=rng)
-    times = np.arange(len(path)) / RATE
-    t = Template("reach", path, icps, times=times, description=(
-        f"Stand-in demonstration made by hila_lang.language.demos (seed {seed}; python -m "
-        "hila_lang.language.demos): from ICP 'home' the hand reaches and touches 'object', then returns "
+    return _demonstration("reach", path, icps, seed, (
+        "from ICP 'home' the hand reaches and touches 'object', then returns "
         "home; minimum-jerk legs of 1.8 s with a lift arc (height varied +-20%), 0.3 mm tremor, 20 Hz, "
-        "metres. Segmented equal-N (N = 2; the legs are equally long) into tags reach, back."))
-    return segment_template(t, 2, ["reach", "back"], method="equal")
+        "metres. Segmented equal-N (N = 2; the legs are equally long) into tags reach, back."),
+        ["reach", "back"])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -100,11 +100,13 @@ class Interpreter:
         self.done = False
         if self.fsm.hand is not None:
             state = State("<hand at>", "set", line=self.fsm.hand.pos.line, column=self.fsm.hand.pos.column)
-            self._current_state = state
-            point = self._guard(state, lambda: self.point(self.fsm.hand))
-            reset_hand = getattr(self.backend, "reset_hand", None)
-            if callable(reset_hand):
-                reset_hand(point)
+            self._guard(state, self._put_hand)  # a bad point or the back end's refusal names the line
+
+    def _put_hand(self) -> None:
+        point = self.point(self.fsm.hand)
+        reset_hand = getattr(self.backend, "reset_hand", None)
+        if callable(reset_hand):
+            reset_hand(point)
 
     @property
     def state(self) -> State:
@@ -119,7 +121,6 @@ class Interpreter:
         if self.done:
             raise HilaRuntimeError("the program has finished; 'reset' to run it again", state=self.current)
         state = self.state
-        self._current_state = state
         entry = self._guard(state, lambda: self._execute(state))
         self.trace.append(entry)
         if entry.next is None:
@@ -231,9 +232,11 @@ class Interpreter:
             raise HilaRuntimeError(f"no ICP of '{st.ref}' is bound; bind at least one")
         names = list(icps)
         src = np.array([t.icps[k] for k in names], dtype=float)
+        for k in names:
+            if len(icps[k]) != src.shape[1]:
+                raise HilaRuntimeError(f"template '{st.ref}' is {src.shape[1]}-D but ICP '{k}' is bound to "
+                                       f"the {len(icps[k])}-D point {fmt_point(icps[k])}")
         dst = np.array([icps[k] for k in names], dtype=float)
-        if src.shape[1] != dst.shape[1]:
-            raise HilaRuntimeError(f"template '{st.ref}' is {src.shape[1]}-D but the scene points are {dst.shape[1]}-D")
         options = dict(self.osila_options)
         if START in icps and "pin" not in options:
             options["pin"] = (0,)
@@ -306,11 +309,7 @@ class Interpreter:
         raise HilaRuntimeError(f"expected a point, got {fmt_value(value)} from '{_src(expr)}'")
 
     def eval(self, e) -> Any:
-        if isinstance(e, A.Number):
-            return e.value
-        if isinstance(e, (A.String,)):
-            return e.value
-        if isinstance(e, A.Bool):
+        if isinstance(e, (A.Number, A.String, A.Bool)):
             return e.value
         if isinstance(e, A.NoneLit):
             return None

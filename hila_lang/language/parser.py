@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import functools
 import os
-from pathlib import Path
 
-from ..errors import HilaSyntaxError, InputError
+from ..errors import HilaSyntaxError
+from ..fileio import read_bytes
 from ..resources import grammar_path
 
 #: common slips -> small programs that make the parser fail the same way (lark match_examples)
@@ -76,16 +76,7 @@ def parser():
 
 def read_source(path: str | os.PathLike) -> str:
     """Read a program file; OS failures are InputError, bad UTF-8 a syntax error at its line and column."""
-    path = Path(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError("program not found", file=str(path)) from None
-    except IsADirectoryError:
-        raise InputError("expected a .hila program, got a directory", file=str(path)) from None
-    except OSError as exc:
-        raise InputError(f"cannot read program: {exc.strerror}", file=str(path)) from None
-    return decode_source(data, str(path))
+    return decode_source(read_bytes(path, "program"), str(path))
 
 
 def decode_source(data: bytes, file: str = "<program>") -> str:
@@ -215,7 +206,7 @@ def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
         tok = exc.token
         kinds = {"NAME": "name", "NUMBER": "number", "STRING": "string"}
         found = f"{kinds[tok.type]} '{tok}'" if tok.type in kinds else f"'{tok}'"
-        if tok.type == "RBRACE" and not _has_open_brace(text, tok.start_pos):
+        if tok.type == "RBRACE" and _unclosed_block(text[: tok.start_pos]) is None:
             message = "unmatched '}': no block is open here"
         else:
             message = _with_expected(f"unexpected {found}", exc.expected)
@@ -232,29 +223,6 @@ def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
         message, file=file, line=line, column=column,
         source_line=source_line(text, line) if line else None, hint=hint,
     )
-
-
-def _has_open_brace(text: str, upto: int) -> bool:
-    depth = 0
-    for tok in _brace_scan(text[:upto]):
-        depth += 1 if tok == "{" else -1
-        depth = max(depth, 0)
-    return depth > 0
-
-
-def _brace_scan(text: str):
-    in_comment = in_string = False
-    for ch in text:
-        if in_comment:
-            in_comment = ch != "\n"
-        elif in_string:
-            in_string = ch not in '"\n'
-        elif ch == "#":
-            in_comment = True
-        elif ch == '"':
-            in_string = True
-        elif ch in "{}":
-            yield ch
 
 
 def parse_text(text: str, file: str = "<program>"):

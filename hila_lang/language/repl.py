@@ -18,6 +18,8 @@ import shlex
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import HilaError
 from .interpreter import Interpreter, fmt_point, fmt_value
 
@@ -207,13 +209,13 @@ class Repl(cmd.Cmd):
             self.say("no path yet: no run state has run")
             return
         words = shlex.split(arg)
+        if words and (words[0] != "--plot" or len(words) != 2):
+            raise ValueError("usage: path [--plot FILE.png]")
         p = it.last_path
         runs = [t for t in it.trace if t.kind == "run"]
         self.say(f"{runs[-1].state}: {len(p)} points, {fmt_point(p[0])} -> {fmt_point(p[-1])}, "
-                 f"length {float(((p[1:] - p[:-1]) ** 2).sum(1).__pow__(0.5).sum()):.3f} m")
+                 f"length {float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()):.3f} m")
         if words:
-            if words[0] != "--plot" or len(words) != 2:
-                raise ValueError("usage: path [--plot FILE.png]")
             from .plot import plot_path
 
             out = plot_path(p, words[1], icps=it.last_icps, executed=runs[-1].executed, title=runs[-1].state)
