@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from hila_lang.osila import imitate
+from hila_lang.osila.adjust import default_threshold
 from hila_lang.osila.candidates import ball_offsets
 from hila_lang.osila.route import min_energy_route
 from hila_lang.osila.tps import fit_warp
@@ -48,7 +49,7 @@ def main() -> None:
         total = median_ms(lambda: imitate(path, src, dst), args.repeat)
         warp = fit_warp(src, dst)
         mapped = warp(path)
-        offsets = ball_offsets(dim, 0.01 * float(np.linalg.norm(np.ptp(mapped, axis=0))))
+        offsets = ball_offsets(dim, default_threshold(mapped))
         t_warp = median_ms(lambda: fit_warp(src, dst)(path), args.repeat)
         t_route = median_ms(lambda: min_energy_route(mapped, offsets), args.repeat)
         label = " (target <= 5 ms)" if dim == 2 else ""

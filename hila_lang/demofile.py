@@ -71,7 +71,7 @@ def read_demo_csv(path: str | Path):
 
 def load_icps(path: str | Path, dim: int) -> dict:
     """Read ICPs from YAML: a mapping name -> [x, y(, z)], or a task file's 'icps' mapping."""
-    doc = load_yaml(path, "ICP file", unique_keys=True)
+    doc = load_yaml(path, "scene ICP file", unique_keys=True)
     if isinstance(doc, dict) and isinstance(doc.get("icps"), dict):
         doc = doc["icps"]
     if not isinstance(doc, dict) or not doc:
@@ -80,4 +80,6 @@ def load_icps(path: str | Path, dim: int) -> dict:
     for name, point in doc.items():
         if not (isinstance(point, list) and len(point) == dim and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in point)):
             raise InputError(f"expected ICP {name!r} as {dim} numbers (the demonstration's D), got {point!r}", file=str(path))
+        if not np.isfinite(point).all():
+            raise InputError(f"expected finite numbers for ICP {name!r}, got {point!r}", file=str(path))
     return {str(k): v for k, v in doc.items()}

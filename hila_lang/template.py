@@ -120,12 +120,6 @@ class Template:
                 return seg
         raise KeyError(f"template {self.name!r} has no segment {tag!r}; known: {self.tags()}")
 
-    def icp_arrays(self, names: list[str] | None = None) -> tuple[list[str], np.ndarray]:
-        """ICP names and their points stacked as an array of shape (K, D)."""
-        names = list(self.icps) if names is None else list(names)
-        pts = np.array([self.icps[n] for n in names], dtype=float).reshape(len(names), self.dim)
-        return names, pts
-
     def sub(self, tag: str) -> Template:
         """The sub-template tagged ``tag``.
 

@@ -45,11 +45,12 @@ def check_path(path: Any, name: str = "path", *, min_len: int = 1) -> np.ndarray
     return check_finite(arr, name)
 
 
-def check_points(points: Any, dim: int, name: str, *, allow_empty: bool = False) -> np.ndarray:
+def check_points(points: Any, dim: int, name: str, *, allow_empty: bool = False, width: str | None = None) -> np.ndarray:
     """Return ``points`` as a float array of shape (K, ``dim``), all finite.
 
     A single point of shape (``dim``,) is accepted as (1, ``dim``).  ``K = 0`` is an error unless
-    ``allow_empty``.
+    ``allow_empty``.  ``width`` says in the error what the ``dim`` columns are (default: the
+    path's D).
     """
     arr = _as_float(points, name)
     if arr.ndim == 1 and arr.shape[0] == dim:
@@ -57,7 +58,8 @@ def check_points(points: Any, dim: int, name: str, *, allow_empty: bool = False)
     if arr.ndim == 1 and arr.size == 0:
         arr = arr.reshape(0, dim)
     if arr.ndim != 2 or arr.shape[1] != dim:
-        raise InputError(f"expected {name} of shape (K, {dim}) to match the path's D = {dim}, got {arr.shape}")
+        width = width or f"to match the path's D = {dim}"
+        raise InputError(f"expected {name} of shape (K, {dim}) {width}, got {arr.shape}")
     if arr.shape[0] == 0 and not allow_empty:
         raise InputError(f"expected at least one point in {name} (K >= 1), got K = 0")
     return check_finite(arr, name)

@@ -87,6 +87,12 @@ def test_learn_bad_csv(tmp_path, capsys, csv_text, message):
         ("icps: {cell.tl: [0, 0, 0]}\noptions: {treshold: 1}\n", [], r"unknown option 'treshold' in field 'options'"),
         ("- not a mapping\n", [], r"expected a task mapping with 'icps:', got list"),
         ("icps: {cell.tl: [0, 0, 0]}\n", ["--sub", "drw"], r"template has no sub-template 'drw'; tags: reach, draw, retract\nhint: did you mean 'draw'\?"),
+        ("icps: {1: [0, 0, 0]}\n", [], r"task\.yaml: error: expected ICP names as strings in field 'icps', got 1"),
+        ("icps: {cell.tl: [0, 0, 0], cell.tr: [0, 1, 0], cell.bl: [1, 0, 0], cell.br: [1, 1, 0], hand: [0, 0, 1]}\n"
+         "obstacles: [[0, 0, 1]]\n", [],
+         r"expected obstacles of shape \(K, 4\) \(D = 3 centre coordinates, then the radius\), got \(1, 3\)"),
+        ("icps: {cell.tl: [0, 0, 0]}\n", ["--threshold", "nan"], r"(?m)^error: expected --threshold >= 0, got nan"),
+        ("icps: {cell.tl: [0, 0, 0]}\n", ["--rounds", "0"], r"(?m)^error: expected --rounds >= 1, got 0"),
     ],
 )
 def test_imitate_bad_task(tmp_path, capsys, task_text, args, message):
@@ -94,6 +100,19 @@ def test_imitate_bad_task(tmp_path, capsys, task_text, args, message):
     rc = main(["imitate", str(DATA / "circle.yaml"), "--task", task, *args])
     assert rc == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("icps_text, message", [
+    ("a: [0, .nan]\n", r"icps\.yaml: error: expected finite numbers for ICP 'a', got \[0, nan\]"),
+    (None, r"icps\.yaml: error: scene ICP file not found"),
+])
+def test_learn_bad_icps(tmp_path, capsys, icps_text, message):
+    demo = write(tmp_path, "demo.csv", "x,y\n0,0\n1,1\n")
+    icps = write(tmp_path, "icps.yaml", icps_text) if icps_text is not None else str(tmp_path / "icps.yaml")
+    rc = main(["learn", demo, "--icps", icps, "-o", str(tmp_path / "x.yaml")])
+    assert rc == 2
+    assert re.search(message, capsys.readouterr().err)
+    assert not (tmp_path / "x.yaml").exists()
 
 
 def test_contradiction_exits_1(tmp_path, capsys):

@@ -1,5 +1,7 @@
 """OSILA properties: self-mapping, similarity equivariance, forced waypoints, obstacles, fallbacks."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -118,6 +120,16 @@ def test_unreachable_within_rounds_names_pairs():
     forced = [[5.0, 5.0], [-5.0, -5.0], [5.0, -5.0]]
     with pytest.raises(ConstraintError, match=r"could not conform after 1 round\(s\): forced waypoint 0 at \(5, 5\) missed"):
         imitate(path, icps, icps, forced=forced, rounds=1)
+
+
+def test_unreachable_names_only_the_first_pairs():
+    # an obstacle covering the whole scene: a repair pair per round that cannot help
+    path = wavy_path()
+    icps = icps_around(path, 5, 4)
+    with pytest.raises(ConstraintError) as info:
+        imitate(path, icps, icps, obstacles=[[0.0, 0.0, 50.0]], rounds=8)
+    tried = str(info.value).split("Constraint pairs tried: ")[1]
+    assert tried.count("template[") == 5 and re.search(r"; and \d+ more", tried)
 
 
 @pytest.mark.parametrize(

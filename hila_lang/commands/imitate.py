@@ -58,6 +58,8 @@ def load_task(path, dim: int) -> dict:
     if not isinstance(icps, dict) or not icps:
         raise InputError("expected field 'icps' as a non-empty mapping name -> point", file=str(path))
     for name, point in icps.items():
+        if not isinstance(name, str):
+            raise InputError(f"expected ICP names as strings in field 'icps', got {name!r}", file=str(path))
         if not (isinstance(point, list) and len(point) == dim):
             raise InputError(f"expected field 'icps.{name}' as {dim} numbers (the template's D), got {point!r}", file=str(path))
     options = doc.get("options") or {}
@@ -90,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
     from ..fileio import atomic_write_text
     from ..hierarchy import generate
     from ..template import END, START, load_template
+    from ..validation import check_int, check_positive
 
     template = load_template(args.template)
     step = template
@@ -111,9 +114,13 @@ def run(args: argparse.Namespace) -> int:
                 file=args.task, hint=f"did you mean {close[0]!r}?" if close else None,
             )
     options = task["options"]
-    for key in ("threshold", "rounds", "smoothing"):
-        if getattr(args, key) is not None:
-            options[key] = getattr(args, key)
+    # command-line overrides, checked here so that an error names the option, not TASK.yaml
+    if args.threshold is not None:
+        options["threshold"] = check_positive(args.threshold, "--threshold", allow_zero=True)
+    if args.rounds is not None:
+        options["rounds"] = check_int(args.rounds, "--rounds", minimum=1)
+    if args.smoothing is not None:
+        options["smoothing"] = check_positive(args.smoothing, "--smoothing", allow_zero=True)
     try:
         gen = generate(
             [step], task["icps"], forced={0: task["forced"]} if task["forced"] is not None else None,

@@ -51,7 +51,7 @@ def _obstacles(obstacles: Any, dim: int) -> np.ndarray:
             c = check_points(centre, dim, f"obstacles[{i}].centre")[0]
             rows.append(np.append(c, check_positive(o["radius"], f"obstacles[{i}].radius")))
         return np.array(rows)
-    arr = check_points(obstacles, dim + 1, "obstacles (centre + radius per row)", allow_empty=True)
+    arr = check_points(obstacles, dim + 1, "obstacles", allow_empty=True, width=f"(D = {dim} centre coordinates, then the radius)")
     if (arr[:, -1] <= 0).any():
         i = int(np.argmax(arr[:, -1] <= 0))
         raise InputError(f"expected obstacle radii > 0, got {arr[i, -1]} in row {i}")

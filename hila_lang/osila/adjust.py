@@ -199,7 +199,10 @@ def adjust(
         added.extend(new)
         pairs_src = np.vstack([pairs_src, path[[t for t, _, _ in new]]])
         pairs_dst = np.vstack([pairs_dst, np.array([q for _, q, _ in new])])
-    tried = "; ".join(f"template[{t}] {_fmt(path[t])} -> {_fmt(q)} for {lab}" for t, q, lab in added) or "none"
+    shown = 5  # a hopeless constraint can add a pair per stamp: name the first few only
+    tried = "; ".join(f"template[{t}] {_fmt(path[t])} -> {_fmt(q)} for {lab}" for t, q, lab in added[:shown]) or "none"
+    if len(added) > shown:
+        tried += f"; and {len(added) - shown} more"
     raise ConstraintError(
         f"the route could not conform after {rnd} round(s): " + "; ".join(violations)
         + f". Constraint pairs tried: {tried}",

@@ -74,10 +74,6 @@ class Warp:
         points = np.asarray(points, dtype=float)
         return self.affine[0] + points @ self.affine[1:]
 
-    def bending_energy(self) -> float:
-        """wᵀ K w summed over output coordinates (0 for the affine fallbacks)."""
-        return 0.0
-
 
 def merge_pairs(src: np.ndarray, dst: np.ndarray, tol: float = MERGE_TOL) -> tuple[np.ndarray, np.ndarray]:
     """Drop pairs whose template point coincides (within ``tol ×`` extent) with a later pair's.
@@ -174,8 +170,3 @@ class _ScaledTPS(Warp):
         out = self.affine[0] + points @ self.affine[1:]
         r = _dist(points, self.src) / self.scale
         return out + kernel(r, points.shape[1]) @ self.weights
-
-    def bending_energy(self) -> float:
-        r = _dist(self.src, self.src) / self.scale
-        K = kernel(r, self.src.shape[1])
-        return float(np.einsum("kd,kl,ld->", self.weights, K, self.weights))
