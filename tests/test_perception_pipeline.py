@@ -164,6 +164,14 @@ def test_missing_folder_and_video(tmp_path):
         load_frames(video)
 
 
+def test_a_file_that_is_not_a_video_is_named_and_ffmpeg_stays_quiet(tmp_path, capfd):
+    video = tmp_path / "fake.mp4"
+    video.write_bytes(np.random.default_rng(0).integers(0, 256, 5000, dtype=np.uint8).tobytes())
+    with pytest.raises(InputError, match="video file"):
+        load_frames(video)
+    assert capfd.readouterr().err == ""  # FFmpeg's own "moov atom not found" is silenced
+
+
 def test_frames_from_a_video_file(recording, tmp_path):
     frames, _ = load_frames(recording / "left")
     path = tmp_path / "left.avi"

@@ -203,6 +203,18 @@ def test_eye_images_put_a_marker_where_project_says(robot):
     assert np.linalg.norm(offsets, axis=1).max() < 0.35, offsets
 
 
+def test_repeated_eye_images_of_the_same_view_are_identical(robot):
+    """The head re-aim is exact: no drift between calls, and the same after looking elsewhere."""
+    first = robot.camera_image("left")
+    second = robot.camera_image("left")
+    np.testing.assert_array_equal(first.world_T_camera, second.world_T_camera)
+    np.testing.assert_array_equal(first.rgb, second.rgb)
+    target = robot.scene.grid_to_world(0.0, 0.0)
+    assert robot.look_at(target + [0.05, 0.10, 0.0]) < 1e-3
+    assert robot.look_at(target) < 1e-3  # converges even with the eyes' tilt at its limit
+    np.testing.assert_allclose(robot.camera_image("left").world_T_camera, first.world_T_camera, atol=1e-9)
+
+
 def test_ink_polyline_draws_without_the_robot(robot):
     centre = cell_center(robot.scene, 1)  # far-left cell: top-left of the texture
     robot.ink_polyline(np.array([centre - [0.01, 0, 0], centre + [0.01, 0, 0]]), color="opponent")
@@ -278,6 +290,10 @@ def test_snapshot_command_writes_two_pngs(tmp_path, capsys):
     assert ((rgb[:, :, 2] - rgb[:, :, 0]) > 60).sum() > 50
     with pytest.raises(InputError, match="--cell must be 1..9"):
         run_snapshot("--out", str(tmp_path), "--cell", "12")
+    with pytest.raises(InputError, match="--seed must be >= 0"):
+        run_snapshot("--out", str(tmp_path), "--seed", "-3")
+    with pytest.raises(InputError, match="seed"):
+        PyBulletBackend(seed=-1)
 
 
 def test_nothing_but_the_paths_reaches_the_console(tmp_path):

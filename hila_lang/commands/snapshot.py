@@ -1,9 +1,10 @@
 """``hila snapshot --out DIR``: two PNGs of the simulated iCub drawing on the game board.
 
 The robot starts with its arm parked at a random point above the board (``--seed``), the
-opponent's cross is inked in one cell, and the robot draws a circle in ``--cell``.  Half-way
-round the circle the eye camera takes ``eye_<EYE>.png`` (320x240, the robot drawing); after the
-pen is lifted a camera above the board takes ``board_top.png`` (the board, cell 1 top-left).
+opponent's hand-drawn cross (:func:`hila_lang.games.marks.cross_strokes`, same seed) is inked in
+one cell, and the robot draws a circle in ``--cell``.  Half-way round the circle the eye camera
+takes ``eye_<EYE>.png`` (320x240, the robot drawing); after the pen is lifted a camera above the
+board takes ``board_top.png`` (the board, cell 1 top-left).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cell", type=int, default=5, metavar="N", help="cell 1..9 the robot circles (default 5)")
     parser.add_argument("--opponent-cell", type=int, default=1, metavar="N", help="cell 1..9 with the opponent's cross (default 1; 0 for none)")
     parser.add_argument("--eye", choices=("left", "right"), default="left", help="eye camera (default left)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the arm's random start (default 0)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the arm's random start and the cross (default 0)")
     parser.add_argument("--size", type=int, default=480, metavar="PX", help="side of the top-down image (default 480)")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window (needs a display)")
 
@@ -35,38 +36,14 @@ def circle_path(scene, cell: int, radius: float, n: int = 120):
     return center + radius * (np.cos(angle)[:, None] * right + np.sin(angle)[:, None] * far)
 
 
-def cross_strokes(scene, cell: int, half: float):
-    """The two strokes (each (2, 3)) of a cross in ``cell``, ``half`` metres from centre to tip."""
-    import numpy as np
-
-    from ..robot.scene import cell_center
-
-    center = cell_center(scene, cell)
-    right, far = scene.axes()
-    return [
-        np.array([center - half * (right + far), center + half * (right + far)]),
-        np.array([center - half * (right - far), center + half * (right - far)]),
-    ]
-
-
-def _write_png(path, rgb) -> None:
-    import cv2
-
-    from ..errors import HilaRuntimeError
-    from ..fileio import atomic_write_bytes
-
-    ok, data = cv2.imencode(".png", rgb[:, :, ::-1])
-    if not ok:
-        raise HilaRuntimeError(f"cannot encode {path} as PNG")
-    atomic_write_bytes(path, data.tobytes())
-
-
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     import numpy as np
 
     from ..errors import InputError
+    from ..games.marks import cross_strokes
+    from ..perception.recording import write_png
     from ..robot.backend import PyBulletBackend
     from ..robot.scene import SceneSpec, cell_center
 
@@ -79,12 +56,14 @@ def run(args: argparse.Namespace) -> int:
         )
     if not 64 <= args.size <= 2048:
         raise InputError(f"--size must be 64..2048 pixels, got {args.size}")
+    if args.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {args.seed}")
     scene = SceneSpec.game()
     cell = scene.grid_size / 3
     with PyBulletBackend(scene, gui=args.gui, seed=args.seed, arm="ready") as robot:
         robot.reset_hand(robot.random_start_point())
         if args.opponent_cell:
-            for stroke in cross_strokes(scene, args.opponent_cell, 0.3 * cell):
+            for stroke in cross_strokes(scene, args.opponent_cell, np.random.default_rng(args.seed)):
                 robot.ink_polyline(stroke, color="opponent")
         circle = circle_path(scene, args.cell, 0.32 * cell)
         lift = np.array([0.0, 0.0, 0.03])
@@ -100,8 +79,8 @@ def run(args: argparse.Namespace) -> int:
         top = robot.top_view_image(args.size)
     eye_path = out / f"eye_{args.eye}.png"
     top_path = out / "board_top.png"
-    _write_png(eye_path, eye.rgb)
-    _write_png(top_path, top.rgb)
+    write_png(eye_path, eye.rgb)
+    write_png(top_path, top.rgb)
     print(eye_path)
     print(top_path)
     return 0

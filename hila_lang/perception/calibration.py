@@ -222,16 +222,6 @@ def chessboard_views(dcam: DistortedCamera, n: int = 14, pattern=PATTERN, square
     return images
 
 
-def calibrate_sim(dcam: DistortedCamera, n: int = 14, pattern=PATTERN, square: float = SQUARE,
-                  seed: int = 0) -> tuple[Calibration, list[np.ndarray]]:
-    """Show a chessboard to the simulated camera ``n`` times and calibrate it.
-
-    Returns the calibration and the chessboard images (so a recording can store them).
-    """
-    images = chessboard_views(dcam, n, pattern, square, seed)
-    return calibrate(images, pattern, square), images
-
-
 def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, seed: int = 0,
                  dist=None) -> list[np.ndarray]:
     """``n`` seeded card poses (4, 4), world, seen whole by both eyes of ``rig`` (a StereoRig).

@@ -122,7 +122,10 @@ def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[n
 def _read_video(path: Path) -> list[np.ndarray]:
     import cv2
 
-    cap = cv2.VideoCapture(str(path))
+    from ..robot.console import quiet_c_output
+
+    with quiet_c_output():  # FFmpeg prints its own complaint (e.g. "moov atom not found")
+        cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         raise InputError("cannot open video file", file=str(path))
     frames = []

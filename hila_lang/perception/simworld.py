@@ -18,6 +18,7 @@ import tempfile
 
 import numpy as np
 
+from ..errors import InputError
 from ..robot.scene import SceneSpec
 from .camera import Camera, gl_projection_matrix, gl_view_matrix
 
@@ -56,7 +57,7 @@ def paper_texture(spec: SceneSpec, marks=None, *, grid: bool = True, seed: int =
             for stroke in cross_strokes(spec, i + 1, rng):
                 canvas.draw_polyline(stroke, color="opponent")
         elif mark:
-            raise ValueError(f"mark must be '', 'O' or 'X', got {mark!r}")
+            raise InputError(f"mark must be '', 'O' or 'X', got {mark!r}")
     return canvas.image.copy()
 
 

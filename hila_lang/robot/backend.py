@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import HilaRuntimeError, InputError, UnreachableError
+from ..validation import check_int, check_path
 from . import cameras, ik, model
 from .console import import_pybullet, quiet_c_output
 from .ink import InkCanvas
@@ -148,7 +149,7 @@ class PyBulletBackend:
             raise InputError(f"arm must be 'auto', 'ready' or 'rest', got {arm!r}")
         self._arm_mode = arm
         self._gui = bool(gui)
-        self.rng = np.random.default_rng(seed)
+        self.rng = np.random.default_rng(check_int(seed, "seed"))
         self.traces: list[Trace] = []
         #: counters for benchmarks: IK solves and their wall time, simulation steps and the wall
         #: time of the control loop (stepping, control, recording), renders and their time
@@ -512,10 +513,7 @@ class PyBulletBackend:
         For the opponent's crosses.  ``color`` is an RGB triple or a name in
         :data:`hila_lang.robot.ink.INK_RGB`.  The texture is uploaded once.
         """
-        pts = np.asarray(points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] not in (2, 3) or len(pts) == 0 or not np.all(np.isfinite(pts)):
-            raise InputError(f"expected points of shape (N, 3) with N >= 1, finite, got {pts.shape}")
-        self.canvas.draw_polyline(pts, color=color)
+        self.canvas.draw_polyline(check_path(points, "points"), color=color)
         self._upload_texture(self.paper, self.canvas.image)
 
     def ink_image(self) -> np.ndarray:
@@ -525,11 +523,17 @@ class PyBulletBackend:
     # -- cameras ----------------------------------------------------------------------------------
     def look_at(self, point: np.ndarray) -> float:
         """Aim the head (neck pitch/yaw, then eyes tilt) at ``point`` (3,); returns the angle
-        (radians) still missing when the joints' limits stop it.  Cameras keep looking there."""
+        (radians) still missing when the joints' limits stop it.  Cameras keep looking there.
+
+        The aim starts from the head straight ahead (whatever it looked at before) and is set
+        exactly, so the head's angles depend only on the torso and ``point``."""
         pb, c = self._pb, self._client
         target = _check_point(point, "point")
         names = self._gaze_chain.names
-        q0 = np.array([pb.getJointState(self.robot, self._joint[n], physicsClientId=c)[0] for n in names])
+        q0 = np.array([
+            pb.getJointState(self.robot, self._joint[n], physicsClientId=c)[0] if n in model.ARM_CHAIN else 0.0
+            for n in names
+        ])
         weights = np.array([{"neck_pitch": 1.0, "neck_yaw": 1.0, model.EYES_TILT_JOINT: 0.3}.get(n, 0.0) for n in names])
         q, angle = ik.aim(self._gaze_chain, q0, target, weights)
         for name, value in zip(names, q):

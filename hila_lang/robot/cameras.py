@@ -64,19 +64,6 @@ def project(K: np.ndarray, world_T_camera: np.ndarray, points: np.ndarray) -> np
     return uv
 
 
-def look_at(eye: np.ndarray, target: np.ndarray, down_hint=(0.0, 0.0, -1.0)) -> np.ndarray:
-    """Camera pose (4, 4) at ``eye`` (3,) looking at ``target`` (3,), image-down near ``down_hint``."""
-    eye = np.asarray(eye, dtype=float)
-    z = np.asarray(target, dtype=float) - eye
-    z /= np.linalg.norm(z)
-    y = np.asarray(down_hint, dtype=float) - z * (z @ np.asarray(down_hint, dtype=float))
-    y /= np.linalg.norm(y)
-    pose = np.eye(4)
-    pose[:3, :3] = np.column_stack([np.cross(y, z), y, z])
-    pose[:3, 3] = eye
-    return pose
-
-
 def gl_view_matrix(world_T_camera: np.ndarray) -> list[float]:
     """PyBullet view matrix (16 floats, column-major) for an OpenCV-convention camera pose (4, 4).
 

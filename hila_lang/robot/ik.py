@@ -300,22 +300,33 @@ def aim(
     """Turn the tip frame's +z towards ``target`` (3,) (a look-at), moving joints with weight > 0.
 
     Weighted damped least squares on the angle between +z and the direction to the target;
-    joints are clamped to the chain's limits.  Returns ``(q, angle)``: the joint angles (n,)
-    and the remaining angle, radians (not zero when the limits forbid looking there).
+    joints are clamped to the chain's limits, and (as in :func:`solve`) a joint pinned at a
+    limit and pushed further out is dropped from the step, so the others make up for it.
+    Returns ``(q, angle)``: the joint angles (n,) and the remaining angle, radians (not zero
+    when the limits forbid looking there).
     """
-    q = np.clip(np.asarray(q0, dtype=float), chain.lower, chain.upper)
+    lo, hi = chain.lower, chain.upper
+    q = np.clip(np.asarray(q0, dtype=float), lo, hi)
     w = np.asarray(weights, dtype=float)
+    target = np.asarray(target, dtype=float)
     angle = math.pi
     for _ in range(iterations):
         jac, pose = chain.jacobian(q)
+        jac = jac[3:]
         z = pose[:3, 2]
-        d = np.asarray(target, dtype=float) - pose[:3, 3]
+        d = target - pose[:3, 3]
         d /= np.linalg.norm(d)
         e = np.cross(z, d)
         angle = math.atan2(np.linalg.norm(e), float(z @ d))
         if angle <= tolerance:
             break
-        jw = jac[3:] * w
-        dq = w * (jac[3:].T @ np.linalg.solve(jw @ jac[3:].T + 1e-4 * np.eye(3), e))
-        q = np.clip(q + np.clip(dq, -0.3, 0.3), chain.lower, chain.upper)
+        free = w > 0
+        for _ in range(2):  # drop joints pinned at a limit and pushed outwards, then re-solve
+            wf = w * free
+            dq = wf * (jac.T @ np.linalg.solve((jac * wf) @ jac.T + 1e-4 * np.eye(3), e))
+            pinned = ((q <= lo + 1e-9) & (dq < 0)) | ((q >= hi - 1e-9) & (dq > 0))
+            if not np.any(pinned & free):
+                break
+            free &= ~pinned
+        q = np.clip(q + np.clip(dq, -0.3, 0.3), lo, hi)
     return q, angle
