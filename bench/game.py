@@ -39,13 +39,6 @@ def rss_mb() -> float:
     return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
-_DIRECT = ("import argparse, sys\n"
-           "from hila_lang.commands import exec_\n"
-           "p = argparse.ArgumentParser()\n"
-           "exec_.add_arguments(p)\n"
-           "sys.exit(exec_.run(p.parse_args(sys.argv[1:])))\n")
-
-
 def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float, dict]:
     """Wall time (s), the child's peak RSS (MB) and the report of one ``hila exec`` run."""
     args = [str(PROGRAM), "--seed", str(seed), "--opponent", opponent, "--out", str(out), "--quiet"]
@@ -53,14 +46,6 @@ def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float,
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - t0
-    if proc.returncode == 2 and "invalid choice: 'exec'" in proc.stderr:
-        # this checkout's CLI does not list 'exec' yet: run the same command module directly
-        print("note: 'hila exec' is not registered in hila_lang/cli.py; running "
-              "hila_lang.commands.exec_ directly", file=sys.stderr)
-        cmd = [sys.executable, "-c", _DIRECT, *args]
-        t0 = time.perf_counter()
-        proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
-        wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise SystemExit(f"game failed (exit {proc.returncode}):\n{proc.stderr}")
     peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1e3  # KB -> MB (max over children)

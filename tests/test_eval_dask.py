@@ -49,3 +49,20 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert status == 2
     assert "cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("address, message", [
+    ("nonsense", "expected --dask ADDRESS as tcp://HOST:PORT, got 'nonsense'"),
+    ("tcp://127.0.0.1:x", "expected --dask ADDRESS as tcp://HOST:PORT"),
+    ("inproc://x", "an in-process scheduler"),
+])
+def test_malformed_address_fails_before_any_work(tmp_path, capsys, address, message):
+    import time
+
+    t0 = time.perf_counter()
+    status = main(["eval", "--out", str(tmp_path / "o"), "--trials-per-setup", "1", "--no-progress",
+                   "--dask", address])
+    err = capsys.readouterr().err
+    assert status == 2 and message in err and "Traceback" not in err
+    assert time.perf_counter() - t0 < 5
+    assert not (tmp_path / "o").exists()  # nothing generated or written

@@ -154,6 +154,8 @@ def test_world_questions_and_mistakes(tmp_path):
         world.wait("opponent_moved")
     with pytest.raises(InputError, match="first=robot|opponent"):
         TicTacToeWorld(_options(tmp_path, first="nobody"))
+    with pytest.raises(InputError, match="report=yes|no"):
+        TicTacToeWorld(_options(tmp_path, report="maybe"))
 
 
 def test_a_circle_outside_the_grid_is_a_runtime_error(tmp_path):
@@ -195,3 +197,11 @@ def test_repl_steps_the_game_with_moves_typed_at_the_prompt(tmp_path):
     opp = [m["cell"] for m in report["moves"] if m["player"] == "opponent"]
     assert opp[:2] == [1, 2]
     assert ttt.game_over(interp.world.board) and report["result"] in ("robot", "draw")
+
+
+def test_out_on_a_file_is_refused_before_the_game(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    code = cli.main(["exec", str(PROGRAM), "--backend", "dry", "--out", str(tmp_path / "file"), "--quiet"])
+    captured = capsys.readouterr()
+    assert code == 2 and "expected --out to be a folder, got a file" in captured.err
+    assert "plays cell" not in captured.out and "Traceback" not in captured.err

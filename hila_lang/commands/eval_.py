@@ -23,21 +23,22 @@ FOLDER/<set-up>/<trial>.csv (header t,x,y[,z] or x,y[,z], as for 'hila learn') a
 the per-segment generation of the hierarchical generator (sub-templates imitated one by one, stitched)."""
 
 
-def _positive_int(text: str) -> int:
+def _integer(text: str) -> int:
     try:
-        value = int(text)
+        return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+
+
+def _positive_int(text: str) -> int:
+    value = _integer(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
     return value
 
 
 def _jobs(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    value = _integer(text)
     if value < 1 and value != -1:
         raise argparse.ArgumentTypeError(f"expected --jobs >= 1 or -1 (all cores), got {value}")
     return value
@@ -80,12 +81,14 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..evaluation import dataset as ds
     from ..evaluation.report import write_report
-    from ..evaluation.run import run_grid
+    from ..evaluation.run import check_scheduler, run_grid
     from ..evaluation.tables import render
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("expected --out to be a folder, got a file", file=str(out))
+    if args.dask is not None:
+        check_scheduler(args.dask)  # before any data is made or written
     if args.dataset is not None:
         if args.trials_per_setup is not None:
             raise InputError("--trials-per-setup applies to the generated stand-in, not to --dataset")

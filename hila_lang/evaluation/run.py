@@ -8,6 +8,7 @@ A progress bar (rows done) goes to stderr.
 
 from __future__ import annotations
 
+import socket
 import sys
 import time
 from dataclasses import dataclass, field
@@ -21,6 +22,8 @@ from .grid import SEGMENTS, RowResult, evaluate_rows
 
 #: how long ``--dask`` waits for the scheduler before giving up
 CONNECT_TIMEOUT = "10s"
+#: how long :func:`check_scheduler` waits for a TCP connection to the scheduler, seconds
+PROBE_TIMEOUT = 3.0
 
 
 @dataclass
@@ -116,17 +119,47 @@ def _run_joblib(trials, chunks, args, jobs, progress):
         yield res
 
 
-def _connect(address: str):
+def _unreachable(address: str, reason: object) -> InputError:
+    return InputError(f"cannot reach the Dask scheduler at {address!r}: {reason}",
+                      hint="start one with 'dask scheduler' and 'dask worker ADDRESS', or omit --dask")
+
+
+def check_scheduler(address: str) -> None:
+    """Fail fast on a ``--dask`` address that cannot work: :class:`InputError` when ``distributed``
+    is missing, the address does not parse, or nothing listens at it.
+
+    Only a plain TCP connection is tried (within :data:`PROBE_TIMEOUT`); the Dask handshake is left
+    to the client.  Without this, a malformed address makes ``distributed`` hang at exit and a
+    closed port costs the whole :data:`CONNECT_TIMEOUT`.
+    """
     try:
-        from distributed import Client
+        from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:
         raise InputError("--dask needs the optional package 'distributed', which is not installed",
                          hint="pip install 'hila-lang[dask]'") from None
     try:
+        scheme, location = parse_address(address)
+        if scheme == "inproc":
+            raise ValueError("an in-process scheduler lives in another process's memory")
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"expected --dask ADDRESS as tcp://HOST:PORT, got {address!r} ({exc})") from None
+    if scheme == "ucx":  # not a plain TCP socket: left to the client
+        return
+    try:
+        socket.create_connection((host, port), timeout=PROBE_TIMEOUT).close()
+    except OSError as exc:
+        raise _unreachable(address, exc.strerror or exc) from None
+
+
+def _connect(address: str):
+    check_scheduler(address)
+    from distributed import Client
+
+    try:
         return Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
-        raise InputError(f"cannot reach the Dask scheduler at {address!r}: {exc}",
-                         hint="start one with 'dask scheduler' and 'dask worker ADDRESS', or omit --dask") from None
+        raise _unreachable(address, exc) from None
 
 
 def _run_dask(trials, chunks, args, address, progress):

@@ -40,7 +40,9 @@ def cross_strokes(spec: SceneSpec, cell: int, rng: np.random.Generator,
 def similarity_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     """``source`` mapped by the best similarity (rotation, uniform scale, translation) onto ``target``.
 
-    Umeyama's least-squares solution (reflections excluded).
+    Umeyama's least-squares solution (reflections excluded), from
+    :func:`hila_lang.osila.fallback.fit_similarity`; a ``source`` of one repeated point goes to
+    the centroid of ``target``.
 
     Parameters
     ----------
@@ -51,19 +53,14 @@ def similarity_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (N, D)
     """
+    from ..osila.fallback import fit_similarity
+
     src = np.asarray(source, dtype=float)
     dst = np.asarray(target, dtype=float)
-    mu_s, mu_d = src.mean(axis=0), dst.mean(axis=0)
-    a, b = src - mu_s, dst - mu_d
-    cov = b.T @ a / len(src)
-    u, sig, vt = np.linalg.svd(cov)
-    fix = np.eye(src.shape[1])
-    if np.linalg.det(u) * np.linalg.det(vt) < 0:
-        fix[-1, -1] = -1.0
-    rot = u @ fix @ vt
-    var = (a**2).sum() / len(src)
-    scale = float(np.trace(np.diag(sig) @ fix) / var) if var > 0 else 1.0
-    return scale * a @ rot.T + mu_d
+    if not np.ptp(src, axis=0).any():
+        return np.repeat(dst.mean(axis=0)[None], len(src), axis=0)
+    scale, rot, shift = fit_similarity(src, dst, rank=src.shape[1])
+    return scale * src @ rot.T + shift
 
 
 def by_arc_length(path: np.ndarray, n: int) -> np.ndarray:

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fileio import atomic_write_bytes, atomic_write_text
+from ..fileio import atomic_write_text
 from . import tictactoe as ttt
 
 PLANNED_BGR = (60, 170, 60)
@@ -100,7 +100,7 @@ def build_report(world, trace=None) -> dict[str, Any]:
 def vision_summary(world) -> dict[str, Any]:
     """How the robot knew the board: its eye cameras (per robot move, the views it took and how
     far the perceived cell corners were from the true ones) or, without cameras, memory."""
-    sightings = getattr(world, "sightings", [])
+    sightings = world.sightings
     if not sightings:
         return {"board_read_by": "memory", "corners_from": "known geometry (no eye cameras)"}
     return {
@@ -148,15 +148,6 @@ def traces_csv(world) -> str:
             for i, (x, y, z) in enumerate(stroke):
                 buf.write(f"opponent,cross{move}.{s + 1},1,inked,{i},{x:.6f},{y:.6f},{z:.6f}\n")
     return buf.getvalue()
-
-
-def _png(rgb: np.ndarray) -> bytes:
-    import cv2
-
-    ok, data = cv2.imencode(".png", np.ascontiguousarray(rgb[:, :, ::-1]))
-    if not ok:  # pragma: no cover - cv2 encodes any uint8 image
-        raise RuntimeError("PNG encoding failed")
-    return data.tobytes()
 
 
 def _overlay(rgb: np.ndarray, world, project) -> np.ndarray:
@@ -217,14 +208,15 @@ def top_view(world) -> np.ndarray:
 
 def write_outputs(world, report: dict[str, Any]) -> Path:
     """Write the output folder of ``world``'s game; returns the folder."""
+    from ..perception.recording import write_png
+
     folder = output_folder(world.options.out, world.seed)
     files = ["paper.png", "report.json", "traces.csv", "top.png"]
     atomic_write_text(folder / "traces.csv", traces_csv(world))
-    atomic_write_bytes(folder / "top.png", _png(top_view(world)))
-    atomic_write_bytes(folder / "paper.png", _png(paper_view(world)))
-    camera = getattr(world.backend, "camera_image", None)
-    if callable(camera):
-        atomic_write_bytes(folder / "eye.png", _png(camera("left").rgb))
+    write_png(folder / "top.png", top_view(world))
+    write_png(folder / "paper.png", paper_view(world))
+    if world.sees:
+        write_png(folder / "eye.png", world.backend.camera_image("left").rgb)
         files.append("eye.png")
     if world.fsm is not None:
         atomic_write_text(folder / "fsm.dot", world.fsm.to_dot())

@@ -65,10 +65,8 @@ def play(board: Board, cell: int, mark: str) -> Board:
 
 def winner(board: Board) -> str | None:
     """``"O"`` or ``"X"`` when that mark has three in a row, else None."""
-    for a, b, c in LINES:
-        if board[a] != EMPTY and board[a] == board[b] == board[c]:
-            return board[a]
-    return None
+    line = winning_line(board)
+    return None if line is None else board[line[0] - 1]
 
 
 def winning_line(board: Board) -> tuple[int, int, int] | None:

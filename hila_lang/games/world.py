@@ -36,8 +36,8 @@ the game's memory.  ``report.json`` says which (``vision``), with the largest di
 perceived corner from the true one.
 
 Settings (``--set key=value``): ``first=robot|opponent`` (default robot, as in the paper),
-``template=PATH`` (the demonstration the circles are compared with, default
-``primitives/circle.yaml``), ``report=yes|no`` (write the output folder, default yes).
+``report=yes|no`` (write the output folder, default yes).  Each circle is compared with the
+demonstration it was warped from: the path of the program's pen-down sub-template.
 """
 
 from __future__ import annotations
@@ -59,6 +59,9 @@ PARK_HEIGHT = (0.08, 0.13)
 ROBOT, OPPONENT = "robot", "opponent"
 #: how far beyond the grid's right edge the pen goes to take the arm out of the eyes' view, metres
 ASIDE_MARGIN = 0.06
+#: accepted values of ``--set report=...``
+REPORT_VALUES = {"yes": True, "true": True, "1": True, "on": True,
+                 "no": False, "false": False, "0": False, "off": False}
 
 
 def park_position(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
@@ -91,6 +94,13 @@ class TicTacToeWorld:
         if first not in (ROBOT, OPPONENT):
             raise InputError(f"expected --set first=robot|opponent, got first={first!r}")
         self.first = first
+        report = self.settings.get("report", "yes").lower()
+        if report not in REPORT_VALUES:
+            raise InputError(f"expected --set report=yes|no, got report={report!r}")
+        self.write_report = REPORT_VALUES[report]
+        out = options.out
+        if self.write_report and out is not None and Path(out).exists() and not Path(out).is_dir():
+            raise InputError("expected --out to be a folder, got a file", file=str(out))
         self.rng = np.random.default_rng([self.seed, 5])
         self.park = park_position(self.scene, self.rng)
         self.opponent = make_opponent(options.opponent, self.seed, options.stdin, options.stdout)
@@ -102,7 +112,6 @@ class TicTacToeWorld:
         self.states: list[dict[str, Any]] = []
         self.backend = None
         self.fsm = None
-        self._template_draw: np.ndarray | None = None
         #: what the eyes saw before each robot move: dicts with ``moves_before`` (moves played
         #: then), ``board`` (marks read), ``corners`` (cell -> name -> (3,)), ``views``, ``arm``,
         #: ``corner_error_m`` (against the true geometry) and ``seconds``
@@ -298,7 +307,7 @@ class TicTacToeWorld:
         if self.board[cell - 1] != ttt.EMPTY:
             raise HilaRuntimeError(f"the robot drew in cell {cell}, which is taken", state=entry["state"])
         intended = self.best_move()
-        demo = self._demonstrated_draw(template)
+        demo = None if template is None else np.asarray(template.path, dtype=float)
         demo_circle = None if demo is None else on_paper(demo, float(demo[:, 2].min()))
         planned = entry["planned"]
         planned_circle = None if planned is None else on_paper(planned, self.scene.surface_z)
@@ -333,19 +342,6 @@ class TicTacToeWorld:
         self._print(f"\n{who} ({mark}) plays cell {cell}")
         self._print(ttt.render(self.board))
 
-    def _demonstrated_draw(self, template=None) -> np.ndarray | None:
-        """The demonstrated circle (the ``draw`` sub-template's path), or None when unknown."""
-        if template is not None and getattr(template, "path", None) is not None:
-            return np.asarray(template.path, dtype=float)
-        if self._template_draw is None:
-            from ..template import load_template
-
-            path = _find_template(self.settings.get("template", "primitives/circle.yaml"))
-            if path is None:
-                return None
-            self._template_draw = load_template(path).sub("draw").path
-        return self._template_draw
-
     # -- the end -----------------------------------------------------------------------------
     def finish(self, trace=None, **extra: Any) -> dict[str, Any]:
         """Print the result and write the output folder; returns the report as a dict."""
@@ -359,20 +355,11 @@ class TicTacToeWorld:
         report = build_report(self, trace)
         rs = [m["r"] for m in self.marks if m["r"] is not None]
         self._print(f"\nresult: {text}" + (f"; per-mark R min {min(rs):.3f}" if rs else ""))
-        if self.settings.get("report", "yes").lower() not in ("no", "false", "0", "off"):
+        if self.write_report:
             folder = write_outputs(self, report)
             report["out"] = str(folder)
             self._print(f"outputs written to {folder}")
         return report
-
-
-def _find_template(name: str) -> Path | None:
-    """``name`` as given (relative to the working folder), else under the checkout's root."""
-    path = Path(name)
-    if path.is_file():
-        return path
-    root = Path(__file__).resolve().parents[2] / name
-    return root if not path.is_absolute() and root.is_file() else None
 
 
 def make_world(options) -> TicTacToeWorld:
