@@ -81,3 +81,12 @@ def test_exec_bad_setting_is_bad_input(capsys):
 def test_missing_program_is_exit_2(capsys):
     assert cli.main(["check", "programs/nope.hila"]) == 2
     assert "programs/nope.hila: error: program not found" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["exec", "repl"])
+@pytest.mark.parametrize("seed", ["-3", "x"])
+def test_bad_seed_is_refused_before_the_run(command, seed, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main([command, "programs/abc.hila", "--seed", seed])
+    assert exc.value.code == 2
+    assert "argument --seed: expected a whole number >= 0" in capsys.readouterr().err

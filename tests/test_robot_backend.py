@@ -169,25 +169,27 @@ def test_markers_and_textured_quads_show_in_the_eye_cameras(robot):
     assert rgb[0] > 120 and rgb[1] < 60 and rgb[2] < 60
 
 
-def test_eye_images_put_a_marker_where_project_says(robot):
+def test_eye_images_put_a_marker_where_project_says():
     """The GL projection puts a small sphere's centroid at ``CameraImage.project`` (sub-pixel).
 
     The textbook ``cx + 0.5, cy + 0.5`` put it (+0.48, -0.50) px off; PyBullet's tiny renderer
     needs ``cx`` and ``cy + 1`` (:func:`hila_lang.robot.cameras.gl_projection_matrix`).  The
-    markers are 0.10-0.20 m in front of the eye, where the arm never is; one sample's centroid
-    is quantised by the renderer's hard edges (about 0.1 px), the bias is what the fix removed.
+    markers are 0.10-0.20 m in front of the eye, with the arm at rest by the robot's side (a
+    drawing arm crosses the right eye's view there); one sample's centroid is quantised by the
+    renderer's hard edges (about 0.1 px), the bias is what the fix removed.
     """
     from hila_lang.perception.camera import pixel_rays
     from hila_lang.perception.extraction import detect_marker
     from hila_lang.robot.cameras import ICUB_EYE_K
 
+    robot = PyBulletBackend(arm="rest")
     rng = np.random.default_rng(7)
     marker = robot.add_marker(0.005, (0.0, 1.0, 0.0, 1.0))
     offsets = []
     try:
         for eye in ("left", "right"):
             pose = robot.camera_image(eye).world_T_camera
-            for _ in range(8):
+            for _ in range(16):
                 origin, ray = pixel_rays(rng.uniform([40, 30], [280, 210])[None], ICUB_EYE_K, pose)
                 point = origin + rng.uniform(0.10, 0.20) * ray[0]
                 robot.set_marker(marker, point)
@@ -196,7 +198,7 @@ def test_eye_images_put_a_marker_where_project_says(robot):
                 assert seen is not None, (eye, point)
                 offsets.append(seen - image.project(point[None])[0])
     finally:
-        robot.remove(marker)
+        robot.close()
     offsets = np.array(offsets)
     assert np.abs(offsets.mean(axis=0)).max() < 0.05, offsets.mean(axis=0)  # the bias, px
     assert np.median(np.linalg.norm(offsets, axis=1)) < 0.2, offsets
