@@ -49,6 +49,23 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
+    """Write an image (H, W, 3) or (H, W) uint8 as PNG, atomically.
+
+    ``image`` is RGB unless ``bgr`` (OpenCV's own channel order, for images drawn with cv2).
+    """
+    import cv2
+    import numpy as np
+
+    image = np.ascontiguousarray(image)
+    if image.ndim == 3 and not bgr:
+        image = cv2.cvtColor(image, cv2.COLOR_RGB2BGR)
+    ok, buf = cv2.imencode(".png", image)
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
+        raise InputError(f"cannot encode a PNG image of shape {image.shape}", file=str(path))
+    return atomic_write_bytes(path, buf.tobytes())
+
+
 def read_bytes(path: str | os.PathLike, what: str = "file") -> bytes:
     """Read a file, turning every OS failure into an :class:`InputError` naming ``what`` and the path."""
     path = Path(path)

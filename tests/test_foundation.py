@@ -176,3 +176,17 @@ def test_atomic_write_onto_a_directory_names_the_destination(tmp_path):
         atomic_write_text(target, "a: 1\n")
     assert exc.value.filename == str(target)
     assert os.listdir(tmp_path) == ["out.yaml"]  # no temporary file left behind
+
+
+def test_write_png_keeps_channel_order(tmp_path):
+    import cv2
+
+    rgb = np.zeros((4, 5, 3), np.uint8)
+    rgb[..., 0] = 200  # red in RGB
+    from hila_lang.fileio import write_png
+
+    write_png(tmp_path / "rgb.png", rgb)
+    write_png(tmp_path / "bgr.png", rgb[..., ::-1], bgr=True)
+    for name in ("rgb.png", "bgr.png"):
+        back = cv2.imread(str(tmp_path / name))  # BGR
+        assert back.shape == (4, 5, 3) and (back[..., 2] == 200).all() and (back[..., :2] == 0).all()

@@ -19,7 +19,8 @@ from hila_lang.errors import InputError  # noqa: E402
 from hila_lang.fileio import load_yaml  # noqa: E402
 from hila_lang.perception.calibration import calibrate, load_calibration, save_calibration  # noqa: E402
 from hila_lang.perception.learn import template_from_frames  # noqa: E402
-from hila_lang.perception.recording import load_frames, read_image, record_demonstration, write_png  # noqa: E402
+from hila_lang.fileio import write_png  # noqa: E402
+from hila_lang.perception.recording import load_frames, read_image, record_demonstration  # noqa: E402
 
 FRAMES = 40
 

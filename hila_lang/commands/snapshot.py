@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import InputError
     from ..games.marks import cross_strokes
-    from ..perception.recording import write_png
+    from ..fileio import write_png
     from ..robot.backend import PyBulletBackend
     from ..robot.scene import SceneSpec, cell_center
 

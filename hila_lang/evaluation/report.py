@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fileio import atomic_write_bytes, atomic_write_text
+from ..fileio import atomic_write_text, write_png
 from . import paper, tables
 from .run import GridResult
 
@@ -139,16 +139,6 @@ def heatmap(result: GridResult, method: str, metric: str) -> np.ndarray:
     return img
 
 
-def write_png(img: np.ndarray, path: Path) -> Path:
-    """Encode a BGR image as PNG and write it atomically."""
-    import cv2
-
-    ok, buf = cv2.imencode(".png", img)
-    if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
-        raise RuntimeError(f"could not encode {path.name}")
-    return atomic_write_bytes(path, buf.tobytes())
-
-
 def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] | None = None) -> list[Path]:
     """Write every output file into ``out``; returns the paths written."""
     out = Path(out)
@@ -156,5 +146,5 @@ def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] 
                atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n")]
     for m in result.methods:
         for metric in ("r", "msd"):
-            written.append(write_png(heatmap(result, m, metric), out / f"heatmap_{metric}_{m}.png"))
+            written.append(write_png(out / f"heatmap_{metric}_{m}.png", heatmap(result, m, metric), bgr=True))
     return written

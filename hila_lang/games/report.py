@@ -208,7 +208,7 @@ def top_view(world) -> np.ndarray:
 
 def write_outputs(world, report: dict[str, Any]) -> Path:
     """Write the output folder of ``world``'s game; returns the folder."""
-    from ..perception.recording import write_png
+    from ..fileio import write_png
 
     folder = output_folder(world.options.out, world.seed)
     files = ["paper.png", "report.json", "traces.csv", "top.png"]

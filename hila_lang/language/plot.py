@@ -51,11 +51,6 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
             cv2.putText(img, name, (c[0] + 6, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
     cv2.putText(img, f"{title}  ({len(path)} points, view {span * 100:.1f} cm; blue planned, red executed)", (pad, 16),
                 cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-    file = Path(file)
-    file.parent.mkdir(parents=True, exist_ok=True)
-    ok, buf = cv2.imencode(".png", img)
-    if not ok:  # pragma: no cover
-        raise InputError(f"cannot encode the plot for {file}")
-    from ..fileio import atomic_write_bytes
+    from ..fileio import write_png
 
-    return atomic_write_bytes(file, buf.tobytes())
+    return write_png(file, img, bgr=True)

@@ -34,23 +34,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..fileio import atomic_write_bytes, dump_yaml, load_yaml
+from ..fileio import dump_yaml, load_yaml, write_png
 from .camera import Camera
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm")
 #: supersampling of the chessboard images (the demonstration frames use 2x)
 CALIBRATION_SUPERSAMPLE = 4
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg")
-
-
-def write_png(path: str | os.PathLike, rgb: np.ndarray) -> Path:
-    """Write an RGB image (H, W, 3) uint8 as PNG, atomically."""
-    import cv2
-
-    ok, buf = cv2.imencode(".png", cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2BGR))
-    if not ok:  # pragma: no cover - cv2 cannot fail on a valid uint8 array
-        raise InputError(f"cannot encode image for {path}")
-    return atomic_write_bytes(path, buf.tobytes())
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:
