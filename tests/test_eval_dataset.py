@@ -11,7 +11,6 @@ from hila_lang.evaluation.dataset import (
     SETUPS,
     generate,
     load_dataset,
-    minimum_jerk,
     save_dataset,
     setups_of,
 )
@@ -73,6 +72,8 @@ def test_setups_draw_from_independent_streams():
 
 
 def test_minimum_jerk_profile():
+    from hila_lang.motion import minimum_jerk
+
     tau = np.linspace(0, 1, 101)
     s = minimum_jerk(tau)
     assert s[0] == 0 and s[-1] == 1 and np.all(np.diff(s) >= 0)

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.games.demonstration import ICP_NAMES, TAGS, demonstrate, main, make_circle_template, minimum_jerk
+from hila_lang.games.demonstration import ICP_NAMES, TAGS, demonstrate, main, make_circle_template
+from hila_lang.motion import minimum_jerk_samples
 from hila_lang.robot.scene import SceneSpec, cell_at
 from hila_lang.template import load_template
 
@@ -31,7 +32,7 @@ def test_same_seed_same_demonstration_other_seed_differs():
 
 
 def test_minimum_jerk_profile():
-    s = minimum_jerk(101)
+    s = minimum_jerk_samples(101)
     assert s[0] == 0.0 and s[-1] == pytest.approx(1.0)
     v = np.diff(s)
     assert v[0] < 1e-4 and v[-1] < 1e-4 and v.max() == pytest.approx(v[50], rel=0.05)

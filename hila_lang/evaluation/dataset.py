@@ -55,6 +55,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..fileio import atomic_write_text
+from ..motion import minimum_jerk
 
 #: image size of the stand-in, pixels (the iCub cameras, paper §III.C)
 IMAGE_SIZE = (320, 240)
@@ -146,12 +147,6 @@ class Trial:
 def _rot(deg: float) -> np.ndarray:
     a = np.deg2rad(deg)
     return np.array([np.cos(a), np.sin(a)])
-
-
-def minimum_jerk(tau: np.ndarray) -> np.ndarray:
-    """Minimum-jerk position profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ on τ ∈ [0, 1] (clipped outside)."""
-    t = np.clip(tau, 0.0, 1.0)
-    return t**3 * (10 - 15 * t + 6 * t * t)
 
 
 def _hermite(p0, p1, m0, m1, n: int) -> np.ndarray:

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..motion import minimum_jerk_samples
+
 #: the four corners of the target cell, as ICP names
 CORNER_ICPS = ("tl", "tr", "br", "bl")
 #: the hand's start, as an ICP name
@@ -90,12 +92,6 @@ class Demonstration:
     seed: int
 
 
-def minimum_jerk(n: int) -> np.ndarray:
-    """Minimum-jerk progress s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 at ``n`` samples, tau in [0, 1]."""
-    tau = np.linspace(0.0, 1.0, n)
-    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
-
-
 def _tremor(rng: np.random.Generator, n: int, amplitude: float) -> np.ndarray:
     """Smooth random jitter, shape (n, 2), standard deviation about ``amplitude`` metres."""
     raw = rng.normal(size=(n + 4, 2))
@@ -140,7 +136,7 @@ def demonstrate(seed: int = 0, scene=None, cell: int = DEMO_CELL) -> Demonstrati
     start_angle = math.radians(rng.uniform(60.0, 120.0))  # starts near the far side, like a "C"
     closure = math.radians(rng.choice([-1.0, 1.0]) * rng.uniform(12.0, 25.0))  # gap (<0) or overlap
     sweep = 2.0 * math.pi + closure
-    progress = 0.15 * np.linspace(0, 1, n_draw) + 0.85 * minimum_jerk(n_draw)
+    progress = 0.15 * np.linspace(0, 1, n_draw) + 0.85 * minimum_jerk_samples(n_draw)
     angle = start_angle + sweep * progress
     a1, a2 = rng.uniform(0.04, 0.08), rng.uniform(0.05, 0.08)
     p1, p2 = rng.uniform(0, 2 * math.pi, size=2)
@@ -161,26 +157,26 @@ def demonstrate(seed: int = 0, scene=None, cell: int = DEMO_CELL) -> Demonstrati
     hand[2] = z0 + rng.uniform(*GEOMETRY["start_height"])
     hover = draw[0] + np.array([0.0, 0.0, rng.uniform(0.012, 0.018)])
     n_reach = _samples(rng.uniform(*TIMING["reach"]))
-    s = minimum_jerk(n_reach)[:, None]
+    s = minimum_jerk_samples(n_reach)[:, None]
     reach = hand + s * (hover - hand)
     side = np.cross(hover - hand, [0.0, 0.0, 1.0])
     side /= max(np.linalg.norm(side), 1e-9)
     reach += np.sin(np.pi * s) * side * rng.uniform(0.01, 0.025)
     n_down = _samples(rng.uniform(*TIMING["down"]))
-    down = hover + minimum_jerk(n_down + 1)[1:, None] * (draw[0] - hover)
+    down = hover + minimum_jerk_samples(n_down + 1)[1:, None] * (draw[0] - hover)
     down[-1, 2] = z0 + 0.0005  # the last sample before contact hovers a hair above the paper
     reach = np.vstack([reach, down[:-1]])
 
     # -- retract: lift, then away and up, toward the start but not back to it
     n_lift = _samples(rng.uniform(*TIMING["lift"]))
     lift_to = draw[-1] + np.array([0.0, 0.0, rng.uniform(0.015, 0.02)])
-    lift = draw[-1] + minimum_jerk(n_lift + 1)[1:, None] * (lift_to - draw[-1])
+    lift = draw[-1] + minimum_jerk_samples(n_lift + 1)[1:, None] * (lift_to - draw[-1])
     away_grid = centre_grid + np.array([rng.uniform(*GEOMETRY["away_right"]),
                                         rng.uniform(*GEOMETRY["away_far"])])
     away = spec.grid_to_world(away_grid[0], away_grid[1])
     away[2] = z0 + rng.uniform(*GEOMETRY["away_height"])
     n_away = _samples(rng.uniform(*TIMING["away"]))
-    retract = np.vstack([lift, lift_to + minimum_jerk(n_away + 1)[1:, None] * (away - lift_to)])
+    retract = np.vstack([lift, lift_to + minimum_jerk_samples(n_away + 1)[1:, None] * (away - lift_to)])
 
     path = np.vstack([reach, draw, retract])
     n = len(path)

@@ -27,20 +27,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ..motion import minimum_jerk_samples
+
 RATE = 20.0  # samples per second
 TABLE_Z = 0.57
 
-
-def minimum_jerk(n: int) -> np.ndarray:
-    """Minimum-jerk progress 0..1 over ``n`` samples (10 s^3 - 15 s^4 + 6 s^5)."""
-    s = np.linspace(0.0, 1.0, n)
-    return 10 * s**3 - 15 * s**4 + 6 * s**5
 
 
 def _leg(a, b, seconds: float, lift: float) -> np.ndarray:
     """One minimum-jerk leg from ``a`` to ``b`` (3,), arcing ``lift`` metres up mid-way; (n, 3)."""
     n = max(int(round(seconds * RATE)), 4)
-    s = minimum_jerk(n)[:, None]
+    s = minimum_jerk_samples(n)[:, None]
     line = a + s * (b - a)
     line[:, 2] += lift * np.sin(np.pi * s[:, 0])
     return line
