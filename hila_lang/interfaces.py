@@ -45,6 +45,10 @@ class Backend(Protocol):
 class World(Protocol):
     """Named scene objects with ICPs, events and predicates."""
 
+    #: the ``--set KEY=VALUE`` keys this world understands (``osila.*`` keys go to OSILA); any
+    #: other key is refused before the run, so a typo is not silently ignored
+    SETTINGS: tuple[str, ...]
+
     def points(self) -> Mapping[str, np.ndarray]:
         """Every named scene point known now, e.g. ``{"board.cell5.tl": array([x, y, z]), ...}``."""
         ...

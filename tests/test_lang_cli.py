@@ -90,3 +90,13 @@ def test_bad_seed_is_refused_before_the_run(command, seed, capsys):
         cli.main([command, "programs/abc.hila", "--seed", seed])
     assert exc.value.code == 2
     assert "argument --seed: expected a whole number >= 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("program, key, hint", [
+    ("programs/game.hila", "frist", "did you mean 'first'?"),
+    ("programs/abc.hila", "scirpt", "did you mean 'script'?"),
+])
+def test_an_unknown_setting_is_refused_not_ignored(program, key, hint, capsys):
+    assert cli.main(["exec", program, "--backend", "dry", "--quiet", "--set", f"{key}=x"]) == 2
+    err = capsys.readouterr().err
+    assert f"unknown setting {key!r}" in err and hint in err

@@ -82,6 +82,8 @@ class TicTacToeWorld:
         ``seed``, ``opponent``, ``out``, ``settings``, ``stdin``, ``stdout`` are used.
     """
 
+    SETTINGS = ("first", "report")
+
     default_backend = "pybullet"
 
     def __init__(self, options) -> None:

@@ -110,8 +110,17 @@ def backend_factory(name: str):
 
 
 def make_world(name: str, options: RunOptions) -> Any:
-    """Build the world ``name`` for a run."""
-    return world_factory(name)(options)
+    """Build the world ``name`` for a run; a ``--set`` key it does not know is an InputError."""
+    world = world_factory(name)(options)
+    known = tuple(world.SETTINGS)
+    for key in options.settings:
+        if not key.startswith("osila.") and key not in known:
+            close = difflib.get_close_matches(key, known, n=1)
+            raise InputError(
+                f"unknown setting {key!r} for world {name!r}; known: "
+                + ", ".join([*known, "osila.OPTION"]),
+                hint=f"did you mean {close[0]!r}?" if close else None)
+    return world
 
 
 def make_backend(world: Any, options: RunOptions, name: str | None = None) -> Any:

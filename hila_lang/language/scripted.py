@@ -24,6 +24,7 @@ from ..errors import HilaRuntimeError, InputError
 
 class ScriptedWorld:
     default_backend = "dry"
+    SETTINGS = ("script",)
 
     def __init__(self, points=None, answers=None, events=None, home=None) -> None:
         self._points = {str(k): _point(v, f"point {k!r}") for k, v in (points or {}).items()}
