@@ -5,13 +5,14 @@ Only :mod:`hila_lang.language.transformer` builds these nodes.  Every node carri
 in equality, so two programs that differ only in layout compare equal.
 
 :func:`dump` renders a tree as indented text (the AST golden files); :func:`expr_text` renders
-an expression back as hila source (FSM dumps, traces, error messages).
+an expression back as hila source (FSM dumps, traces, error messages).  :class:`Visitor` is the one
+way passes walk the tree (:func:`children` lists a node's parts generically).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, is_dataclass
-from typing import Union
+from typing import Union, get_args
 
 
 @dataclass(frozen=True)
@@ -214,6 +215,7 @@ class RepeatStmt:
 
 
 Stmt = Union[RunStmt, CallStmt, LetStmt, WaitStmt, IfStmt, WhileStmt, UntilStmt, RepeatStmt]
+_STMT_TYPES = get_args(Stmt)
 
 # --------------------------------------------------------------------------- top level
 
@@ -275,44 +277,135 @@ class Program:
         return [i for i in self.items if isinstance(i, kind)]
 
 
+# --------------------------------------------------------------------------- visiting
+
+
+def children(node) -> list:
+    """The AST nodes directly inside ``node``, in field order (bodies flattened, if-branches as
+    condition then body).  Every pass walks the tree through this one function, so a new node
+    class needs no walking code of its own."""
+    out: list = []
+
+    def add(value) -> None:
+        if is_dataclass(value) and not isinstance(value, Pos):
+            out.append(value)
+        elif isinstance(value, tuple):
+            for v in value:
+                add(v)
+
+    for f in fields(node):
+        if f.compare:
+            add(getattr(node, f.name))
+    return out
+
+
+class Visitor:
+    """Dispatch on the node's class: ``visit(node, *args)`` calls ``visit_<ClassName>(node, *args)``,
+    or :meth:`generic_visit` (which visits every child) when there is no such method.
+
+    The checker, the compiler, the interpreter's evaluator and :func:`expr_text` are visitors.
+    """
+
+    def visit(self, node, *args):
+        method = getattr(self, "visit_" + type(node).__name__, None)
+        return method(node, *args) if method is not None else self.generic_visit(node, *args)
+
+    def generic_visit(self, node, *args):
+        for child in children(node):
+            self.visit(child, *args)
+
+
+def walk(body):
+    """Every statement in ``body`` (a tuple of statements) and in the blocks nested in them, in
+    source order; expressions are not entered."""
+    for s in body:
+        yield s
+        for c in children(s):
+            if isinstance(c, _STMT_TYPES):
+                yield from walk((c,))
+
+
+def map_names(e, fn):
+    """A copy of expression ``e`` with every :class:`Name` ``n`` replaced by ``fn(n)``."""
+    if isinstance(e, Name):
+        return fn(e)
+    if isinstance(e, Vector):
+        return Vector(tuple(map_names(i, fn) for i in e.items), e.pos)
+    if isinstance(e, Unary):
+        return Unary(e.op, map_names(e.operand, fn), e.pos)
+    if isinstance(e, Binary):
+        return Binary(e.op, map_names(e.left, fn), map_names(e.right, fn), e.pos)
+    if isinstance(e, Ask):
+        return Ask(e.name, tuple(map_names(a, fn) for a in e.args), e.pos)
+    return e
+
+
 # --------------------------------------------------------------------------- rendering
 
 _BINARY_PREC = {"or": 1, "and": 2, "==": 4, "!=": 4, "<": 4, "<=": 4, ">": 4, ">=": 4, "+": 5, "-": 5, "*": 6, "/": 6}
+_COMPARE = {"==", "!=", "<", "<=", ">", ">="}
 
 
 def _num(v: float) -> str:
     return str(int(v)) if float(v).is_integer() and abs(v) < 1e15 else repr(float(v))
 
 
-def expr_text(e, prec: int = 0) -> str:
-    """Render an expression as hila source (a :class:`Var` as its slot)."""
-    if isinstance(e, Number):
+class _Text(Visitor):
+    """Expressions back to hila source (see :func:`expr_text`)."""
+
+    def generic_visit(self, node, prec=0):
+        raise TypeError(f"not an expression: {node!r}")
+
+    def visit_Number(self, e, prec=0):
         return _num(e.value)
-    if isinstance(e, String):
+
+    def visit_String(self, e, prec=0):
         return f'"{e.value}"'
-    if isinstance(e, Bool):
+
+    def visit_Bool(self, e, prec=0):
         return "true" if e.value else "false"
-    if isinstance(e, NoneLit):
+
+    def visit_NoneLit(self, e, prec=0):
         return "none"
-    if isinstance(e, Name):
+
+    def visit_Name(self, e, prec=0):
         return e.text
-    if isinstance(e, Var):
+
+    def visit_Var(self, e, prec=0):
         return "".join([f"{{{e.slot}}}", *(f".{a}" for a in e.attrs)])
-    if isinstance(e, Vector):
-        return "(" + ", ".join(expr_text(i) for i in e.items) + ")"
-    if isinstance(e, Unary):
-        text = f"not {expr_text(e.operand, 3)}" if e.op == "not" else f"-{expr_text(e.operand, 7)}"
+
+    def visit_Vector(self, e, prec=0):
+        return "(" + ", ".join(self.visit(i) for i in e.items) + ")"
+
+    def visit_Unary(self, e, prec=0):
         mine = 3 if e.op == "not" else 7
+        text = f"not {self.visit(e.operand, 3)}" if e.op == "not" else f"-{self.visit(e.operand, 7)}"
         return f"({text})" if mine < prec else text
-    if isinstance(e, Binary):
+
+    def visit_Binary(self, e, prec=0):
         mine = _BINARY_PREC[e.op]
-        text = f"{expr_text(e.left, mine)} {e.op} {expr_text(e.right, mine + 1)}"
+        # comparisons do not chain: a comparison on the left of another is parenthesised
+        left = self.visit(e.left, mine + 1 if e.op in _COMPARE else mine)
+        text = f"{left} {e.op} {self.visit(e.right, mine + 1)}"
         return f"({text})" if mine < prec else text
-    if isinstance(e, (Ask, Wait)):
-        word, name = ("ask", e.name) if isinstance(e, Ask) else ("wait", e.event)
-        args = f"({', '.join(expr_text(a) for a in e.args)})" if e.args else ""
-        return f"{word} {name}{args}"
-    raise TypeError(f"not an expression: {e!r}")
+
+    def _call(self, word, name, args):
+        return f"{word} {name}" + (f"({', '.join(self.visit(a) for a in args)})" if args else "")
+
+    def visit_Ask(self, e, prec=0):
+        return self._call("ask", e.name, e.args)
+
+    def visit_Wait(self, e, prec=0):
+        return self._call("wait", e.event, e.args)
+
+
+_TEXT = _Text()
+
+
+def expr_text(e, prec: int = 0) -> str:
+    """Render an expression as hila source (a :class:`Var` as its slot, ``{main/mark:c}``);
+    :func:`hila_lang.language.transformer.parse_expr` reads it back."""
+    return _TEXT.visit(e, prec)
 
 
 def dump(node, indent: int = 0) -> str:

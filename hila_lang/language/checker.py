@@ -66,7 +66,7 @@ def did_you_mean(name: str, choices) -> str | None:
     return f"did you mean '{close[0]}'?" if close else None
 
 
-class _Checker:
+class _Checker(A.Visitor):
     def __init__(self, program: A.Program) -> None:
         self.p = program
         self.warnings: list[str] = []
@@ -157,49 +157,56 @@ class _Checker:
     # ------------------------------------------------------------------ statements
     def body(self, stmts, defined: set[str]) -> None:
         for s in stmts:
-            self.stmt(s, defined)
+            self.visit(s, defined)
 
-    def stmt(self, s, defined: set[str]) -> None:
-        if isinstance(s, A.RunStmt):
-            self.run_stmt(s, defined)
-        elif isinstance(s, A.CallStmt):
-            task = self.tasks.get(s.task)
-            if task is None:
-                hint = did_you_mean(s.task, self.tasks)
-                if hint is None and s.task in self.templates:
-                    hint = f"to run a template write 'run {s.task}.TAG(...)'"
-                raise self.error(f"unknown task '{s.task}'", s.pos, hint)
-            if len(s.args) != len(task.params):
-                raise self.error(
-                    f"task '{s.task}' takes {len(task.params)} argument(s) ({', '.join(task.params) or 'none'}), "
-                    f"got {len(s.args)}", s.pos, f"defined at line {task.pos.line}")
-            for a in s.args:
-                self.expr(a, defined, s.pos)
-        elif isinstance(s, A.LetStmt):
-            if s.name in RESERVED:
-                raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
-            self.expr(s.value, defined, s.pos)
-            defined.add(s.name)
-        elif isinstance(s, A.WaitStmt):
-            self.expr(s.wait.args, defined, s.pos)
-        elif isinstance(s, A.IfStmt):
-            for cond, body in s.branches:
-                self.expr(cond, defined, s.pos)
-                self.body(body, defined)
-            if s.orelse is not None:
-                self.body(s.orelse, defined)
-        elif isinstance(s, (A.WhileStmt, A.UntilStmt)):
-            self.expr(s.cond, defined, s.pos)
-            self.body(s.body, defined)
-        elif isinstance(s, A.RepeatStmt):
-            self.expr(s.count, defined, s.pos)
-            if isinstance(s.count, A.Number) and (s.count.value < 0 or not float(s.count.value).is_integer()):
-                raise self.error(f"repeat needs a whole number of times, got {A.expr_text(s.count)}", s.count.pos)
-            if isinstance(s.count, A.Number) and s.count.value == 0:
-                raise self.error("'repeat 0' never runs its block", s.pos, "remove it, or repeat at least once")
-            self.body(s.body, defined)
-        else:  # pragma: no cover - the transformer builds only the kinds above
-            raise TypeError(f"unknown statement {s!r}")
+    def generic_visit(self, s, defined):  # pragma: no cover - the transformer builds only known kinds
+        raise TypeError(f"unknown statement {s!r}")
+
+    def visit_RunStmt(self, s: A.RunStmt, defined: set[str]) -> None:
+        self.run_stmt(s, defined)
+
+    def visit_CallStmt(self, s: A.CallStmt, defined: set[str]) -> None:
+        task = self.tasks.get(s.task)
+        if task is None:
+            hint = did_you_mean(s.task, self.tasks)
+            if hint is None and s.task in self.templates:
+                hint = f"to run a template write 'run {s.task}.TAG(...)'"
+            raise self.error(f"unknown task '{s.task}'", s.pos, hint)
+        if len(s.args) != len(task.params):
+            raise self.error(
+                f"task '{s.task}' takes {len(task.params)} argument(s) ({', '.join(task.params) or 'none'}), "
+                f"got {len(s.args)}", s.pos, f"defined at line {task.pos.line}")
+        self.expr(s.args, defined, s.pos)
+
+    def visit_LetStmt(self, s: A.LetStmt, defined: set[str]) -> None:
+        if s.name in RESERVED:
+            raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
+        self.expr(s.value, defined, s.pos)
+        defined.add(s.name)
+
+    def visit_WaitStmt(self, s: A.WaitStmt, defined: set[str]) -> None:
+        self.expr(s.wait.args, defined, s.pos)
+
+    def visit_IfStmt(self, s: A.IfStmt, defined: set[str]) -> None:
+        for cond, body in s.branches:
+            self.expr(cond, defined, s.pos)
+            self.body(body, defined)
+        if s.orelse is not None:
+            self.body(s.orelse, defined)
+
+    def visit_WhileStmt(self, s, defined: set[str]) -> None:
+        self.expr(s.cond, defined, s.pos)
+        self.body(s.body, defined)
+
+    visit_UntilStmt = visit_WhileStmt
+
+    def visit_RepeatStmt(self, s: A.RepeatStmt, defined: set[str]) -> None:
+        self.expr(s.count, defined, s.pos)
+        if isinstance(s.count, A.Number) and (s.count.value < 0 or not float(s.count.value).is_integer()):
+            raise self.error(f"repeat needs a whole number of times, got {A.expr_text(s.count)}", s.count.pos)
+        if isinstance(s.count, A.Number) and s.count.value == 0:
+            raise self.error("'repeat 0' never runs its block", s.pos, "remove it, or repeat at least once")
+        self.body(s.body, defined)
 
     def template_icps(self, s: A.RunStmt) -> list[str]:
         """ICP names of the (sub-)template ``s`` runs (raises for unknown template or tag)."""
@@ -252,38 +259,14 @@ class _Checker:
 
     # ------------------------------------------------------------------ expressions
     def expr(self, e, defined: set[str], where: A.Pos) -> None:
-        if isinstance(e, tuple):
-            for x in e:
-                self.expr(x, defined, where)
-        elif isinstance(e, A.Name):
-            first = e.parts[0]
-            if first in defined or first == "hand" or len(e.parts) > 1:
-                return
-            if first in self.points or any(p.startswith(first + ".") for p in self.points):
-                return
-            choices = set(defined) | set(self.points) | {"hand"}
-            raise self.error(f"unknown name '{first}'", e.pos if e.pos.line else where,
-                             did_you_mean(first, choices) or
-                             "define it with 'let' or 'point', or write a world point by its full dotted name")
-        elif isinstance(e, A.Vector):
-            if len(e.items) not in (2, 3):
-                raise self.error(f"a point has 2 or 3 coordinates, got {len(e.items)}", e.pos)
-            self.expr(e.items, defined, where)
-        elif isinstance(e, A.Unary):
-            self.expr(e.operand, defined, where)
-        elif isinstance(e, A.Binary):
-            self.expr(e.left, defined, where)
-            self.expr(e.right, defined, where)
-        elif isinstance(e, (A.Ask, A.Wait)):
-            self.expr(e.args, defined, where)
+        """Check the names in expression ``e`` (or a tuple of them); ``where`` locates a name
+        that has no position of its own."""
+        for x in (e if isinstance(e, tuple) else (e,)):
+            _Names(self, defined, where).visit(x)
 
     def recursion(self, main: A.MainDef) -> None:
         def calls(body):
-            for s in body:
-                if isinstance(s, A.CallStmt):
-                    yield s
-                for sub in _sub_bodies(s):
-                    yield from calls(sub)
+            return [s for s in A.walk(body) if isinstance(s, A.CallStmt)]
 
         def visit(body, chain: list[str]):
             for c in calls(body):
@@ -308,14 +291,27 @@ class _Checker:
                 self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
 
 
-def _sub_bodies(s):
-    if isinstance(s, A.IfStmt):
-        for _, body in s.branches:
-            yield body
-        if s.orelse is not None:
-            yield s.orelse
-    elif isinstance(s, (A.WhileStmt, A.UntilStmt, A.RepeatStmt)):
-        yield s.body
+class _Names(A.Visitor):
+    """Every plain name in an expression is known; points have 2 or 3 coordinates."""
+
+    def __init__(self, checker: "_Checker", defined: set[str], where: A.Pos) -> None:
+        self.c, self.defined, self.where = checker, defined, where
+
+    def visit_Name(self, e: A.Name) -> None:
+        c, first = self.c, e.parts[0]
+        if first in self.defined or first == "hand" or len(e.parts) > 1:
+            return
+        if first in c.points or any(p.startswith(first + ".") for p in c.points):
+            return
+        choices = set(self.defined) | set(c.points) | {"hand"}
+        raise c.error(f"unknown name '{first}'", e.pos if e.pos.line else self.where,
+                      did_you_mean(first, choices) or
+                      "define it with 'let' or 'point', or write a world point by its full dotted name")
+
+    def visit_Vector(self, e: A.Vector) -> None:
+        if len(e.items) not in (2, 3):
+            raise self.c.error(f"a point has 2 or 3 coordinates, got {len(e.items)}", e.pos)
+        self.generic_visit(e)
 
 
 def check(program: A.Program) -> CheckedProgram:

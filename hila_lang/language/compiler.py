@@ -17,11 +17,12 @@ from collections import Counter, deque
 from . import ast as A
 from ..errors import CheckError
 from .checker import CheckedProgram
-from .fsm import END_STATE, FSM, State
+from .fsm import END_STATE, FSM, BranchState, CallState, EndState, RunState, SetState, State, WaitState
 from .parser import source_line
 
 
 def _base(s) -> str | None:
+    """The name a statement's state is counted under (``#k`` numbering), or None."""
     if isinstance(s, A.RunStmt):
         return s.tag or s.template
     if isinstance(s, A.CallStmt):
@@ -33,25 +34,13 @@ def _base(s) -> str | None:
     return None
 
 
-def _walk(body):
-    for s in body:
-        yield s
-        if isinstance(s, A.IfStmt):
-            for _, b in s.branches:
-                yield from _walk(b)
-            if s.orelse is not None:
-                yield from _walk(s.orelse)
-        elif isinstance(s, (A.WhileStmt, A.UntilStmt, A.RepeatStmt)):
-            yield from _walk(s.body)
-
-
 class _Scope:
     """Names and counters of one task instance."""
 
     def __init__(self, prefix: str, body, params: dict[str, str]) -> None:
         self.prefix = prefix
         self.vars = dict(params)  # name -> slot
-        self.totals = Counter(b for b in map(_base, _walk(body)) if b is not None)
+        self.totals = Counter(b for b in map(_base, A.walk(body)) if b is not None)
         self.used: Counter = Counter()
 
     def name(self, base: str, always_number: bool = False) -> str:
@@ -62,20 +51,13 @@ class _Scope:
 
     def resolve(self, e):
         """Replace variable names by :class:`~hila_lang.language.ast.Var` slots."""
-        if isinstance(e, A.Name) and e.parts[0] in self.vars:
-            return A.Var(self.vars[e.parts[0]], e.parts[1:], e.pos)
-        if isinstance(e, A.Vector):
-            return A.Vector(tuple(self.resolve(i) for i in e.items), e.pos)
-        if isinstance(e, A.Unary):
-            return A.Unary(e.op, self.resolve(e.operand), e.pos)
-        if isinstance(e, A.Binary):
-            return A.Binary(e.op, self.resolve(e.left), self.resolve(e.right), e.pos)
-        if isinstance(e, A.Ask):
-            return A.Ask(e.name, tuple(self.resolve(a) for a in e.args), e.pos)
-        return e
+        return A.map_names(e, lambda n: A.Var(self.vars[n.parts[0]], n.parts[1:], n.pos) if n.parts[0] in self.vars else n)
 
 
-class _Compiler:
+class _Compiler(A.Visitor):
+    """``visit(stmt, scope)`` compiles one statement: returns (entry state name or None, dangling
+    [(state, attribute)] that the next statement's entry completes)."""
+
     def __init__(self, checked: CheckedProgram) -> None:
         self.c = checked
         self.states: dict[str, State] = {}
@@ -89,7 +71,7 @@ class _Compiler:
         """Compile ``body``; return (entry name or None, dangling [(state, attribute)])."""
         entry, dangling = None, []
         for s in body:
-            e, d = self.stmt(s, scope)
+            e, d = self.visit(s, scope)
             if e is None:
                 continue
             for st, attr in dangling:
@@ -98,102 +80,110 @@ class _Compiler:
             dangling = d
         return entry, dangling
 
-    def stmt(self, s, scope: _Scope):
-        if isinstance(s, A.RunStmt):
-            template = self.c.templates[s.template]
-            if s.pen is not None:
-                pen = s.pen == "down"
-            elif s.tag is not None:
-                pen = bool(template.segment(s.tag).contact)
-            else:
-                pen = any(seg.contact for seg in template.segments)
-            st = self.add(State(scope.name(s.tag or s.template), "run", template=s.template, tag=s.tag,
-                                bindings=tuple((b.icp, scope.resolve(b.value)) for b in s.bindings),
-                                pen_down=pen), s.pos)
-            return st.name, [(st, "next")]
-        if isinstance(s, A.CallStmt):
-            name = scope.name(s.task)
-            task = self.c.tasks[s.task]
-            slots = {p: f"{name}:{p}" for p in task.params}
-            st = self.add(State(name, "call", task=s.task,
+    def generic_visit(self, s, scope):  # pragma: no cover - every statement has its method
+        raise TypeError(f"unknown statement {s!r}")
+
+    def visit_RunStmt(self, s: A.RunStmt, scope: _Scope):
+        template = self.c.templates[s.template]
+        if s.pen is not None:
+            pen = s.pen == "down"
+        elif s.tag is not None:
+            pen = bool(template.segment(s.tag).contact)
+        else:
+            pen = any(seg.contact for seg in template.segments)
+        st = self.add(RunState(scope.name(s.tag or s.template), template=s.template, tag=s.tag,
+                               bindings=tuple((b.icp, scope.resolve(b.value)) for b in s.bindings),
+                               pen_down=pen), s.pos)
+        return st.name, [(st, "next")]
+
+    def visit_CallStmt(self, s: A.CallStmt, scope: _Scope):
+        name = scope.name(s.task)
+        task = self.c.tasks[s.task]
+        slots = {p: f"{name}:{p}" for p in task.params}
+        st = self.add(CallState(name, task=s.task,
                                 assign=tuple((slots[p], scope.resolve(a)) for p, a in zip(task.params, s.args))), s.pos)
-            inner = _Scope(name, task.body, slots)
-            entry, dangling = self.block(task.body, inner)
-            if entry is None:
-                return st.name, [(st, "next")]
-            st.next = entry
-            return st.name, dangling
-        if isinstance(s, A.LetStmt):
-            name = scope.name("let")
-            slot = f"{scope.prefix}:{s.name}"
-            if isinstance(s.value, A.Wait):
-                st = self.add(State(name, "wait", event=s.value.event,
-                                    args=tuple(scope.resolve(a) for a in s.value.args), into=slot), s.pos)
-            else:
-                st = self.add(State(name, "set", assign=((slot, scope.resolve(s.value)),)), s.pos)
-            scope.vars[s.name] = slot
+        entry, dangling = self.block(task.body, _Scope(name, task.body, slots))
+        if entry is None:
             return st.name, [(st, "next")]
-        if isinstance(s, A.WaitStmt):
-            st = self.add(State(scope.name("wait"), "wait", event=s.wait.event,
+        st.next = entry
+        return st.name, dangling
+
+    def visit_LetStmt(self, s: A.LetStmt, scope: _Scope):
+        name = scope.name("let")
+        slot = f"{scope.prefix}:{s.name}"
+        if isinstance(s.value, A.Wait):
+            st = self.add(WaitState(name, event=s.value.event, args=tuple(scope.resolve(a) for a in s.value.args),
+                                    into=slot), s.pos)
+        else:
+            st = self.add(SetState(name, assign=((slot, scope.resolve(s.value)),)), s.pos)
+        scope.vars[s.name] = slot
+        return st.name, [(st, "next")]
+
+    def visit_WaitStmt(self, s: A.WaitStmt, scope: _Scope):
+        st = self.add(WaitState(scope.name("wait"), event=s.wait.event,
                                 args=tuple(scope.resolve(a) for a in s.wait.args)), s.pos)
-            return st.name, [(st, "next")]
-        if isinstance(s, A.IfStmt):
-            base = scope.name("if", True)
-            first, dangling, prev = None, [], None
-            for i, (cond, body) in enumerate(s.branches):
-                name = base if i == 0 else f"{base}/elif#{i}"
-                st = self.add(State(name, "branch", guard=scope.resolve(cond)), cond.pos if i else s.pos)
-                if prev is not None:
-                    prev.orelse = st.name
-                first = first or st.name
-                entry, d = self.block(body, scope)
-                if entry is None:
-                    dangling.append((st, "then"))
-                else:
-                    st.then = entry
-                dangling += d
-                prev = st
-            if s.orelse is not None:
-                entry, d = self.block(s.orelse, scope)
-                if entry is None:
-                    dangling.append((prev, "orelse"))
-                else:
-                    prev.orelse = entry
-                dangling += d
+        return st.name, [(st, "next")]
+
+    def visit_IfStmt(self, s: A.IfStmt, scope: _Scope):
+        base = scope.name("if", True)
+        first, dangling, prev = None, [], None
+        for i, (cond, body) in enumerate(s.branches):
+            name = base if i == 0 else f"{base}/elif#{i}"
+            st = self.add(BranchState(name, guard=scope.resolve(cond)), cond.pos if i else s.pos)
+            if prev is not None:
+                prev.orelse = st.name
+            first = first or st.name
+            entry, d = self.block(body, scope)
+            if entry is None:
+                dangling.append((st, "then"))
             else:
+                st.then = entry
+            dangling += d
+            prev = st
+        if s.orelse is not None:
+            entry, d = self.block(s.orelse, scope)
+            if entry is None:
                 dangling.append((prev, "orelse"))
-            return first, dangling
-        if isinstance(s, (A.WhileStmt, A.UntilStmt)):
-            is_while = isinstance(s, A.WhileStmt)
-            st = self.add(State(scope.name("while" if is_while else "until", True), "branch",
-                                guard=scope.resolve(s.cond)), s.pos)
-            entry, d = self.block(s.body, scope)
-            loop_attr, exit_attr = ("then", "orelse") if is_while else ("orelse", "then")
-            setattr(st, loop_attr, entry or st.name)
-            for x, attr in d:
-                setattr(x, attr, st.name)
-            return st.name, [(st, exit_attr)]
-        if isinstance(s, A.RepeatStmt):
-            name = scope.name("repeat", True)
-            slot = f"{scope.prefix}:{name.rsplit('/', 1)[1]}"
-            counter = A.Var(slot, (), s.pos)
-            init = self.add(State(name, "set", assign=((slot, scope.resolve(s.count)),)), s.pos)
-            test = self.add(State(f"{name}/loop", "branch", guard=A.Binary(">", counter, A.Number(0.0))), s.pos)
-            init.next = test.name
-            dec = State(f"{name}/next", "set", next=test.name,
-                        assign=((slot, A.Binary("-", counter, A.Number(1.0))),))
-            entry, d = self.block(s.body, scope)
-            self.add(dec, s.pos)
-            test.then = entry or dec.name
-            for x, attr in d:
-                setattr(x, attr, dec.name)
-            return init.name, [(test, "orelse")]
-        raise TypeError(f"unknown statement {s!r}")  # pragma: no cover
+            else:
+                prev.orelse = entry
+            dangling += d
+        else:
+            dangling.append((prev, "orelse"))
+        return first, dangling
+
+    def _loop(self, s, scope: _Scope, word: str, loop_attr: str, exit_attr: str):
+        st = self.add(BranchState(scope.name(word, True), guard=scope.resolve(s.cond)), s.pos)
+        entry, d = self.block(s.body, scope)
+        setattr(st, loop_attr, entry or st.name)
+        for x, attr in d:
+            setattr(x, attr, st.name)
+        return st.name, [(st, exit_attr)]
+
+    def visit_WhileStmt(self, s: A.WhileStmt, scope: _Scope):
+        return self._loop(s, scope, "while", "then", "orelse")
+
+    def visit_UntilStmt(self, s: A.UntilStmt, scope: _Scope):
+        return self._loop(s, scope, "until", "orelse", "then")
+
+    def visit_RepeatStmt(self, s: A.RepeatStmt, scope: _Scope):
+        name = scope.name("repeat", True)
+        slot = f"{scope.prefix}:{name.rsplit('/', 1)[1]}"
+        counter = A.Var(slot, (), s.pos)
+        init = self.add(SetState(name, assign=((slot, scope.resolve(s.count)),)), s.pos)
+        test = self.add(BranchState(f"{name}/loop", guard=A.Binary(">", counter, A.Number(0.0))), s.pos)
+        init.next = test.name
+        dec = SetState(f"{name}/next", next=test.name, assign=((slot, A.Binary("-", counter, A.Number(1.0))),))
+        entry, d = self.block(s.body, scope)
+        self.add(dec, s.pos)
+        test.then = entry or dec.name
+        for x, attr in d:
+            setattr(x, attr, dec.name)
+        return init.name, [(test, "orelse")]
 
     def build(self) -> FSM:
         scope = _Scope("main", self.c.main.body, {})
         entry, dangling = self.block(self.c.main.body, scope)
-        end = State(END_STATE, "end")
+        end = EndState(END_STATE)
         self.states[END_STATE] = end
         for st, attr in dangling:
             setattr(st, attr, END_STATE)
@@ -207,7 +197,7 @@ class _Compiler:
         while todo:
             st = fsm.states[todo.popleft()]
             nexts = st.successors()
-            if st.kind == "branch" and isinstance(st.guard, A.Bool):
+            if isinstance(st, BranchState) and isinstance(st.guard, A.Bool):
                 nexts = [st.then if st.guard.value else st.orelse]
             for n in nexts:
                 if n not in seen:

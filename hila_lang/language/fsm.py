@@ -1,90 +1,248 @@
-"""The compiled program: an explicit finite state machine, plain data.
+"""The compiled program: an explicit finite state machine, plain data that round-trips.
 
-Kinds of state (``State.kind``):
+One class per kind of state (its ``kind`` string names it in JSON):
 
-- ``run``: warp one (sub-)template onto the scene with OSILA and move the hand along it.
-  ``template``/``tag`` name it, ``bindings`` map ICP names (or group prefixes) to expressions,
-  ``pen_down`` says whether it touches the paper (the template's ``contact`` unless overridden).
-- ``call``: enter a task; ``assign`` binds its parameters (slots ``PREFIX:NAME``).
-- ``set``: ``let`` and loop counters; ``assign`` maps slots to expressions.
-- ``wait``: block on ``world.wait(event, *args)``; the value goes to slot ``into``.
-- ``branch``: evaluate ``guard``; go to ``then`` if it holds, else to ``orelse``.
-- ``end``: the program is done.
+- :class:`RunState` (``run``): warp one (sub-)template onto the scene with OSILA and move the
+  hand along it.  ``template``/``tag`` name it, ``bindings`` map ICP names (or group prefixes)
+  to expressions, ``pen_down`` says whether it touches the paper (the template's ``contact``
+  unless overridden).
+- :class:`CallState` (``call``): enter a task; ``assign`` binds its parameters (slots
+  ``PREFIX:NAME``).
+- :class:`SetState` (``set``): ``let`` and loop counters; ``assign`` maps slots to expressions.
+- :class:`WaitState` (``wait``): block on ``world.wait(event, *args)``; the value goes to slot
+  ``into``.
+- :class:`BranchState` (``branch``): evaluate ``guard``; go to ``then`` if it holds, else to
+  ``orelse``.
+- :class:`EndState` (``end``): the program is done.
 
-Every state but ``end`` has ``next`` (or ``then``/``orelse``) and the program ``line`` it came
-from.  State names show the hierarchy: ``main/mark#2/draw`` is the ``draw`` sub-template run by
-the second call of ``mark`` in ``main``.  :meth:`FSM.to_json`, :meth:`FSM.to_dot` and
-:meth:`FSM.to_text` render it; expressions appear as hila source, variables as ``{slot}``.
+Every state but ``end`` has ``next`` (or ``then``/``orelse``) and the program ``line`` and
+``column`` it came from.  State names show the hierarchy: ``main/mark#2/draw`` is the ``draw``
+sub-template run by the second call of ``mark`` in ``main``.  :meth:`FSM.to_json`,
+:meth:`FSM.to_dot` and :meth:`FSM.to_text` render it; expressions appear as hila source,
+variables as ``{slot}``.  :meth:`FSM.from_dict` reads :meth:`FSM.to_dict` back:
+``FSM.from_dict(fsm.to_dict()) == fsm`` for every program.
+
+A new kind of state is one subclass here: its fields, ``describe``, and ``_fields_to_dict`` /
+``_fields_from_dict`` (the base class does name, line, column and ``next``).
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from .ast import expr_text
 
 END_STATE = "end"
 
+#: kind -> state class, filled by :meth:`State.__init_subclass__`
+STATE_KINDS: dict[str, type["State"]] = {}
 
-@dataclass
+
+def _exprs_to_dict(pairs) -> dict:
+    return {k: expr_text(v) for k, v in pairs}
+
+
+def _exprs_from_dict(d) -> tuple:
+    from .transformer import parse_expr
+
+    return tuple((k, parse_expr(v)) for k, v in (d or {}).items())
+
+
+@dataclass(eq=True)
 class State:
+    """What every state has: its name, where it came from, and the state after it."""
+
     name: str
-    kind: str
     line: int = 0
     column: int = 0
     next: str | None = None
+
+    kind: ClassVar[str] = ""
+    #: node shape in :meth:`FSM.to_dot`
+    shape: ClassVar[str] = "box"
+
+    @property
+    def highlight(self) -> bool:
+        """Filled in :meth:`FSM.to_dot` (a run that draws)."""
+        return False
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.kind:
+            STATE_KINDS[cls.kind] = cls
+
+    def successors(self) -> list[str]:
+        return [self.next] if self.next is not None else []
+
+    def describe(self) -> str:
+        """One line: what the state does."""
+        raise NotImplementedError
+
+    def flow(self) -> str:
+        """Where control goes, for :meth:`FSM.to_text`."""
+        return f"-> {self.next}" if self.next else ""
+
+    def edges(self) -> list[tuple[str, str]]:
+        """(target, label) pairs for :meth:`FSM.to_dot`."""
+        return [(self.next, "")] if self.next else []
+
+    def _fields_to_dict(self) -> dict:
+        return {}
+
+    @classmethod
+    def _fields_from_dict(cls, d: dict) -> dict:
+        return {}
+
+    def to_dict(self) -> dict:
+        d: dict = {"name": self.name, "kind": self.kind, "line": self.line, "column": self.column}
+        d.update(self._fields_to_dict())
+        if self.next is not None:
+            d["next"] = self.next
+        return d
+
+    @staticmethod
+    def from_dict(d: dict) -> "State":
+        """The state :meth:`to_dict` wrote (expressions parsed back from their text)."""
+        cls = STATE_KINDS[d["kind"]]
+        return cls(name=d["name"], line=int(d.get("line", 0)), column=int(d.get("column", 0)),
+                   next=d.get("next"), **cls._fields_from_dict(d))
+
+
+@dataclass(eq=True)
+class RunState(State):
     template: str | None = None
     tag: str | None = None
     bindings: tuple = ()  # ((icp, Expr), ...)
     pen_down: bool | None = None
-    assign: tuple = ()  # ((slot, Expr), ...)
-    event: str | None = None
-    args: tuple = ()
-    into: str | None = None
-    guard: object = None
-    then: str | None = None
-    orelse: str | None = None
-    task: str | None = None
 
-    def successors(self) -> list[str]:
-        return [s for s in (self.next, self.then, self.orelse) if s is not None]
+    kind: ClassVar[str] = "run"
+    shape: ClassVar[str] = "box"
+
+    @property
+    def highlight(self) -> bool:
+        return bool(self.pen_down)
 
     @property
     def ref(self) -> str:
         return self.template if self.tag is None else f"{self.template}.{self.tag}"
 
     def describe(self) -> str:
-        """One line: what the state does."""
-        if self.kind == "run":
-            binds = ", ".join(f"{expr_text(v)}.*" if k == "*" else f"{k} = {expr_text(v)}" for k, v in self.bindings)
-            return f"run {self.ref}({binds}) pen {'down' if self.pen_down else 'up'}"
-        if self.kind in ("set", "call"):
-            head = f"call {self.task}: " if self.kind == "call" else "set "
-            return head + ", ".join(f"{{{k}}} = {expr_text(v)}" for k, v in self.assign)
-        if self.kind == "wait":
-            args = f"({', '.join(expr_text(a) for a in self.args)})" if self.args else ""
-            return f"wait {self.event}{args}" + (f" -> {{{self.into}}}" if self.into else "")
-        if self.kind == "branch":
-            return f"if {expr_text(self.guard)}"
-        return "end"
+        binds = ", ".join(f"{expr_text(v)}.*" if k == "*" else f"{k} = {expr_text(v)}" for k, v in self.bindings)
+        return f"run {self.ref}({binds}) pen {'down' if self.pen_down else 'up'}"
 
-    def to_dict(self) -> dict:
-        d: dict = {"name": self.name, "kind": self.kind, "line": self.line}
-        if self.kind == "run":
-            d.update(template=self.template, tag=self.tag, pen_down=self.pen_down,
-                     bindings={k: expr_text(v) for k, v in self.bindings})
-        elif self.kind in ("set", "call"):
-            if self.task:
-                d["task"] = self.task
-            d["assign"] = {k: expr_text(v) for k, v in self.assign}
-        elif self.kind == "wait":
-            d.update(event=self.event, args=[expr_text(a) for a in self.args], into=self.into)
-        elif self.kind == "branch":
-            d.update(guard=expr_text(self.guard), then=self.then, orelse=self.orelse)
-        if self.next is not None:
-            d["next"] = self.next
-        return d
+    def _fields_to_dict(self) -> dict:
+        return {"template": self.template, "tag": self.tag, "pen_down": self.pen_down,
+                "bindings": _exprs_to_dict(self.bindings)}
+
+    @classmethod
+    def _fields_from_dict(cls, d: dict) -> dict:
+        return {"template": d["template"], "tag": d.get("tag"), "pen_down": d.get("pen_down"),
+                "bindings": _exprs_from_dict(d.get("bindings"))}
+
+
+@dataclass(eq=True)
+class SetState(State):
+    assign: tuple = ()  # ((slot, Expr), ...)
+
+    kind: ClassVar[str] = "set"
+    shape: ClassVar[str] = "note"
+
+    def describe(self) -> str:
+        return "set " + self._assignments()
+
+    def _assignments(self) -> str:
+        return ", ".join(f"{{{k}}} = {expr_text(v)}" for k, v in self.assign)
+
+    def _fields_to_dict(self) -> dict:
+        return {"assign": _exprs_to_dict(self.assign)}
+
+    @classmethod
+    def _fields_from_dict(cls, d: dict) -> dict:
+        return {"assign": _exprs_from_dict(d.get("assign"))}
+
+
+@dataclass(eq=True)
+class CallState(SetState):
+    task: str | None = None
+
+    kind: ClassVar[str] = "call"
+    shape: ClassVar[str] = "folder"
+
+    def describe(self) -> str:
+        return f"call {self.task}: " + self._assignments()
+
+    def _fields_to_dict(self) -> dict:
+        return {"task": self.task, **super()._fields_to_dict()}
+
+    @classmethod
+    def _fields_from_dict(cls, d: dict) -> dict:
+        return {"task": d["task"], **super()._fields_from_dict(d)}
+
+
+@dataclass(eq=True)
+class WaitState(State):
+    event: str | None = None
+    args: tuple = ()
+    into: str | None = None
+
+    kind: ClassVar[str] = "wait"
+    shape: ClassVar[str] = "parallelogram"
+
+    def describe(self) -> str:
+        args = f"({', '.join(expr_text(a) for a in self.args)})" if self.args else ""
+        return f"wait {self.event}{args}" + (f" -> {{{self.into}}}" if self.into else "")
+
+    def _fields_to_dict(self) -> dict:
+        return {"event": self.event, "args": [expr_text(a) for a in self.args], "into": self.into}
+
+    @classmethod
+    def _fields_from_dict(cls, d: dict) -> dict:
+        from .transformer import parse_expr
+
+        return {"event": d["event"], "args": tuple(parse_expr(a) for a in d.get("args") or ()),
+                "into": d.get("into")}
+
+
+@dataclass(eq=True)
+class BranchState(State):
+    guard: object = None
+    then: str | None = None
+    orelse: str | None = None
+
+    kind: ClassVar[str] = "branch"
+    shape: ClassVar[str] = "diamond"
+
+    def successors(self) -> list[str]:
+        return [s for s in (self.next, self.then, self.orelse) if s is not None]
+
+    def describe(self) -> str:
+        return f"if {expr_text(self.guard)}"
+
+    def flow(self) -> str:
+        return f"-> {self.then} | else -> {self.orelse}"
+
+    def edges(self) -> list[tuple[str, str]]:
+        return [(self.then, "yes"), (self.orelse, "no")]
+
+    def _fields_to_dict(self) -> dict:
+        return {"guard": expr_text(self.guard), "then": self.then, "orelse": self.orelse}
+
+    @classmethod
+    def _fields_from_dict(cls, d: dict) -> dict:
+        from .transformer import parse_expr
+
+        return {"guard": parse_expr(d["guard"]), "then": d.get("then"), "orelse": d.get("orelse")}
+
+
+@dataclass(eq=True)
+class EndState(State):
+    kind: ClassVar[str] = "end"
+    shape: ClassVar[str] = "doublecircle"
+
+    def describe(self) -> str:
+        return "end"
 
 
 @dataclass
@@ -114,6 +272,18 @@ class FSM:
             "states": [s.to_dict() for s in self.states.values()],
         }
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "FSM":
+        """The machine :meth:`to_dict` wrote (``hila_fsm: 1``)."""
+        from .transformer import parse_expr
+
+        if d.get("hila_fsm") != 1:
+            raise ValueError(f"expected an FSM dump with hila_fsm: 1, got {d.get('hila_fsm')!r}")
+        states = [State.from_dict(s) for s in d["states"]]
+        return cls(d["program"], d["world"], d["start"], {s.name: s for s in states}, dict(d.get("templates") or {}),
+                   {k: parse_expr(v) for k, v in (d.get("points") or {}).items()},
+                   None if d.get("hand") is None else parse_expr(d["hand"]))
+
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2) + "\n"
 
@@ -121,31 +291,22 @@ class FSM:
         width = max(len(n) for n in self.states)
         lines = [f"fsm {self.file} (world {self.world}), start {self.start}"]
         for s in self.states.values():
-            if s.kind == "branch":
-                flow = f"-> {s.then} | else -> {s.orelse}"
-            else:
-                flow = f"-> {s.next}" if s.next else ""
             line = f"line {s.line:>3}" if s.line else "        "
-            lines.append(f"  {s.name:<{width}}  {line}  {s.describe()}  {flow}".rstrip())
+            lines.append(f"  {s.name:<{width}}  {line}  {s.describe()}  {s.flow()}".rstrip())
         return "\n".join(lines) + "\n"
 
     def to_dot(self) -> str:
         def q(text: str) -> str:
             return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
-        shapes = {"run": "box", "branch": "diamond", "wait": "parallelogram", "end": "doublecircle",
-                  "call": "folder", "set": "note"}
         out = ["digraph hila {", "  rankdir=TB;", '  node [fontname="Helvetica", fontsize=10];',
                f"  __start [shape=point]; __start -> {q(self.start)};"]
         for s in self.states.values():
             label = s.name if s.kind == "end" else f"{s.name}\n{s.describe()}"
-            style = ', style=filled, fillcolor="#ffe9a8"' if s.kind == "run" and s.pen_down else ""
-            out.append(f"  {q(s.name)} [shape={shapes[s.kind]}, label={q(label)}{style}];")
+            style = ', style=filled, fillcolor="#ffe9a8"' if s.highlight else ""
+            out.append(f"  {q(s.name)} [shape={s.shape}, label={q(label)}{style}];")
         for s in self.states.values():
-            if s.kind == "branch":
-                out.append(f"  {q(s.name)} -> {q(s.then)} [label=\"yes\"];")
-                out.append(f"  {q(s.name)} -> {q(s.orelse)} [label=\"no\"];")
-            elif s.next:
-                out.append(f"  {q(s.name)} -> {q(s.next)};")
+            for target, label in s.edges():
+                out.append(f"  {q(s.name)} -> {q(target)}" + (f" [label=\"{label}\"];" if label else ";"))
         out.append("}")
         return "\n".join(out) + "\n"

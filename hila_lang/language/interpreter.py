@@ -26,7 +26,7 @@ import numpy as np
 
 from . import ast as A
 from ..errors import HilaError, HilaRuntimeError
-from .fsm import FSM, State
+from .fsm import FSM, SetState, State
 from .parser import source_line
 
 START, END = "start", "end"
@@ -87,6 +87,7 @@ class Interpreter:
         self.checked, self.fsm, self.world, self.backend = checked, fsm, world, backend
         self.osila_options = dict(osila_options or {})
         self._subs: dict[tuple[str, str | None], Any] = {}
+        self._eval = _Eval(self)
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -99,7 +100,7 @@ class Interpreter:
         self.last_icps: dict[str, np.ndarray] = {}
         self.done = False
         if self.fsm.hand is not None:
-            state = State("<hand at>", "set", line=self.fsm.hand.pos.line, column=self.fsm.hand.pos.column)
+            state = SetState("<hand at>", line=self.fsm.hand.pos.line, column=self.fsm.hand.pos.column)
             self._guard(state, self._put_hand)  # a bad point or the back end's refusal names the line
 
     def _put_hand(self) -> None:
@@ -161,33 +162,37 @@ class Interpreter:
         return exc
 
     def _execute(self, st: State) -> TraceEntry:
-        n = len(self.trace) + 1
-        if st.kind == "run":
-            return self._run(st, n)
-        if st.kind in ("set", "call"):
-            values = [(slot, self.eval(e)) for slot, e in st.assign]
-            self.env.update(values)
-            text = ("call " + st.task + (": " if values else "") if st.kind == "call" else "set ") + ", ".join(
-                f"{slot.rsplit(':', 1)[1]} = {fmt_value(v)}" for slot, v in values)
-            return TraceEntry(n, st.name, st.kind, st.line, text, st.next)
-        if st.kind == "wait":
-            args = [self.eval(a) for a in st.args]
-            value = _plain(self.world.wait(st.event, *args))
-            if st.into:
-                self.env[st.into] = value
-            text = f"wait {st.event} -> {fmt_value(value)}"
-            return TraceEntry(n, st.name, st.kind, st.line, text, st.next, value=value)
-        if st.kind == "branch":
-            value = self.eval(st.guard)
-            if not isinstance(value, (bool, np.bool_)):
-                raise HilaRuntimeError(f"a condition must be true or false, got {fmt_value(value)} "
-                                       f"from '{_src(st.guard)}'")
-            nxt = st.then if value else st.orelse
-            text = f"{_src(st.guard)}: {fmt_value(bool(value))} -> {nxt}"
-            return TraceEntry(n, st.name, st.kind, st.line, text, nxt, value=bool(value))
-        notify = getattr(self.world, "notify", None)
-        if callable(notify):
-            notify("program_done")
+        """Run one state: ``exec_<kind>(state, step number)``."""
+        return getattr(self, "exec_" + st.kind)(st, len(self.trace) + 1)
+
+    def exec_set(self, st, n: int) -> TraceEntry:
+        values = [(slot, self.eval(e)) for slot, e in st.assign]
+        self.env.update(values)
+        head = "call " + st.task + (": " if values else "") if st.kind == "call" else "set "
+        text = head + ", ".join(f"{slot.rsplit(':', 1)[1]} = {fmt_value(v)}" for slot, v in values)
+        return TraceEntry(n, st.name, st.kind, st.line, text, st.next)
+
+    exec_call = exec_set
+
+    def exec_wait(self, st, n: int) -> TraceEntry:
+        args = [self.eval(a) for a in st.args]
+        value = _plain(self.world.wait(st.event, *args))
+        if st.into:
+            self.env[st.into] = value
+        text = f"wait {st.event} -> {fmt_value(value)}"
+        return TraceEntry(n, st.name, st.kind, st.line, text, st.next, value=value)
+
+    def exec_branch(self, st, n: int) -> TraceEntry:
+        value = self.eval(st.guard)
+        if not isinstance(value, (bool, np.bool_)):
+            raise HilaRuntimeError(f"a condition must be true or false, got {fmt_value(value)} "
+                                   f"from '{_src(st.guard)}'")
+        nxt = st.then if value else st.orelse
+        text = f"{_src(st.guard)}: {fmt_value(bool(value))} -> {nxt}"
+        return TraceEntry(n, st.name, st.kind, st.line, text, nxt, value=bool(value))
+
+    def exec_end(self, st, n: int) -> TraceEntry:
+        self.world.notify("program_done")
         return TraceEntry(n, st.name, "end", st.line, "end", None)
 
     # ------------------------------------------------------------------ run states
@@ -223,7 +228,7 @@ class Interpreter:
             out[START] = self.hand()
         return {k: out[k] for k in t.icps if out.get(k) is not None}
 
-    def _run(self, st: State, n: int) -> TraceEntry:
+    def exec_run(self, st, n: int) -> TraceEntry:
         from ..osila import imitate
 
         t = self.template(st)
@@ -309,40 +314,59 @@ class Interpreter:
         raise HilaRuntimeError(f"expected a point, got {fmt_value(value)} from '{_src(expr)}'")
 
     def eval(self, e) -> Any:
-        if isinstance(e, (A.Number, A.String, A.Bool)):
-            return e.value
-        if isinstance(e, A.NoneLit):
-            return None
-        if isinstance(e, A.Var):
-            if e.slot not in self.env:
-                name = e.slot.rsplit(":", 1)[1]
-                raise HilaRuntimeError(f"'{name}' has no value yet (its 'let' has not run)")
-            value = self.env[e.slot]
-            for attr in e.attrs:
-                value = self._attr(value, attr)
-            return value
-        if isinstance(e, A.Name):
-            return self.lookup(e.text)
-        if isinstance(e, A.Vector):
-            items = [self.eval(i) for i in e.items]
-            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items):
-                raise HilaRuntimeError(f"a point's coordinates must be numbers in '{_src(e)}'")
-            return np.array(items, dtype=float)
-        if isinstance(e, A.Unary):
-            v = self.eval(e.operand)
-            if e.op == "not":
-                return not self._bool(v, e.operand)
-            return -self._number_or_point(v, e)
-        if isinstance(e, A.Binary):
-            return self._binary(e)
-        if isinstance(e, A.Ask):
-            args = [self.eval(a) for a in e.args]
-            return _plain(self.world.query(e.name, *args))
-        raise HilaRuntimeError(f"cannot evaluate {e!r}")  # pragma: no cover
+        """The value of expression ``e`` now (see :class:`_Eval`)."""
+        return self._eval.visit(e)
+
+
+class _Eval(A.Visitor):
+    """Expression evaluation against an interpreter's variables, scene and world."""
+
+    def __init__(self, interp: "Interpreter") -> None:
+        self.it = interp
+
+    def generic_visit(self, e):  # pragma: no cover - every expression has its method
+        raise HilaRuntimeError(f"cannot evaluate {e!r}")
+
+    def visit_Number(self, e):
+        return e.value
+
+    visit_String = visit_Bool = visit_Number
+
+    def visit_NoneLit(self, e):
+        return None
+
+    def visit_Var(self, e):
+        env = self.it.env
+        if e.slot not in env:
+            name = e.slot.rsplit(":", 1)[1]
+            raise HilaRuntimeError(f"'{name}' has no value yet (its 'let' has not run)")
+        value = env[e.slot]
+        for attr in e.attrs:
+            value = self._attr(value, attr)
+        return value
+
+    def visit_Name(self, e):
+        return self.it.lookup(e.text)
+
+    def visit_Vector(self, e):
+        items = [self.visit(i) for i in e.items]
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items):
+            raise HilaRuntimeError(f"a point's coordinates must be numbers in '{_src(e)}'")
+        return np.array(items, dtype=float)
+
+    def visit_Unary(self, e):
+        v = self.visit(e.operand)
+        if e.op == "not":
+            return not self._bool(v, e.operand)
+        return -self._number_or_point(v, e)
+
+    def visit_Ask(self, e):
+        args = [self.visit(a) for a in e.args]
+        return _plain(self.it.world.query(e.name, *args))
 
     def _attr(self, value, attr: str):
         if isinstance(value, str):
-            return self.lookup(f"{value}.{attr}")
+            return self.it.lookup(f"{value}.{attr}")
         if isinstance(value, np.ndarray) and attr in ("x", "y", "z") and value.shape[0] > "xyz".index(attr):
             return float(value["xyz".index(attr)])
         raise HilaRuntimeError(f"{fmt_value(value)} has no part '.{attr}'")
@@ -354,18 +378,18 @@ class Interpreter:
 
     def _number_or_point(self, v, expr):
         if isinstance(v, str):
-            v = self.lookup(v)
+            v = self.it.lookup(v)
         if isinstance(v, (int, float, np.ndarray)) and not isinstance(v, bool):
             return v
         raise HilaRuntimeError(f"expected a number or a point, got {fmt_value(v)} in '{_src(expr)}'")
 
-    def _binary(self, e: A.Binary):
+    def visit_Binary(self, e: A.Binary):
         if e.op in ("and", "or"):
-            left = self._bool(self.eval(e.left), e.left)
+            left = self._bool(self.visit(e.left), e.left)
             if (e.op == "and" and not left) or (e.op == "or" and left):
                 return left
-            return self._bool(self.eval(e.right), e.right)
-        a, b = self.eval(e.left), self.eval(e.right)
+            return self._bool(self.visit(e.right), e.right)
+        a, b = self.visit(e.left), self.visit(e.right)
         if e.op in ("==", "!="):
             same = _equal(a, b)
             return same if e.op == "==" else not same

@@ -74,6 +74,15 @@ def parser():
     return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 
 
+@functools.lru_cache(maxsize=1)
+def expr_parser():
+    """The same grammar parsing one expression (``expr``), for FSM dumps read back."""
+    from lark import Lark
+
+    return Lark.open(str(grammar_path()), parser="lalr", start="expr", propagate_positions=True,
+                     maybe_placeholders=True)
+
+
 def read_source(path: str | os.PathLike) -> str:
     """Read a program file; OS failures are InputError, bad UTF-8 a syntax error at its line and column."""
     return decode_source(read_bytes(path, "program"), str(path))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 from lark import Token, Transformer, v_args
 from lark.exceptions import VisitError
 
@@ -204,6 +206,39 @@ def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
             raise inner from None
         raise
     return A.Program(items, file, text)
+
+
+_SLOT_OR_STRING = re.compile(r'"[^"\n]*"|\{([^{}"]*)\}')
+
+
+def parse_expr(text: str):
+    """Expression text as :func:`~hila_lang.language.ast.expr_text` writes it -> the expression.
+
+    Variables written as slots (``{main/mark:c}.tl``) come back as
+    :class:`~hila_lang.language.ast.Var`; anything that is not one expression is a
+    :class:`HilaSyntaxError`.
+    """
+    from .parser import expr_parser
+
+    slots: dict[str, str] = {}
+
+    def placeholder(m):
+        if m.group(1) is None:  # a string literal: left as it is
+            return m.group(0)
+        key = f"__slot{len(slots)}__"
+        slots[key] = m.group(1)
+        return key
+
+    source = _SLOT_OR_STRING.sub(placeholder, text)
+    from lark.exceptions import UnexpectedInput
+
+    try:
+        tree = expr_parser().parse(source)
+    except UnexpectedInput as exc:
+        raise HilaSyntaxError(f"not an expression: {text!r}", line=getattr(exc, "line", None),
+                              column=getattr(exc, "column", None)) from None
+    e = ToAst().transform(tree)
+    return A.map_names(e, lambda n: A.Var(slots[n.parts[0]], n.parts[1:], n.pos) if n.parts[0] in slots else n)
 
 
 #: deepest parse tree accepted (an ``if`` inside an ``if`` adds two levels, a parenthesis one or two)
