@@ -1,4 +1,9 @@
-"""Hierarchical generation (HILA): a sequence of (sub-)templates imitated and stitched together.
+"""Hierarchical generation (HILA): THE HILA step, and sequences of steps stitched together.
+
+:func:`hila_step` is the one step: bind a (sub-)template to scene points and the hand
+(:func:`bind`), run OSILA, begin exactly at the hand.  The interpreter runs every ``run`` state
+through it; :func:`generate` (``hila imitate``, ``hila eval --hila``) runs every step of a
+sequence through it, so the same step makes the same path in every command.
 
 A new task is a sequence of stored templates and sub-templates (a hierarchy is flattened into
 its sequence of leaves first, e.g. by the language's FSM).  :func:`generate` runs OSILA on each
@@ -114,32 +119,123 @@ def resolve(library: Mapping[str, Template], names: Sequence[str]) -> list[Templ
     return out
 
 
-def _pairs(step: Template, task: Mapping[str, Any], hand: np.ndarray | None, i: int) -> tuple[np.ndarray, np.ndarray, bool]:
-    """Template and task ICP arrays (K, D) for one step, and whether the start is bound."""
-    D = step.dim
-    scene = [n for n in step.icps if n not in (START, END)]
-    missing = [n for n in scene if n not in task]
+@dataclass
+class Step:
+    """One HILA step: a (sub-)template imitated against bound scene points.
+
+    Attributes
+    ----------
+    path : ndarray, shape (T, D)
+        The generated path; it begins exactly at the hand when ``"start"`` was bound.
+    icps : dict[str, ndarray]
+        The task ICPs used, name -> point (D,), in the template's ICP order.
+    start_bound : bool
+        Whether the template's ``"start"`` ICP was bound (to the hand, or by the caller).
+    result : OsilaResult
+        What OSILA did (warp kind, threshold, rounds, added constraint pairs).
+    """
+
+    path: np.ndarray
+    icps: dict[str, np.ndarray]
+    start_bound: bool
+    result: Any
+
+
+def _fmt(p) -> str:
+    return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
+
+
+def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> dict[str, np.ndarray]:
+    """Task ICPs of one step: name -> point (D,), in the template's ICP order.
+
+    ``task_icps`` maps ICP names to points; a value of None leaves that ICP out on purpose, and
+    every scene ICP of the template must be named.  ``"start"`` is ``task_icps["start"]`` when
+    given, else ``hand``; ``"end"`` only when given.  Raises :class:`InputError` for a missing
+    scene ICP, a point of the wrong size, or nothing bound at all.
+    """
+    D = template.dim
+    missing = [n for n in template.icps if n not in (START, END) and n not in task_icps]
     if missing:
-        raise InputError(
-            f"step {i} ({step.name}): task gives no ICP {missing[0]!r}; "
-            f"template has {', '.join(step.icps)}; task gives {', '.join(task) or 'none'}"
-        )
-    names = list(scene)
-    targets = [check_points(task[n], D, f"task ICP {n!r}")[0] for n in scene]
-    start_bound = False
-    if START in step.icps:
-        where = hand if hand is not None else task.get(START)
-        if where is not None:
-            names.append(START)
-            targets.append(check_points(where, D, "start point")[0])
-            start_bound = True
-    if END in step.icps and END in task:
-        names.append(END)
-        targets.append(check_points(task[END], D, "task ICP 'end'")[0])
-    if not names:
-        raise InputError(f"step {i} ({step.name}): no ICP is bound; template has {', '.join(step.icps) or 'none'}")
-    src = np.array([step.icps[n] for n in names])
-    return src, np.array(targets), start_bound
+        raise InputError(f"task gives no ICP {missing[0]!r}; template has {', '.join(template.icps)}; "
+                         f"task gives {', '.join(task_icps) or 'none'}")
+    out: dict[str, np.ndarray] = {}
+    for name in template.icps:
+        point = hand if name == START and START not in task_icps else task_icps.get(name)
+        if point is None:
+            continue
+        arr = np.asarray(point, dtype=float).reshape(-1)
+        if arr.shape != (D,):
+            raise InputError(f"template '{template.name}' is {D}-D but ICP '{name}' is bound to the "
+                             f"{arr.size}-D point {_fmt(arr)}")
+        out[name] = check_points(arr, D, f"ICP {name!r}")[0]
+    if not out:
+        raise InputError(f"no ICP of '{template.name}' is bound; bind at least one "
+                         f"(it has {', '.join(template.icps) or 'none'})")
+    return out
+
+
+def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None, *, forced: Any = None,
+              obstacles: Any = None, **options: Any) -> Step:
+    """THE HILA step: bind a (sub-)template to scene points and the hand, run OSILA.
+
+    The interpreter (every ``run`` state of ``hila exec``/``hila repl``), ``hila imitate`` and
+    ``hila eval --hila`` (through :func:`generate`) all generate a step here, so the same step
+    gives the same path everywhere.
+
+    Binding is :func:`bind`.  When ``"start"`` is bound, OSILA pins the first stamp to it
+    (``pin=(0,)`` unless the caller passes ``pin``), and the path is then made to begin exactly
+    there with :func:`start_at` (a sub-template whose start coincides with another template ICP
+    gets the two merged, so the pinned stamp can miss the hand by a fraction of a millimetre).
+
+    Parameters
+    ----------
+    template : Template
+        Usually a sub-template (:meth:`Template.sub`), which carries ``"start"``/``"end"``.
+    task_icps : mapping name -> (D,) or None
+        Scene points for the template's ICPs (metres); None leaves one out.
+    hand : array_like, shape (D,), optional
+        Where the hand is: binds ``"start"`` unless ``task_icps`` names it.
+    forced, obstacles, **options
+        As :func:`hila_lang.osila.imitate`.
+
+    Returns
+    -------
+    Step
+    """
+    from .osila import imitate_detailed
+
+    icps = bind(template, task_icps, hand)
+    names = list(icps)
+    start_bound = START in icps
+    src = np.array([template.icps[k] for k in names], dtype=float)
+    dst = np.array([icps[k] for k in names], dtype=float)
+    options = dict(options)
+    if start_bound:
+        options.setdefault("pin", (0,))
+    res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
+    path = np.asarray(res.path, dtype=float)
+    if start_bound:
+        # TODO(osila exact pin): when osila.imitate can pin a bound start/end ICP to an exact
+        # point, pass it here and drop this fade.  This line and the pin above are the one place.
+        path = start_at(path, icps[START])
+    return Step(path, icps, start_bound, res)
+
+
+def start_at(path: np.ndarray, start: np.ndarray, fraction: float = 0.25) -> np.ndarray:
+    """Make ``path`` (T, D) begin exactly at ``start`` (D,) without a jump.
+
+    OSILA pins the start stamp to its mapped point, but when the template's start coincides with
+    another template ICP (a sub-template that begins at an object it touched) the two are merged
+    and the mapped start can miss the hand by a fraction of a millimetre.  The offset is removed
+    at the first stamp and faded out smoothly (cosine) over the first ``fraction`` of the path.
+    """
+    offset = np.asarray(start, float) - path[0]
+    if not np.any(offset):
+        return path
+    n = max(int(len(path) * fraction), 1)
+    weights = np.zeros(len(path))
+    weights[:n] = 0.5 * (1 + np.cos(np.pi * np.arange(n) / n))
+    return path + weights[:, None] * offset[None, :]
 
 
 def _extent(path: np.ndarray) -> float:
@@ -192,17 +288,22 @@ def generate(
         raise InputError(f"expected every step in D = {D}, got {[s.dim for s in steps]}")
     hand = None if start is None else check_points(start, D, "start")[0]
     forced = forced or {}
-    options = {k: v for k, v in options.items() if k != "pin"}
+    options = {k: v for k, v in options.items() if k != "pin"}  # the step pins a bound start itself
     parts: list[np.ndarray] = []
     pieces: list[Piece] = []
     clocks: list[np.ndarray] | None = [] if all(s.times is not None for s in steps) else None
     clock = 0.0
     for i, (step, task) in enumerate(zip(steps, tasks)):
-        src, dst, pinned = _pairs(step, task, hand, i)
-        res = imitate_detailed(
-            step.path, src, dst, forced=forced.get(i), obstacles=obstacles, pin=(0,) if pinned else (), **options
-        )
-        piece, skip = res.path, 0
+        if hand is not None:  # the hand, once known, binds "start" (a task's own "start" does not)
+            task = {k: v for k, v in task.items() if k != START}
+        try:
+            done = hila_step(step, task, hand, forced=forced.get(i), obstacles=obstacles, **options)
+        except InputError as exc:
+            exc.message = f"step {i} ({step.name}): {exc.message}"
+            exc.args = (exc.message,)
+            raise
+        res, pinned = done.result, done.start_bound
+        piece, skip = done.path, 0
         # A pinned start is the hand, i.e. the previous piece's last point: keep that joint once.
         # (The warp meets it only to rounding, or to the merge of coincident ICPs.)
         if parts and (pinned or np.allclose(piece[0], parts[-1][-1], rtol=0, atol=1e-9 * _extent(piece))):
@@ -222,7 +323,7 @@ def generate(
                   res.threshold, res.rounds, len(res.added))
         )
         parts.append(piece)
-        hand = res.path[-1]
+        hand = done.path[-1]
     path = np.vstack(parts)
     times = None if clocks is None else np.concatenate(clocks)
     return Generated(path, pieces, times)

@@ -12,7 +12,8 @@ from hila_lang.errors import HilaRuntimeError, InputError
 from hila_lang.language import load_program
 from hila_lang.language import plugins
 from hila_lang.language.dry import DryBackend
-from hila_lang.language.interpreter import Interpreter, start_at
+from hila_lang.hierarchy import start_at
+from hila_lang.language.interpreter import Interpreter
 from hila_lang.language.scripted import ScriptedWorld
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -6,8 +6,9 @@
 
 A ``run`` state evaluates its bindings against the scene (variables, ``hand`` = where the back
 end says the hand is, the program's ``point`` s, then the world's ``points()``), warps the
-(sub-)template with :func:`hila_lang.osila.imitate` — its ``start`` ICP bound to the hand and
-pinned there unless the program binds it (see :func:`start_at`) — moves the back end along the path, and calls
+(sub-)template with :func:`hila_lang.hierarchy.hila_step` (the one HILA step, shared with
+``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
+binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
 (``template`` is the sub-template that ran).
 
@@ -203,8 +204,12 @@ class Interpreter:
             self._subs[key] = t if st.tag is None else t.sub(st.tag)
         return self._subs[key]
 
-    def bind(self, st: State) -> dict[str, np.ndarray]:
-        """Task ICPs of a run state: name -> point (3,), in the template's ICP order."""
+    def scene_binding(self, st) -> dict[str, np.ndarray | None]:
+        """What a run state's bindings say now: ICP name -> point, or None (``icp = none``).
+
+        ``start`` appears only when the program binds it; :func:`hila_lang.hierarchy.hila_step`
+        binds it to the hand otherwise.
+        """
         t = self.template(st)
         scene = [k for k in t.icps if k not in (START, END)]
         out: dict[str, np.ndarray | None] = {}
@@ -224,37 +229,25 @@ class Interpreter:
             for k in scene:
                 if k not in out:
                     out[k] = self.lookup(f"{prefix}.{k}")
-        if START in t.icps and START not in out:
-            out[START] = self.hand()
-        return {k: out[k] for k in t.icps if out.get(k) is not None}
+        return out
+
+    def bind(self, st) -> dict[str, np.ndarray]:
+        """Task ICPs of a run state: name -> point (3,), in the template's ICP order."""
+        from ..hierarchy import bind
+
+        return bind(self.template(st), self.scene_binding(st), self.hand())
 
     def exec_run(self, st, n: int) -> TraceEntry:
-        from ..osila import imitate
+        from ..hierarchy import hila_step
 
         t = self.template(st)
-        icps = self.bind(st)
-        if not icps:
-            raise HilaRuntimeError(f"no ICP of '{st.ref}' is bound; bind at least one")
-        names = list(icps)
-        src = np.array([t.icps[k] for k in names], dtype=float)
-        for k in names:
-            if len(icps[k]) != src.shape[1]:
-                raise HilaRuntimeError(f"template '{st.ref}' is {src.shape[1]}-D but ICP '{k}' is bound to "
-                                       f"the {len(icps[k])}-D point {fmt_point(icps[k])}")
-        dst = np.array([icps[k] for k in names], dtype=float)
-        options = dict(self.osila_options)
-        if START in icps and "pin" not in options:
-            options["pin"] = (0,)
-        path = np.asarray(imitate(t.path, src, dst, **options), dtype=float)
-        if START in icps:
-            path = start_at(path, icps[START])
+        step = hila_step(t, self.scene_binding(st), self.hand(), **self.osila_options)
+        path, icps = step.path, step.icps
         executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         executed = None if executed is None else np.asarray(executed, dtype=float)
         self.last_path, self.last_icps = path, icps
-        notify = getattr(self.world, "notify", None)
-        if callable(notify):
-            notify("state_done", state=st.name, path=path, executed=executed, kind="run",
-                   pen_down=bool(st.pen_down), icps=dict(icps), template=t)
+        self.world.notify("state_done", state=st.name, path=path, executed=executed, kind="run",
+                          pen_down=bool(st.pen_down), icps=dict(icps), template=t)
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()))
@@ -405,23 +398,6 @@ class _Eval(A.Visitor):
         if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape != b.shape:
             raise HilaRuntimeError(f"points of different sizes in '{_src(e)}'")
         return {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b, "/": lambda: a / b}[e.op]()
-
-
-def start_at(path: np.ndarray, start: np.ndarray, fraction: float = 0.25) -> np.ndarray:
-    """Make ``path`` (T, D) begin exactly at ``start`` (D,) without a jump.
-
-    OSILA pins the start stamp to its mapped point, but when the template's start coincides with
-    another template ICP (a sub-template that begins at an object it touched) the two are merged
-    and the mapped start can miss the hand by a fraction of a millimetre.  The offset is removed
-    at the first stamp and faded out smoothly (cosine) over the first ``fraction`` of the path.
-    """
-    offset = np.asarray(start, float) - path[0]
-    if not np.any(offset):
-        return path
-    n = max(int(len(path) * fraction), 1)
-    weights = np.zeros(len(path))
-    weights[:n] = 0.5 * (1 + np.cos(np.pi * np.arange(n) / n))
-    return path + weights[:, None] * offset[None, :]
 
 
 def _src(expr) -> str:
