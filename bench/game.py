@@ -54,12 +54,12 @@ def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float,
 
 def series(n: int, out: Path) -> list[tuple[float, float, dict]]:
     """``n`` games in this process: (wall s, RSS MB after the game, report) per game."""
-    from hila_lang.language.plugins import RunOptions
+    from hila_lang.plugins.options import RunOptions
     from hila_lang.language.runner import finish, prepare
 
     rows = []
     for k in range(n):
-        options = RunOptions(seed=k, out=out / f"s{k}", opponent=("random", "minimax")[k % 2],
+        options = RunOptions(seed=k, out=out / f"s{k}", settings={"opponent": ("random", "minimax")[k % 2]},
                              stdin=io.StringIO(), stdout=io.StringIO())
         t0 = time.perf_counter()
         interp = prepare(PROGRAM, options, "pybullet")

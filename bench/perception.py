@@ -33,7 +33,8 @@ import numpy as np
 
 from hila_lang.fileio import load_yaml
 from hila_lang.perception.learn import template_from_frames
-from hila_lang.perception.recording import record_demonstration
+from hila_lang.worlds.tictactoe.recording import record_demonstration
+from hila_lang.worlds.tictactoe.vision import demonstration_icps
 
 
 def run(seed: int, folder: Path) -> dict:
@@ -41,7 +42,7 @@ def run(seed: int, folder: Path) -> dict:
     record_demonstration(folder, seed, overwrite=True)
     t_record = time.perf_counter() - t0
     t0 = time.perf_counter()
-    template, perc = template_from_frames(folder, return_perception=True)
+    template, perc = template_from_frames(folder, read_icps=demonstration_icps, return_perception=True)
     t_pipe = time.perf_counter() - t0
     truth = load_yaml(folder / "truth.yaml")
     gt = np.array(truth["path"])
@@ -49,12 +50,12 @@ def run(seed: int, folder: Path) -> dict:
     err_tpl = np.linalg.norm(template.path - gt, axis=1) * 1000
     K = np.array(truth["K"])
     icp_err = {k: float(np.linalg.norm(template.icps[k] - np.array(truth["icps"][k])) * 1000) for k in template.icps}
-    from hila_lang.games.demonstration import demonstrate
+    from hila_lang.worlds.tictactoe.demonstration import demonstrate
 
     phases = demonstrate(seed).phases
     return {
         "seed": seed, "frames": len(gt), "median": float(np.median(err)), "p95": float(np.percentile(err, 95)),
-        "max": float(err.max()), "tpl": (float(np.median(err_tpl)), float(err_tpl.max())), "icp": icp_err, "cell": (perc.cell, truth["cell"]),
+        "max": float(err.max()), "tpl": (float(np.median(err_tpl)), float(err_tpl.max())), "icp": icp_err, "cell": (perc.icp_reading.detail["cell"], truth["cell"]),
         "rms": {e: c.rms for e, c in perc.calibration.items()},
         "dK": {e: np.abs(np.array([c.K[0, 0], c.K[1, 1], c.K[0, 2], c.K[1, 2]])
                          - [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]).max() for e, c in perc.calibration.items()},

@@ -26,10 +26,10 @@ import time
 import numpy as np
 
 from hila_lang.robot.backend import PyBulletBackend
-from hila_lang.robot.scene import SceneSpec, cell_center
+from hila_lang.worlds.tictactoe.board import Grid, cell_center
 
 
-def circle(scene: SceneSpec, cell: int, radius: float, n: int) -> np.ndarray:
+def circle(scene: Grid, cell: int, radius: float, n: int) -> np.ndarray:
     right, far = scene.axes()
     angle = np.linspace(0.0, 2.0 * np.pi, n + 1)
     return cell_center(scene, cell) + radius * (np.cos(angle)[:, None] * right + np.sin(angle)[:, None] * far)
@@ -51,14 +51,15 @@ def main() -> None:
     args = ap.parse_args()
 
     clock = time.perf_counter()
-    robot = PyBulletBackend(SceneSpec.game(), arm="ready")
+    board = Grid.game()
+    robot = PyBulletBackend(board.paper(), arm="ready")
     load = time.perf_counter() - clock
     lift = np.array([0.0, 0.0, 0.02])
     tracking, deviation = [], []
     draw_wall = draw_sim = draw_cpu = 0.0
     with robot:
         for cell in range(1, 10):
-            planned = circle(robot.scene, cell, 0.03, args.points)
+            planned = circle(board, cell, 0.03, args.points)
             robot.move(np.array([robot.hand_position() + lift, planned[0] + lift, planned[0]]), label=f"reach {cell}")
             clock, cpu = time.perf_counter(), time.process_time()
             robot.move(planned, pen_down=True, label=f"circle {cell}")
@@ -74,11 +75,11 @@ def main() -> None:
         stats = dict(robot.stats)
         robot.stats["renders"] = robot.stats["render_seconds"] = 0
         for _ in range(args.renders):
-            robot.camera_image("left")
+            robot.eyes.camera_image("left")
         eye_ms = robot.stats["render_seconds"] / args.renders * 1e3
         robot.stats["renders"] = robot.stats["render_seconds"] = 0
         for _ in range(args.renders):
-            robot.top_view_image(480)
+            robot.overview.top_view_image(480)
         top_ms = robot.stats["render_seconds"] / args.renders * 1e3
 
     tracking_mm = np.concatenate(tracking) * 1e3

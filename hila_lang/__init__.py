@@ -11,7 +11,7 @@ Stages, one module or folder each:
 - ``hila_lang.robot``        the iCub in PyBullet: scene, pen, IK, cameras
 - ``hila_lang.perception``   stereo recording, calibration, marker extraction, triangulation
 - ``hila_lang.evaluation``   Experiment A (``hila eval``)
-- ``hila_lang.games``        tic-tac-toe (Experiment B)
+- ``hila_lang.worlds``       worlds: scripted (tests), tictactoe (Experiment B)
 """
 
 __version__ = "0.1.0"

@@ -6,8 +6,11 @@ Each sub-command lives in ``hila_lang/commands/<name>.py`` and exposes
 - ``add_arguments(parser)``: its options (module top level imports nothing heavy);
 - ``run(args) -> int``: the work; heavy imports (pybullet, sklearn, cv2) happen in here.
 
-Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input.  Any
-:class:`~hila_lang.errors.HilaError` is printed as a message, never as a traceback.
+Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input, 3 an internal error.
+Any :class:`~hila_lang.errors.HilaError` is printed as a message, never as a traceback.  Any
+other exception (raised by hila, a plug-in or OSILA) is a bug: it is reported as an internal
+error that says where it was raised and whom to report it to, with exit status 3; ``--debug``
+prints its traceback too.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import sys
 import textwrap
 
 from . import __version__
-from .errors import EXIT_BAD_INPUT, EXIT_RUN_FAILED, HilaError
+from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_RUN_FAILED, HilaError
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
@@ -59,15 +62,20 @@ def build_parser() -> argparse.ArgumentParser:
             "sequences and hierarchies of its pieces (HILA-OSILA, Wu & Demiris 2010)."
         ),
         epilog="Run 'hila COMMAND --help' for a command's options. "
-        "Exit status: 0 ok, 1 run failed, 2 bad input.",
+        "Exit status: 0 ok, 1 run failed, 2 bad input, 3 internal error (a bug in hila or a "
+        "plug-in: the message says where to report it; add --debug for the traceback).",
     )
     parser.add_argument("--version", action="version", version=f"hila {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an internal error (exit 3), print the Python traceback too")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
         module = _command_module(name)
         cmd = sub.add_parser(name, help=module.HELP, description=_description(module),
                              formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(cmd)
+        cmd.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                         help="on an internal error (exit 3), print the Python traceback too")
         cmd.set_defaults(_run=module.run)
     return parser
 
@@ -92,6 +100,15 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_RUN_FAILED
+    except Exception as exc:  # noqa: BLE001 - a bug: say so, say where, exit 3
+        from .errors import internal_error_message
+
+        if getattr(args, "debug", False):
+            import traceback
+
+            traceback.print_exc(file=sys.stderr)
+        print(f"hila: {internal_error_message(exc)}", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 def entry() -> None:  # pragma: no cover - thin wrapper for python -m

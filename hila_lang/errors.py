@@ -7,7 +7,11 @@ known.  Subclasses say which stage raised it and which exit status the CLI retur
 - exit 2 (bad input): :class:`InputError` (also a ``ValueError``), :class:`HilaSyntaxError`,
   :class:`CheckError`
 - exit 1 (a run that failed): :class:`HilaRuntimeError` and its subclasses
-  :class:`ConstraintError` (contradicted constraints) and :class:`UnreachableError`
+  :class:`ConstraintError` (contradicted constraints), :class:`UnreachableError` and
+  :class:`UnknownNameError` (a program asks a world for a question or event it does not have)
+- exit 3 (an internal error): anything else -- a ``KeyError``, ``TypeError``, ... raised by hila,
+  a plug-in or OSILA is a bug, not a user error.  The CLI says so, names where it was raised and
+  where to report it; ``hila --debug ...`` shows the traceback (:func:`internal_error_message`).
 """
 
 from __future__ import annotations
@@ -15,6 +19,10 @@ from __future__ import annotations
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1
 EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3
+
+#: where a user reports an internal error of hila itself
+REPORT_TO = "the hila maintainers (the issue tracker of the project hila-lang)"
 
 
 class HilaError(Exception):
@@ -94,3 +102,74 @@ class ConstraintError(HilaRuntimeError):
 
 class UnreachableError(HilaRuntimeError):
     """The robot cannot reach a target point."""
+
+
+class UnknownNameError(HilaRuntimeError):
+    """A world (or a plug-in) was asked for a name it does not have: ``ask NAME`` or ``wait NAME``.
+
+    Parameters
+    ----------
+    kind : str
+        ``"question"`` or ``"event"``.
+    name : str
+    known : iterable of str
+        The names it does have (for the list and the "did you mean").
+    owner : str
+        Who was asked, e.g. ``"world tictactoe"``.
+    """
+
+    def __init__(self, kind: str, name: str, known=(), owner: str = "the world", **kwargs) -> None:
+        import difflib
+
+        known = sorted(known)
+        close = difflib.get_close_matches(name, known, n=1)
+        hint = f"did you mean '{close[0]}'?" if close else (f"its {kind}s: {', '.join(known)}" if known else None)
+        super().__init__(f"{owner} has no {kind} '{name}'", hint=kwargs.pop("hint", hint), **kwargs)
+        self.kind, self.name, self.known = kind, name, known
+
+
+def internal_error_message(exc: BaseException) -> str:
+    """What the CLI prints for an exception that is not a :class:`HilaError`: that it is a bug,
+    where it was raised (the innermost frame) and whom to report it to -- hila's maintainers, or
+    a plug-in's authors when the innermost frame of the package belongs to another distribution.
+    """
+    import traceback
+
+    frames = traceback.extract_tb(exc.__traceback__)
+    where = ""
+    module = ""
+    if frames:
+        last = frames[-1]
+        where = f"\n  raised in {last.filename}:{last.lineno}, in {last.name}"
+        tb = exc.__traceback__
+        while tb.tb_next is not None:
+            tb = tb.tb_next
+        module = tb.tb_frame.f_globals.get("__name__", "")
+    owner = _distribution(module)
+    if owner is None or owner.lower().replace("_", "-") == "hila-lang":
+        blame = ("This is a bug in hila, not a mistake in your program or data.\n"
+                 f"Please report it to {REPORT_TO} with the command you ran and the output of "
+                 "the same command with 'hila --debug'.")
+    else:
+        blame = (f"This is a bug in the plug-in module {module!r} (distribution {owner!r}), not in your "
+                 f"program or data.\nPlease report it to that plug-in's authors with the command you ran "
+                 "and the output of the same command with 'hila --debug'.")
+    kind = type(exc).__name__
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"internal error: {kind}{': ' + text if text else ''}{where}\n{blame}"
+
+
+def _distribution(module: str) -> str | None:
+    """The installed distribution that provides the top-level package of ``module``, or None."""
+    if not module:
+        return None
+    top = module.split(".")[0]
+    if top == "hila_lang":
+        return "hila-lang"
+    try:
+        from importlib.metadata import packages_distributions
+
+        dists = packages_distributions().get(top)
+    except Exception:  # noqa: BLE001 - best effort: the message must still be printed
+        return None
+    return dists[0] if dists else None

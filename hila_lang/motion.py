@@ -1,6 +1,6 @@
 """Human-like motion profiles shared by the demonstration generators.
 
-The stand-in demonstrations (tic-tac-toe in :mod:`hila_lang.games.demonstration`, Experiment A in
+The stand-in demonstrations (tic-tac-toe in :mod:`hila_lang.worlds.tictactoe.demonstration`, Experiment A in
 :mod:`hila_lang.evaluation.dataset`, the A-B-C and reach templates in
 :mod:`hila_lang.language.demos`) move along their curves with a human arm's speed profile.
 """

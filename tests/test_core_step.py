@@ -23,9 +23,9 @@ from hila_lang.hierarchy import bind, generate, hila_step
 from hila_lang.language import load_program
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.osila import imitate
-from hila_lang.language.dry import DryBackend
+from hila_lang.robot.dry import DryBackend
 from hila_lang.template import Segment, Template
-from hila_lang.language.scripted import ScriptedWorld
+from hila_lang.worlds.scripted.world import ScriptedWorld
 
 ROOT = Path(__file__).resolve().parent.parent
 

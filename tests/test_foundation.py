@@ -137,26 +137,6 @@ def test_grammar_is_found():
     assert grammar_path().read_text().strip()
 
 
-@pytest.mark.parametrize("world_name", ["scripted", "tictactoe"])
-def test_registered_worlds_and_back_ends_keep_the_interfaces(world_name):
-    # hila_lang.interfaces is the contract plug-ins are written to: every registered world and
-    # back end must satisfy it.
-    from hila_lang.interfaces import Backend, World
-    from hila_lang.language.plugins import BACKENDS, WORLDS, RunOptions, backend_factory, make_world
-
-    assert set(WORLDS) == {"scripted", "tictactoe"} and set(BACKENDS) == {"dry", "pybullet"}
-    options = RunOptions()
-    world = make_world(world_name, options)
-    assert isinstance(world, World)
-    for kind in BACKENDS:
-        backend = backend_factory(kind)(world, options)
-        try:
-            assert isinstance(backend, Backend) and backend.name == kind
-            assert np.asarray(backend.hand_position()).shape == (3,)
-        finally:
-            backend.close()
-
-
 def test_unwritable_output_path_is_a_message_not_a_traceback(tmp_path, capsys):
     data = Path(__file__).parent / "data" / "core"
     blocker = tmp_path / "a_file"

@@ -7,16 +7,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.games.demonstration import ICP_NAMES, TAGS, demonstrate, main, make_circle_template
+from hila_lang.worlds.tictactoe.demonstration import ICP_NAMES, TAGS, demonstrate, main, make_circle_template
 from hila_lang.motion import minimum_jerk_samples
-from hila_lang.robot.scene import SceneSpec, cell_at
+from hila_lang.worlds.tictactoe.board import Grid, cell_at
 from hila_lang.template import load_template
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _polar(demo):
-    spec = SceneSpec.demonstration()
+    spec = Grid.demonstration()
     circle = spec.world_to_grid(demo.path[demo.contact])
     # least-squares (Kasa) circle fit: x^2 + y^2 = 2 a x + 2 b y + c
     A = np.column_stack([2 * circle, np.ones(len(circle))])
@@ -41,7 +41,7 @@ def test_minimum_jerk_profile():
 @pytest.mark.parametrize("seed", range(6))
 def test_demonstration_is_a_hand_drawn_circle_in_its_cell(seed):
     demo = demonstrate(seed)
-    spec = SceneSpec.demonstration()
+    spec = Grid.demonstration()
     assert set(demo.icps) == set(ICP_NAMES)
     np.testing.assert_allclose(demo.path[0], demo.icps["hand"])
     # the pen is on the paper exactly while drawing, above it otherwise

@@ -8,8 +8,8 @@ import random
 import pytest
 
 from hila_lang.errors import HilaRuntimeError, InputError
-from hila_lang.games import tictactoe as ttt
-from hila_lang.games.opponents import HumanOpponent, MinimaxOpponent, RandomOpponent, make_opponent
+from hila_lang.worlds.tictactoe import rules as ttt
+from hila_lang.worlds.tictactoe.opponents import HumanOpponent, MinimaxOpponent, RandomOpponent, make_opponent
 
 
 def _board(text: str) -> ttt.Board:

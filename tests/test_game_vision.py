@@ -1,10 +1,10 @@
 """Whole games of programs/game.hila on the PyBullet iCub, checked by vision.
 
 During the game the robot reads the board through its own eyes before each of its moves
-(``hila_lang.games.vision``): the cell corners it perceives (the ICPs it binds) are within 2 mm
+(``hila_lang.worlds.tictactoe.vision``): the cell corners it perceives (the ICPs it binds) are within 2 mm
 of the true ones and the board it plays on is the true board; a misread is a clear error.
 
-After the game the robot's own eye camera reads the final board (``hila_lang.perception.board.read_board``,
+After the game the robot's own eye camera reads the final board (``hila_lang.worlds.tictactoe.reading.read_board``,
 OpenCV): which cells hold a circle and which a cross must equal the game's own board.  The
 paper's ink (the texture the cameras see) shows every circle inside its cell.  The robot never
 loses and every drawn circle correlates with the demonstrated one (R >= 0.95).
@@ -23,12 +23,12 @@ pytest.importorskip("pybullet")
 cv2 = pytest.importorskip("cv2")
 
 from hila_lang.errors import HilaRuntimeError  # noqa: E402
-from hila_lang.games import tictactoe as ttt  # noqa: E402
-from hila_lang.language.plugins import RunOptions  # noqa: E402
+from hila_lang.worlds.tictactoe import rules as ttt  # noqa: E402
+from hila_lang.plugins.options import RunOptions  # noqa: E402
 from hila_lang.language.runner import finish, prepare  # noqa: E402
-from hila_lang.perception.board import read_board  # noqa: E402
-from hila_lang.robot.ink import PIXELS_PER_METRE  # noqa: E402
-from hila_lang.robot.scene import cell_at, cell_corners  # noqa: E402
+from hila_lang.worlds.tictactoe.reading import read_board  # noqa: E402
+from hila_lang.sim.canvas import PIXELS_PER_METRE  # noqa: E402
+from hila_lang.worlds.tictactoe.board import cell_at, cell_corners  # noqa: E402
 
 PROGRAM = Path(__file__).resolve().parents[1] / "programs" / "game.hila"
 
@@ -55,14 +55,14 @@ def robot_ink_cells(ink_rgb: np.ndarray, scene) -> list[set]:
 @pytest.mark.parametrize("seed, opponent", [(0, "random"), (0, "minimax"), (1, "random"), (1, "minimax"),
                                             (4, "random"), (4, "minimax"), (11, "minimax")])
 def test_whole_game_read_by_the_robots_eye(tmp_path, seed, opponent):
-    options = RunOptions(seed=seed, out=tmp_path / "out", opponent=opponent,
+    options = RunOptions(seed=seed, out=tmp_path / "out", settings={"opponent": opponent},
                          stdin=io.StringIO(), stdout=io.StringIO())
     interp = prepare(PROGRAM, options, "pybullet")
     try:
         interp.run()
         world, backend = interp.world, interp.backend
-        eye = backend.camera_image("left")
-        ink = backend.ink_image()
+        eye = backend.eyes.camera_image("left")
+        ink = backend.ink.ink_image()
         points = world.points()
     finally:
         report = finish(interp)
@@ -71,10 +71,10 @@ def test_whole_game_read_by_the_robots_eye(tmp_path, seed, opponent):
     if opponent == "minimax":
         assert report["result"] == "draw"
     # vision: the eye camera's reading of the final board equals the game's board
-    reading = read_board(eye, world.scene.surface_z)
+    reading = read_board(eye, world.spec.surface_z)
     assert reading.marks == list(world.board)
     # vision: each circle of ink lies inside exactly one cell, one circle per robot move
-    blobs = robot_ink_cells(ink, world.scene)
+    blobs = robot_ink_cells(ink, world.spec)
     robot_cells = sorted(m["cell"] for m in report["moves"] if m["player"] == "robot")
     assert all(len(b) == 1 and None not in b for b in blobs), blobs
     assert sorted(next(iter(b)) for b in blobs) == robot_cells
@@ -92,7 +92,7 @@ def test_whole_game_read_by_the_robots_eye(tmp_path, seed, opponent):
             true_board = ttt.play(true_board, move["cell"], move["mark"])
         assert tuple(sight["board"]) == true_board, sight["views"]
         error = max(np.linalg.norm(sight["corners"][c][n] - p)
-                    for c in range(1, 10) for n, p in cell_corners(world.scene, c).items())
+                    for c in range(1, 10) for n, p in cell_corners(world.spec, c).items())
         assert error < 2e-3, error
     # the ICPs the program binds are the perceived corners
     last = world.sightings[-1]["corners"]
@@ -107,7 +107,7 @@ def test_whole_game_read_by_the_robots_eye(tmp_path, seed, opponent):
 
 def test_a_misread_board_is_a_clear_error_naming_the_cell(tmp_path, monkeypatch):
     """The eyes miss the opponent's cross: the robot stops instead of playing on a wrong board."""
-    from hila_lang.perception import board as board_vision
+    from hila_lang.worlds.tictactoe import reading as board_vision
 
     real = board_vision.read_board
 
@@ -117,7 +117,7 @@ def test_a_misread_board_is_a_clear_error_naming_the_cell(tmp_path, monkeypatch)
         return reading
 
     monkeypatch.setattr(board_vision, "read_board", drop_crosses)
-    options = RunOptions(seed=2, out=tmp_path / "out", opponent="random", settings={"first": "opponent"},
+    options = RunOptions(seed=2, out=tmp_path / "out", settings={"opponent": "random", "first": "opponent"},
                          stdin=io.StringIO(), stdout=io.StringIO())
     interp = prepare(PROGRAM, options, "pybullet")
     try:

@@ -10,20 +10,25 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import HilaRuntimeError, InputError
-from hila_lang.games import tictactoe as ttt
-from hila_lang.games.world import TicTacToeWorld
-from hila_lang.language.plugins import RunOptions
+from hila_lang.errors import HilaRuntimeError, InputError, UnknownNameError
+from hila_lang.worlds.tictactoe import rules as ttt
+from hila_lang.worlds.tictactoe import WORLD
+from hila_lang.plugins.options import RunOptions
 from hila_lang.language.runner import finish, prepare
-from hila_lang.robot.scene import cell_at
+from hila_lang.worlds.tictactoe.board import cell_at
 
 ROOT = Path(__file__).resolve().parents[1]
 PROGRAM = ROOT / "programs" / "game.hila"
 
 
 def _options(tmp_path, seed=0, opponent="minimax", stdin="", **settings):
-    return RunOptions(seed=seed, out=tmp_path / f"out{seed}{opponent}", opponent=opponent,
-                      settings=settings, stdin=io.StringIO(stdin), stdout=io.StringIO())
+    return RunOptions(seed=seed, out=tmp_path / f"out{seed}{opponent}", settings={"opponent": opponent, **settings},
+                      stdin=io.StringIO(stdin), stdout=io.StringIO())
+
+
+def _world(tmp_path, **settings):
+    options = _options(tmp_path, **settings)
+    return WORLD.build(options, WORLD.parse(options.settings))
 
 
 def play(tmp_path, seed=0, opponent="minimax", stdin="", **settings):
@@ -93,8 +98,8 @@ def test_same_seed_same_game_other_seed_other_park(tmp_path):
     np.testing.assert_array_equal(a.states[3]["planned"], b.states[3]["planned"])
     assert not np.allclose(a.park, c.park)
     for w in (a, c):  # parked above the grid
-        assert cell_at(w.scene, w.park) is not None
-        assert 0.08 <= w.park[2] - w.scene.surface_z <= 0.13
+        assert cell_at(w.spec, w.park) is not None
+        assert 0.08 <= w.park[2] - w.spec.surface_z <= 0.13
 
 
 def test_output_folder(tmp_path):
@@ -139,28 +144,31 @@ def test_human_opponent_end_of_input_is_a_clear_error(tmp_path):
 
 
 def test_world_questions_and_mistakes(tmp_path):
-    world = TicTacToeWorld(_options(tmp_path))
+    world = _world(tmp_path)
     assert world.query("game_over") is False
     assert world.query("robot_to_move") is True
     assert world.query("best_move") == "board.cell5"
     assert world.query("free", 3) is True
     pts = world.points()
     assert {"board.cell1.tl", "board.cell9.br", "board.move.tl", "arm.park", "arm.lift"} <= set(pts)
-    with pytest.raises(KeyError):
+    with pytest.raises(UnknownNameError, match="the tictactoe world has no question 'score'"):
         world.query("score")
+    with pytest.raises(UnknownNameError, match="no event 'opponent_move'") as info:
+        world.wait("opponent_move")
+    assert info.value.hint == "did you mean 'opponent_moved'?"
     with pytest.raises(InputError, match="expects a cell 1..9"):
         world.query("free", 10)
     with pytest.raises(HilaRuntimeError, match="it is the robot's turn"):
         world.wait("opponent_moved")
-    with pytest.raises(InputError, match="first=robot|opponent"):
-        TicTacToeWorld(_options(tmp_path, first="nobody"))
-    with pytest.raises(InputError, match="report=yes|no"):
-        TicTacToeWorld(_options(tmp_path, report="maybe"))
+    with pytest.raises(InputError, match=r"bad value for --set first=nobody \(world tictactoe\): expected robot\|opponent"):
+        _world(tmp_path, first="nobody")
+    with pytest.raises(InputError, match=r"--set report=maybe .*expected yes or no"):
+        _world(tmp_path, report="maybe")
 
 
 def test_a_circle_outside_the_grid_is_a_runtime_error(tmp_path):
-    world = TicTacToeWorld(_options(tmp_path))
-    far = np.array([[1.0, 1.0, world.scene.surface_z]] * 5)
+    world = _world(tmp_path)
+    far = np.array([[1.0, 1.0, world.spec.surface_z]] * 5)
     with pytest.raises(HilaRuntimeError, match="outside the grid"):
         world.notify("state_done", state="x/draw", path=far, executed=far, kind="run", pen_down=True)
 
@@ -175,7 +183,7 @@ def test_cli_exec_dry_and_bad_opponent(tmp_path, capsys):
     code = cli.main(["exec", str(PROGRAM), "--backend", "dry", "--opponent", "minmax", "--quiet"])
     assert code == 2
     err = capsys.readouterr().err
-    assert "unknown opponent 'minmax'" in err and "did you mean 'minimax'" in err
+    assert "bad value for --set opponent=minmax" in err and "did you mean 'minimax'" in err
     assert "Traceback" not in err
 
 

@@ -197,9 +197,9 @@ def test_runtime_error_names_state_and_line(tmp_path, capsys):
 
 def test_runtime_error_from_world_question(tmp_path):
     from hila_lang.language import load_program
-    from hila_lang.language.dry import DryBackend
+    from hila_lang.robot.dry import DryBackend
     from hila_lang.language.interpreter import Interpreter
-    from hila_lang.language.scripted import ScriptedWorld
+    from hila_lang.worlds.scripted.world import ScriptedWorld
 
     prog = tmp_path / "p.hila"
     prog.write_text("main {\n  if ask raining { wait sun }\n}\n")
@@ -209,5 +209,5 @@ def test_runtime_error_from_world_question(tmp_path):
         interp.step()
     assert info.value.state == "main/if#1"
     assert (info.value.line, info.value.column) == (2, 3)
-    assert "the world does not know 'raining'" in str(info.value)
+    assert "the scripted world has no question 'raining'" in str(info.value)
     assert interp.current == "main/if#1"  # a failed step does not advance

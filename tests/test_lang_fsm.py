@@ -54,8 +54,8 @@ def test_a_changed_field_makes_machines_differ():
 
 
 def test_reloaded_machine_runs_the_same_trace():
-    from hila_lang.language.dry import DryBackend
-    from hila_lang.language.scripted import ScriptedWorld
+    from hila_lang.robot.dry import DryBackend
+    from hila_lang.worlds.scripted.world import ScriptedWorld
 
     checked, fsm = load_program("programs/abc.hila")
     again = FSM.from_dict(fsm.to_dict())

@@ -19,11 +19,11 @@ import pytest
 
 from hila_lang.language import load_program
 from hila_lang.language.ast import dump
-from hila_lang.language.dry import make_backend
+from hila_lang.robot.dry import make_backend
+from hila_lang.plugins.options import RunOptions
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.language.parser import read_source
-from hila_lang.language.plugins import RunOptions
-from hila_lang.language.scripted import ScriptedWorld, load_script
+from hila_lang.worlds.scripted.world import ScriptedWorld, load_script
 from hila_lang.language.transformer import parse_program
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,7 +84,7 @@ RUNNABLE = [p for p in PROGRAMS if load_program(p)[1].world == "scripted"]
 def test_dry_trace_golden(program):
     checked, fsm = load_program(_rel(program))
     world = _scripted(program)
-    interp = Interpreter(checked, fsm, world, make_backend(world, RunOptions()))
+    interp = Interpreter(checked, fsm, world, make_backend(world.scene, RunOptions(), {}))
     trace = interp.run(max_steps=10_000)
     assert interp.done, "the program did not finish in 10000 steps"
     runs = [t for t in trace if t.kind == "run"]

@@ -10,11 +10,13 @@ import pytest
 
 from hila_lang.errors import HilaRuntimeError, InputError
 from hila_lang.language import load_program
-from hila_lang.language import plugins
-from hila_lang.language.dry import DryBackend
+from hila_lang.plugins import registry
+from hila_lang.plugins.options import RunOptions, parse_pairs
+from hila_lang.language.runner import split_settings
+from hila_lang.robot.dry import DryBackend
 from hila_lang.hierarchy import start_at
 from hila_lang.language.interpreter import Interpreter
-from hila_lang.language.scripted import ScriptedWorld
+from hila_lang.worlds.scripted.world import ScriptedWorld
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -143,28 +145,26 @@ def test_start_at_removes_offset_smoothly():
 
 
 def test_plugins_resolve_lazily_and_suggest():
-    assert plugins.world_factory("scripted") is not None
-    assert plugins.backend_factory("dry") is not None
+    assert registry.world("scripted").factory.endswith(":make_world")
+    assert registry.backend("dry").name == "dry"
     with pytest.raises(InputError, match="unknown back end 'drry'") as info:
-        plugins.backend_factory("drry")
+        registry.backend("drry")
     assert info.value.hint == "did you mean 'dry'?"
-    assert plugins.parse_settings(["a=1", "b = x=y"]) == {"a": "1", "b": "x=y"}
+    assert parse_pairs(["a=1", "b = x=y"]) == {"a": "1", "b": "x=y"}
     with pytest.raises(InputError, match="expected --set KEY=VALUE"):
-        plugins.parse_settings(["oops"])
+        parse_pairs(["oops"])
 
 
-def test_make_backend_uses_world_default_and_attach():
-    class W(ScriptedWorld):
-        default_backend = "dry"
-        attached = None
-
-        def attach(self, backend):
-            self.attached = backend
-
-    w = W(home=(0.1, 0.2, 0.3))
-    be = plugins.make_backend(w, plugins.RunOptions())
-    assert be.name == "dry" and w.attached is be
+def test_the_dry_back_end_starts_at_the_worlds_home_else_its_hand_setting():
+    world, dry = registry.world("scripted"), registry.backend("dry")
+    w = ScriptedWorld(home=(0.1, 0.2, 0.3))
+    _, _, settings = split_settings({"hand": "1,2,3"}, world, dry)
+    be = dry.build(w.scene, RunOptions(), settings)
     np.testing.assert_allclose(be.hand_position(), [0.1, 0.2, 0.3])
+    be = dry.build(ScriptedWorld().scene, RunOptions(), settings)  # documented --set hand=X,Y,Z
+    np.testing.assert_allclose(be.hand_position(), [1, 2, 3])
+    with pytest.raises(InputError, match=r"bad value for --set hand=1,2 \(back end dry\): expected X,Y,Z"):
+        split_settings({"hand": "1,2"}, world, dry)
 
 
 def test_a_bad_hand_at_point_names_its_line(tmp_path):

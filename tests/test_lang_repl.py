@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from hila_lang.language import load_program
-from hila_lang.language.dry import DryBackend
+from hila_lang.robot.dry import DryBackend
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.language.repl import Repl
-from hila_lang.language.scripted import load_script
+from hila_lang.worlds.scripted.world import load_script
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -25,7 +25,7 @@ def _in_root(monkeypatch):
 
 def session(program: str, world=None):
     checked, fsm = load_program(program)
-    from hila_lang.language.scripted import ScriptedWorld
+    from hila_lang.worlds.scripted.world import ScriptedWorld
 
     world = world or ScriptedWorld()
     home = getattr(world, "home", None)

@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("cv2")
 
-from hila_lang.perception.camera import Camera, intrinsics, look_at, pixel_rays, project  # noqa: E402
+from hila_lang.sim.camera import Camera, intrinsics, look_at, pixel_rays, project  # noqa: E402
 from hila_lang.perception.distortion import (  # noqa: E402
     TRUE_DISTORTION,
     DistortedCamera,
@@ -17,13 +17,12 @@ from hila_lang.perception.distortion import (  # noqa: E402
     undistort_points,
 )
 from hila_lang.perception.extraction import detect_marker  # noqa: E402
-from hila_lang.perception.rig import demonstration_rig  # noqa: E402
-from hila_lang.perception.simworld import SimWorld  # noqa: E402
+from hila_lang.worlds.tictactoe.recording import DemonstrationScene, demonstration_rig  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def world():
-    with SimWorld(table=False, paper=False) as w:
+    with DemonstrationScene(table=False, paper=False) as w:
         yield w
 
 

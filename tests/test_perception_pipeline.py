@@ -20,7 +20,9 @@ from hila_lang.fileio import load_yaml  # noqa: E402
 from hila_lang.perception.calibration import calibrate, load_calibration, save_calibration  # noqa: E402
 from hila_lang.perception.learn import template_from_frames  # noqa: E402
 from hila_lang.fileio import write_png  # noqa: E402
-from hila_lang.perception.recording import load_frames, read_image, record_demonstration  # noqa: E402
+from hila_lang.perception.recording import load_frames, read_image  # noqa: E402
+from hila_lang.worlds.tictactoe.recording import record_demonstration  # noqa: E402
+from hila_lang.worlds.tictactoe.vision import demonstration_icps  # noqa: E402
 
 FRAMES = 40
 
@@ -34,7 +36,7 @@ def recording(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def learned(recording):
-    return template_from_frames(recording, return_perception=True)
+    return template_from_frames(recording, read_icps=demonstration_icps, return_perception=True)
 
 
 @pytest.fixture
@@ -83,7 +85,7 @@ def test_triangulated_path_against_ground_truth(learned, recording):
 def test_icps_detected_from_the_images(learned, recording):
     template, perception = learned
     truth = load_yaml(recording / "truth.yaml")
-    assert perception.cell == truth["cell"]
+    assert perception.icp_reading.detail["cell"] == truth["cell"]
     assert list(template.icps) == ["tl", "tr", "br", "bl", "hand"]
     for name in ("tl", "tr", "br", "bl"):
         assert np.linalg.norm(template.icps[name] - truth["icps"][name]) < 2e-3, name
@@ -104,20 +106,20 @@ def test_calibration_file_round_trip(learned, tmp_path):
 def test_missing_frame_is_named(copy):
     (copy / "left" / "frame_00017.png").unlink()
     with pytest.raises(InputError, match=r"missing left frames: frame number\(s\) 17 absent"):
-        template_from_frames(copy)
+        template_from_frames(copy, read_icps=demonstration_icps)
 
 
 def test_unreadable_frame_is_named(copy):
     (copy / "right" / "frame_00003.png").write_bytes(b"not a png")
     with pytest.raises(InputError, match="unreadable frame") as info:
-        template_from_frames(copy)
+        template_from_frames(copy, read_icps=demonstration_icps)
     assert "frame_00003.png" in str(info.value)
 
 
 def test_left_right_counts_differ(copy):
     (copy / "right" / f"frame_{FRAMES - 1:05d}.png").unlink()
     with pytest.raises(InputError, match=f"left and right frame counts differ: {FRAMES} left, {FRAMES - 1} right"):
-        template_from_frames(copy)
+        template_from_frames(copy, read_icps=demonstration_icps)
 
 
 def _hide_marker(folder, frames):
@@ -132,7 +134,7 @@ def _hide_marker(folder, frames):
 
 def test_marker_lost_briefly_is_bridged(copy, learned):
     _hide_marker(copy / "left", [20, 21])
-    template, perception = template_from_frames(copy, return_perception=True)
+    template, perception = template_from_frames(copy, read_icps=demonstration_icps, return_perception=True)
     assert perception.bridged["left"] == [20, 21] and perception.bridged["right"] == []
     assert np.linalg.norm(perception.path - learned[1].path, axis=1).max() < 3e-3
 
@@ -141,14 +143,14 @@ def test_marker_lost_too_long_names_the_frames(copy):
     _hide_marker(copy / "right", range(12, 18))
     with pytest.raises(InputError, match=r"marker lost in 6 of 40 right frames; cannot bridge "
                                          r"frames frame_00012.png..frame_00017.png"):
-        template_from_frames(copy)
+        template_from_frames(copy, read_icps=demonstration_icps)
 
 
 def test_no_chessboard_found(copy):
     for path in (copy / "calibration" / "left").glob("*.png"):
         write_png(path, np.full((240, 320, 3), 128, np.uint8))
     with pytest.raises(InputError, match=r"left camera: no 9x6 chessboard found in 16 of 16 images"):
-        template_from_frames(copy)
+        template_from_frames(copy, read_icps=demonstration_icps)
 
 
 def test_calibrate_needs_images_of_one_size():
@@ -185,7 +187,7 @@ def test_frames_from_a_video_file(recording, tmp_path):
 
 
 def test_template_from_sim_says_how_it_was_made(tmp_path):
-    from hila_lang.perception.learn import template_from_sim
+    from hila_lang.worlds.tictactoe.recording import learn_from_sim as template_from_sim
     from hila_lang.template import load_template, save_template
 
     template = template_from_sim(3, frames=36, n_calibration=12, n_stereo=6, recording_dir=tmp_path / "rec")

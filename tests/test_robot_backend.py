@@ -8,18 +8,22 @@ import numpy as np
 import pytest
 
 from hila_lang.errors import InputError, UnreachableError
-from hila_lang.interfaces import Backend
+from hila_lang.plugins.protocols import Backend
+from hila_lang.plugins.options import RunOptions
+from hila_lang.sim.surface import Scene
 from hila_lang.metrics import correlation
 from hila_lang.robot.backend import PyBulletBackend, make_backend
-from hila_lang.robot.ink import INK_RGB
-from hila_lang.robot.scene import SceneSpec, cell_center, cell_corners
+from hila_lang.sim.canvas import INK_RGB
+from hila_lang.worlds.tictactoe.board import Grid, cell_center, cell_corners
 
 LIFT = np.array([0.0, 0.0, 0.02])
+#: the game board (its sheet is what the back end knows)
+GRID = Grid.game()
 
 
 @pytest.fixture(scope="module")
 def robot():
-    backend = PyBulletBackend(SceneSpec.game())
+    backend = PyBulletBackend(GRID.paper())
     yield backend
     backend.close()
 
@@ -32,21 +36,21 @@ def circle(scene, cell, radius, n=90):
 
 def park(robot):
     """Move the hand beside the board so cameras see all of it."""
-    half = robot.scene.grid_size / 2
-    robot.move(np.array([robot.hand_position() + LIFT, robot.scene.grid_to_world(half + 0.06, -half) + 4 * LIFT]))
+    half = GRID.grid_size / 2
+    robot.move(np.array([robot.hand_position() + LIFT, GRID.grid_to_world(half + 0.06, -half) + 4 * LIFT]))
 
 
 @pytest.fixture(scope="module")
 def drawn(robot):
     """Draw a circle in cell 3 (far-right) with images of the board before and after."""
     park(robot)
-    before = robot.camera_image("left")
-    planned = circle(robot.scene, 3, 0.018)
+    before = robot.eyes.camera_image("left")
+    planned = circle(GRID, 3, 0.018)
     robot.move(np.array([planned[0] + LIFT, planned[0]]), label="reach")
     robot.move(planned, pen_down=True, label="draw")
     trace = robot.traces[-1]
     park(robot)
-    after = robot.camera_image("left")
+    after = robot.eyes.camera_image("left")
     return planned, trace, before, after
 
 
@@ -56,7 +60,7 @@ def test_is_a_backend(robot):
 
 def test_every_cell_corner_is_reached_within_1_mm(robot):
     for cell in range(1, 10):
-        for name, corner in cell_corners(robot.scene, cell).items():
+        for name, corner in cell_corners(GRID, cell).items():
             executed = robot.move(np.array([corner + LIFT, corner]), label=f"cell{cell}.{name}")
             assert np.linalg.norm(executed[-1] - corner) < 1e-3, (cell, name)
             assert np.linalg.norm(robot.hand_position() - corner) < 1e-3, (cell, name)
@@ -65,7 +69,7 @@ def test_every_cell_corner_is_reached_within_1_mm(robot):
 
 def test_drawn_circle_inked_trace_correlates_with_the_plan(robot, drawn):
     planned, trace, _, _ = drawn
-    touching = robot._touching(trace.executed)
+    touching = robot.ink.touching(trace.executed)
     assert trace.pen_down and trace.inked == touching.sum() > 0.9 * len(trace.executed)
     inked = trace.executed[touching]
     assert correlation(inked[:, :2], planned[:, :2]) >= 0.99
@@ -75,18 +79,18 @@ def test_drawn_circle_inked_trace_correlates_with_the_plan(robot, drawn):
 
 def test_ink_lands_in_the_paper_texture_under_the_planned_circle(robot, drawn):
     planned, _, _, _ = drawn
-    image = robot.ink_image().astype(int)
-    pix = np.round(robot.canvas.to_pixels(planned)).astype(int)
+    image = robot.ink.ink_image().astype(int)
+    pix = np.round(robot.ink.canvas.to_pixels(planned)).astype(int)
     colours = image[pix[:, 1], pix[:, 0]]
     ink = np.array(INK_RGB["robot"])
     assert np.mean(np.abs(colours - ink).sum(axis=1) < 120) > 0.95
     # and not at the circle's centre
-    centre = np.round(robot.canvas.to_pixels(cell_center(robot.scene, 3)[None])).astype(int)[0]
+    centre = np.round(robot.ink.canvas.to_pixels(cell_center(GRID, 3)[None])).astype(int)[0]
     assert np.abs(image[centre[1], centre[0]] - ink).sum() > 200
 
 
 def test_joint_limits_are_never_exceeded_over_a_whole_drawing(robot, drawn):
-    chain = robot.chain
+    chain = robot.arm.chain
     joints = np.vstack([t.joints for t in robot.traces])
     assert len(joints) > 1000
     assert np.all(joints >= chain.lower) and np.all(joints <= chain.upper)
@@ -108,7 +112,7 @@ def test_eye_camera_sees_ink_where_it_was_drawn(drawn):
 
 def test_top_view_sees_the_grid_and_the_ink(robot, drawn):
     planned, _, _, _ = drawn
-    top = robot.top_view_image(240)
+    top = robot.overview.top_view_image(240)
     assert top.rgb.shape == (240, 240, 3)
     uv = np.round(top.project(planned)).astype(int)
     rgb = top.rgb[uv[:, 1], uv[:, 0]].astype(int)
@@ -126,7 +130,7 @@ def test_unreachable_target_raises_and_the_arm_stays(robot):
     assert info.value.exit_code == 1 and info.value.state == "reach cell"
     assert "(in state reach cell)" in str(info.value)
     np.testing.assert_allclose(robot.hand_position(), start, atol=1e-9)
-    below = cell_center(robot.scene, 5) - np.array([0, 0, 0.01])
+    below = cell_center(GRID, 5) - np.array([0, 0, 0.01])
     with pytest.raises(UnreachableError, match=r"10\.0 mm below the paper"):
         robot.move(np.array([below]))
 
@@ -138,7 +142,7 @@ def test_malformed_path_is_an_input_error(robot, path):
 
 
 def test_reset_hand_puts_the_pen_there_at_once(robot):
-    point = cell_center(robot.scene, 7) + np.array([0, 0, 0.1])
+    point = cell_center(GRID, 7) + np.array([0, 0, 0.1])
     n = len(robot.traces)
     robot.reset_hand(point)
     np.testing.assert_allclose(robot.hand_position(), point, atol=1e-4)
@@ -148,24 +152,24 @@ def test_reset_hand_puts_the_pen_there_at_once(robot):
 
 
 def test_markers_and_textured_quads_show_in_the_eye_cameras(robot):
-    point = cell_center(robot.scene, 8) + np.array([0, 0, 0.02])
-    marker = robot.add_marker(0.012, (0.0, 1.0, 0.0, 1.0))
-    robot.set_marker(marker, point)
-    image = robot.camera_image("right")
+    point = cell_center(GRID, 8) + np.array([0, 0, 0.02])
+    marker = robot.sim.add_sphere(0.012, (0.0, 1.0, 0.0, 1.0))
+    robot.sim.set_position(marker, point)
+    image = robot.eyes.camera_image("right")
     u, v = np.round(image.project(point[None])[0]).astype(int)
     r, g, b = image.rgb[v, u].astype(int)
     assert g > r + 60 and g > b + 60
-    robot.remove(marker)
+    robot.sim.remove(marker)
     # a red square facing the left eye, 0.3 m in front of it
-    eye = robot.camera_pose("left")
+    eye = robot.eyes.camera_pose("left")
     pose = eye.copy()
     pose[:3, 3] = eye[:3, 3] + 0.3 * eye[:3, 2]
     pose[:3, :3] = eye[:3, :3] @ np.diag([1.0, -1.0, -1.0])  # quad +z towards the camera
     square = np.zeros((8, 8, 3), np.uint8)
     square[:] = (220, 0, 0)
-    quad = robot.show_texture_quad(square, pose, (0.05, 0.05))
-    rgb = robot.camera_image("left").rgb[120, 160].astype(int)
-    robot.remove(quad)
+    quad = robot.sim.add_quad(square, pose, (0.05, 0.05))
+    rgb = robot.eyes.camera_image("left").rgb[120, 160].astype(int)
+    robot.sim.remove(quad)
     assert rgb[0] > 120 and rgb[1] < 60 and rgb[2] < 60
 
 
@@ -173,27 +177,27 @@ def test_eye_images_put_a_marker_where_project_says():
     """The GL projection puts a small sphere's centroid at ``CameraImage.project`` (sub-pixel).
 
     The textbook ``cx + 0.5, cy + 0.5`` put it (+0.48, -0.50) px off; PyBullet's tiny renderer
-    needs ``cx`` and ``cy + 1`` (:func:`hila_lang.robot.cameras.gl_projection_matrix`).  The
+    needs ``cx`` and ``cy + 1`` (:func:`hila_lang.sim.camera.gl_projection_matrix`).  The
     markers are 0.10-0.20 m in front of the eye, with the arm at rest by the robot's side (a
     drawing arm crosses the right eye's view there); one sample's centroid is quantised by the
     renderer's hard edges (about 0.1 px), the bias is what the fix removed.
     """
-    from hila_lang.perception.camera import pixel_rays
+    from hila_lang.sim.camera import pixel_rays
     from hila_lang.perception.extraction import detect_marker
-    from hila_lang.robot.cameras import ICUB_EYE_K
+    from hila_lang.robot.eyes import ICUB_EYE_K
 
     robot = PyBulletBackend(arm="rest")
     rng = np.random.default_rng(7)
-    marker = robot.add_marker(0.005, (0.0, 1.0, 0.0, 1.0))
+    marker = robot.sim.add_sphere(0.005, (0.0, 1.0, 0.0, 1.0))
     offsets = []
     try:
         for eye in ("left", "right"):
-            pose = robot.camera_image(eye).world_T_camera
+            pose = robot.eyes.camera_image(eye).world_T_camera
             for _ in range(16):
                 origin, ray = pixel_rays(rng.uniform([40, 30], [280, 210])[None], ICUB_EYE_K, pose)
                 point = origin + rng.uniform(0.10, 0.20) * ray[0]
-                robot.set_marker(marker, point)
-                image = robot.camera_image(eye)
+                robot.sim.set_position(marker, point)
+                image = robot.eyes.camera_image(eye)
                 seen = detect_marker(image.rgb)
                 assert seen is not None, (eye, point)
                 offsets.append(seen - image.project(point[None])[0])
@@ -207,51 +211,46 @@ def test_eye_images_put_a_marker_where_project_says():
 
 def test_repeated_eye_images_of_the_same_view_are_identical(robot):
     """The head re-aim is exact: no drift between calls, and the same after looking elsewhere."""
-    first = robot.camera_image("left")
-    second = robot.camera_image("left")
+    first = robot.eyes.camera_image("left")
+    second = robot.eyes.camera_image("left")
     np.testing.assert_array_equal(first.world_T_camera, second.world_T_camera)
     np.testing.assert_array_equal(first.rgb, second.rgb)
-    target = robot.scene.grid_to_world(0.0, 0.0)
-    assert robot.look_at(target + [0.05, 0.10, 0.0]) < 1e-3
-    assert robot.look_at(target) < 1e-3  # converges even with the eyes' tilt at its limit
-    np.testing.assert_allclose(robot.camera_image("left").world_T_camera, first.world_T_camera, atol=1e-9)
+    target = GRID.grid_to_world(0.0, 0.0)
+    assert robot.eyes.look_at(target + [0.05, 0.10, 0.0]) < 1e-3
+    assert robot.eyes.look_at(target) < 1e-3  # converges even with the eyes' tilt at its limit
+    np.testing.assert_allclose(robot.eyes.camera_image("left").world_T_camera, first.world_T_camera, atol=1e-9)
 
 
 def test_ink_polyline_draws_without_the_robot(robot):
-    centre = cell_center(robot.scene, 1)  # far-left cell: top-left of the texture
-    robot.ink_polyline(np.array([centre - [0.01, 0, 0], centre + [0.01, 0, 0]]), color="opponent")
-    image = robot.ink_image()
+    centre = cell_center(GRID, 1)  # far-left cell: top-left of the texture
+    robot.ink.ink_polyline(np.array([centre - [0.01, 0, 0], centre + [0.01, 0, 0]]), color="opponent")
+    image = robot.ink.ink_image()
     red = (image[:, :, 0] > 150) & (image[:, :, 1] < 80)
     rows, cols = np.nonzero(red)
     assert len(rows) > 20
     assert rows.max() < image.shape[0] / 2 and cols.max() < image.shape[1] / 2
     with pytest.raises(InputError):
-        robot.ink_polyline(np.zeros((0, 3)))
+        robot.ink.ink_polyline(np.zeros((0, 3)))
 
 
 def test_demonstration_scene_sheet_is_in_both_eyes_and_the_arm_out_of_the_way(capfd):
-    with PyBulletBackend(SceneSpec.demonstration()) as demo:
+    board = Grid.demonstration()
+    with PyBulletBackend(board.paper()) as demo:
         out, err = capfd.readouterr()
         assert out == "" and err == ""  # nothing from the URDF importer reaches the console
         for eye in ("left", "right"):
-            image = demo.camera_image(eye)
-            uv = image.project(demo.scene.paper_corners())
+            image = demo.eyes.camera_image(eye)
+            uv = image.project(board.paper_corners())
             assert np.all((uv > 0) & (uv < [320, 240])), (eye, uv)
             # the sheet's centre pixel is paper, not the robot's hand
-            u, v = np.round(image.project(demo.scene.grid_to_world(0.05, 0.05)[None])[0]).astype(int)
+            u, v = np.round(image.project(board.grid_to_world(0.05, 0.05)[None])[0]).astype(int)
             assert np.ptp(image.rgb[v, u].astype(int)) < 20 and image.rgb[v, u].min() > 120
 
 
 def test_make_backend_uses_the_worlds_scene_and_gui_needs_a_display(monkeypatch):
-    class World:
-        scene = SceneSpec((0.30, -0.08), 0.12, 0.0, 0.571)
-
-    class Options:
-        gui = False
-        seed = 3
-
-    with make_backend(World(), Options()) as backend:
-        assert backend.scene == World.scene
+    spec = Grid((0.30, -0.08), 0.12, 0.0, 0.571).paper()
+    with make_backend(Scene(surface=spec), RunOptions(seed=3), {}) as backend:
+        assert backend.surface == spec and backend.ink.surface == spec
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(InputError, match="needs a display"):
@@ -294,8 +293,6 @@ def test_snapshot_command_writes_two_pngs(tmp_path, capsys):
         run_snapshot("--out", str(tmp_path), "--cell", "12")
     with pytest.raises(InputError, match="--seed must be >= 0"):
         run_snapshot("--out", str(tmp_path), "--seed", "-3")
-    with pytest.raises(InputError, match="seed"):
-        PyBulletBackend(seed=-1)
 
 
 def test_nothing_but_the_paths_reaches_the_console(tmp_path):

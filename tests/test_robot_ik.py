@@ -6,7 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hila_lang import rotation
 from hila_lang.robot import ik, model
+from hila_lang.rotation import about_z, pose
 
 
 @pytest.fixture(scope="module")
@@ -16,7 +18,7 @@ def urdf_text():
 
 @pytest.fixture(scope="module")
 def chain(urdf_text):
-    world_T_root = ik.transform(ik.rpy_to_matrix((0, 0, model.ROOT_YAW)), model.ROOT_POSITION)
+    world_T_root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
     return ik.KinematicChain.from_urdf(urdf_text, model.PEN_TIP_LINK, world_T_root)
 
 
@@ -38,7 +40,7 @@ def test_chain_is_torso_plus_right_arm(chain):
 
 
 def test_forward_kinematics_matches_pybullet(chain):
-    from hila_lang.robot.console import import_pybullet, quiet_c_output
+    from hila_lang.sim.client import import_pybullet, quiet_c_output
 
     pb = import_pybullet()
     with quiet_c_output():
@@ -83,7 +85,7 @@ def test_jacobian_matches_finite_differences(chain):
 
 
 def test_ik_reaches_forward_kinematics_targets_with_the_pen_vertical(chain):
-    from hila_lang.robot.backend import SEED_POSTURE
+    from hila_lang.robot.arm import SEED_POSTURE
 
     rng = np.random.default_rng(5)
     for _ in range(10):
@@ -96,7 +98,7 @@ def test_ik_reaches_forward_kinematics_targets_with_the_pen_vertical(chain):
 
 
 def test_ik_never_leaves_the_limits_it_is_given(chain):
-    from hila_lang.robot.backend import SEED_POSTURE
+    from hila_lang.robot.arm import SEED_POSTURE
 
     lower, upper = chain.lower.copy(), chain.upper.copy()
     lower[:3] = upper[:3] = 0.0  # torso frozen upright
@@ -107,3 +109,32 @@ def test_ik_never_leaves_the_limits_it_is_given(chain):
         assert np.all(result.q >= lower - 1e-12) and np.all(result.q <= upper + 1e-12)
         # the pose reported is the one the joints give
         np.testing.assert_allclose(chain.tip_position(result.q), result.position, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_rotations_follow_one_convention(seed):
+    """URDF rpy = Rz(yaw) Ry(pitch) Rx(roll); quaternions (x, y, z, w); the FK's Rodrigues fast
+    path equals the one library's axis-angle rotation."""
+    rng = np.random.default_rng(seed)
+    r, p, y = rng.uniform(-1.5, 1.5, 3)
+
+    def Rx(a):
+        return np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+
+    def Ry(a):
+        return np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+
+    def Rz(a):
+        return np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+
+    R = rotation.from_rpy((r, p, y))
+    np.testing.assert_allclose(R, Rz(y) @ Ry(p) @ Rx(r), atol=1e-12)
+    np.testing.assert_allclose(rotation.to_rpy(R), (r, p, y), atol=1e-9)
+    q = rotation.to_quat(R)
+    np.testing.assert_allclose(rotation.from_quat(q), R, atol=1e-12)
+    np.testing.assert_allclose(q[:3] / np.linalg.norm(q[:3]), rotation.to_quat(R)[:3] / np.linalg.norm(q[:3]))
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    angle = rng.uniform(-3, 3)
+    np.testing.assert_allclose(ik._axis_rotation(axis, angle), rotation.from_axis_angle(axis, angle), atol=1e-12)
+    np.testing.assert_allclose(rotation.about_z(y), Rz(y), atol=1e-12)

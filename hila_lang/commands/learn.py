@@ -88,18 +88,20 @@ def _source(args: argparse.Namespace) -> str:
 def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
     """The template learned through the eye cameras (imports OpenCV and PyBullet)."""
     from ..errors import InputError
-    from ..perception.learn import template_from_frames, template_from_sim
+    from ..perception.learn import template_from_frames
+    from ..worlds.tictactoe.recording import learn_from_sim
+    from ..worlds.tictactoe.vision import demonstration_icps
 
     if args.method != "kmeans":
         raise InputError(f"learning by perception segments by k-means; --method {args.method} is for DEMO.csv")
     if source == "--from-sim":
         print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
-        template = template_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name,
+        template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name,
                                      recording_dir=args.keep_recording)
     else:
         left, right = (args.frames, None) if source == "--frames" else (args.left, args.right)
         template = template_from_frames(
-            left, right, calibration_left=args.calibration_left, calibration_right=args.calibration_right,
+            left, right, read_icps=demonstration_icps, calibration_left=args.calibration_left, calibration_right=args.calibration_right,
             cameras=args.cameras, stereo=args.stereo, k=k, tags=tags, contact=contact, name=name,
             seed=args.seed, max_gap=args.max_gap)
     if args.description:

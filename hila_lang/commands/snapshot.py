@@ -1,7 +1,7 @@
 """``hila snapshot --out DIR``: two PNGs of the simulated iCub drawing on the game board.
 
 The robot starts with its arm parked at a random point above the board (``--seed``), the
-opponent's hand-drawn cross (:func:`hila_lang.games.marks.cross_strokes`, same seed) is inked in
+opponent's hand-drawn cross (:func:`hila_lang.worlds.tictactoe.marks.cross_strokes`, same seed) is inked in
 one cell, and the robot draws a circle in ``--cell``.  Half-way round the circle the eye camera
 takes ``eye_<EYE>.png`` (320x240, the robot drawing); after the pen is lifted a camera above the
 board takes ``board_top.png`` (the board, cell 1 top-left).
@@ -28,7 +28,7 @@ def circle_path(scene, cell: int, radius: float, n: int = 120):
     """A closed circle (n + 1, 3) in ``cell`` on the paper, starting on the cell's right side."""
     import numpy as np
 
-    from ..robot.scene import cell_center
+    from ..worlds.tictactoe.board import cell_center
 
     center = cell_center(scene, cell)
     right, far = scene.axes()
@@ -42,10 +42,10 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..errors import InputError
-    from ..games.marks import cross_strokes
+    from ..worlds.tictactoe.marks import cross_strokes
     from ..fileio import write_png
     from ..robot.backend import PyBulletBackend
-    from ..robot.scene import SceneSpec, cell_center
+    from ..worlds.tictactoe.board import Grid, cell_center
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -58,25 +58,28 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--size must be 64..2048 pixels, got {args.size}")
     if args.seed < 0:
         raise InputError(f"--seed must be >= 0, got {args.seed}")
-    scene = SceneSpec.game()
+    scene = Grid.game()
     cell = scene.grid_size / 3
-    with PyBulletBackend(scene, gui=args.gui, seed=args.seed, arm="ready") as robot:
-        robot.reset_hand(robot.random_start_point())
+    with PyBulletBackend(scene.paper(), gui=args.gui, arm="ready") as robot:
+        # the arm starts at a seeded random point above the grid, 8-15 cm above the paper
+        rng = np.random.default_rng(args.seed)
+        right, far = rng.uniform(-scene.grid_size / 2, scene.grid_size / 2, size=2)
+        robot.reset_hand(scene.grid_to_world(right, far) + np.array([0.0, 0.0, rng.uniform(0.08, 0.15)]))
         if args.opponent_cell:
             for stroke in cross_strokes(scene, args.opponent_cell, np.random.default_rng(args.seed)):
-                robot.ink_polyline(stroke, color="opponent")
+                robot.ink.ink_polyline(stroke, color="opponent")
         circle = circle_path(scene, args.cell, 0.32 * cell)
         lift = np.array([0.0, 0.0, 0.03])
         robot.move(np.array([circle[0] + lift, circle[0]]), label="reach")
         half = len(circle) // 2
         robot.move(circle[: half + 1], pen_down=True, label="draw circle")
-        eye = robot.camera_image(args.eye)
+        eye = robot.eyes.camera_image(args.eye)
         robot.move(circle[half:], pen_down=True, label="draw circle")
         robot.move(np.array([circle[-1] + lift, cell_center(scene, args.cell) + 4 * lift]), label="retract")
         # park beside the board (to the robot's right, near side) so the top view sees it all
         half_grid = scene.grid_size / 2
         robot.move(np.array([scene.grid_to_world(half_grid + 0.06, -half_grid) + 4 * lift]), label="park")
-        top = robot.top_view_image(args.size)
+        top = robot.overview.top_view_image(args.size)
     eye_path = out / f"eye_{args.eye}.png"
     top_path = out / "board_top.png"
     write_png(eye_path, eye.rgb)

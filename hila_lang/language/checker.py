@@ -3,7 +3,7 @@
 :func:`check` raises :class:`~hila_lang.errors.CheckError` (exit 2) at the first mistake, with
 the source position, the source line and a "did you mean" where one helps.  What it checks:
 
-- the world is a known plug-in; each import resolves to a readable template; aliases, tasks,
+- the world is a registered plug-in (:mod:`hila_lang.plugins.registry`); each import resolves to a readable template; aliases, tasks,
   points and parameters are unique; there is exactly one ``main``;
 - ``run T.TAG(...)``: ``T`` is imported, ``TAG`` is one of its tags, every bound name is an ICP
   of that sub-template (or a group prefix: ``cell`` binds ``cell.tl``, ``cell.tr``, ...), no
@@ -25,7 +25,7 @@ from pathlib import Path
 
 from . import ast as A
 from ..errors import CheckError, HilaError
-from .plugins import DEFAULT_WORLD, WORLDS
+from ..plugins import registry
 from .parser import source_line
 
 START, END = "start", "end"
@@ -84,10 +84,11 @@ class _Checker(A.Visitor):
         worlds = p.of(A.WorldDecl)
         if len(worlds) > 1:
             raise self.error("the world is declared twice", worlds[1].pos)
-        world = worlds[0].name if worlds else DEFAULT_WORLD
-        if worlds and world not in WORLDS:
+        world = worlds[0].name if worlds else registry.DEFAULT_WORLD
+        known = registry.names("world")
+        if worlds and world not in known:
             raise self.error(f"unknown world '{world}'", worlds[0].pos,
-                             did_you_mean(world, WORLDS) or f"known worlds: {', '.join(sorted(WORLDS))}")
+                             did_you_mean(world, known) or f"known worlds: {', '.join(known)}")
         self.templates, self.files = {}, {}
         for imp in p.of(A.ImportDecl):
             if imp.alias in self.templates:

@@ -12,9 +12,11 @@ binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
 (``template`` is the sub-template that ran).
 
-Any failure while a state runs (an unknown scene point, a question the world cannot answer,
-contradicted constraints, an unreachable target) is a :class:`HilaRuntimeError` naming the
-state and the program line (exit status 1).
+Any hila error while a state runs (an unknown scene point, a question the world does not have
+-- :class:`~hila_lang.errors.UnknownNameError` --, contradicted constraints, an unreachable
+target) is a :class:`HilaRuntimeError` naming the state and the program line (exit status 1).
+Any other exception raised by a world, a back end or OSILA is a bug and propagates unchanged
+(the CLI reports it as an internal error, exit status 3).
 """
 
 from __future__ import annotations
@@ -105,10 +107,7 @@ class Interpreter:
             self._guard(state, self._put_hand)  # a bad point or the back end's refusal names the line
 
     def _put_hand(self) -> None:
-        point = self.point(self.fsm.hand)
-        reset_hand = getattr(self.backend, "reset_hand", None)
-        if callable(reset_hand):
-            reset_hand(point)
+        self.backend.reset_hand(self.point(self.fsm.hand))
 
     @property
     def state(self) -> State:
@@ -147,11 +146,8 @@ class Interpreter:
             raise self._locate(exc, state) from None
         except HilaError as exc:  # bad input met while running (e.g. OSILA's InputError)
             raise self._locate(HilaRuntimeError(exc.message, hint=exc.hint), state) from None
-        except KeyError as exc:
-            name = exc.args[0] if exc.args else "?"
-            raise self._locate(HilaRuntimeError(f"the world does not know {name!r}"), state) from None
-        except (TypeError, ValueError, ZeroDivisionError, ArithmeticError) as exc:
-            raise self._locate(HilaRuntimeError(str(exc)), state) from None
+        # anything else (KeyError, TypeError, ... from a world, a back end or OSILA) is a bug:
+        # it propagates, and the CLI reports an internal error (exit 3)
 
     def _locate(self, exc: HilaRuntimeError, state: State) -> HilaRuntimeError:
         if exc.state is None and not state.name.startswith("<"):

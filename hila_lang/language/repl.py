@@ -41,7 +41,7 @@ class Repl(cmd.Cmd):
             self.prompt = ""
         fsm = interp.fsm
         self.intro = (f"hila repl: {fsm.file}, {len(fsm.states)} states, world {fsm.world}, "
-                      f"back end {getattr(interp.backend, 'name', '?')}. Type 'help' for commands.\n"
+                      f"back end {interp.backend.name}. Type 'help' for commands.\n"
                       f"at {interp.current}")
 
     # ------------------------------------------------------------------ plumbing

@@ -1,22 +1,28 @@
 """Wire a program to its world and back end for ``hila exec`` and ``hila repl``.
 
-``prepare(path, options, backend=None)`` loads and compiles the program, builds the world the
-program names (``world NAME``, default ``scripted``) and the back end (``--backend``, else the
-world's ``default_backend``, else ``dry``), attaches them, and returns an
-:class:`~hila_lang.language.interpreter.Interpreter`.  ``--set osila.KEY=VALUE`` settings are
-passed to :func:`hila_lang.osila.imitate` (values parsed as YAML scalars: ``0.002``, ``true``).
+``prepare(path, options, backend=None)`` loads and compiles the program, looks up the world it
+names (``world NAME``, default ``scripted``) and the back end (``--backend``, else the world's
+``default_backend``) in the registry (:mod:`hila_lang.plugins.registry`), splits and parses every
+``--set`` before anything is built (``osila.KEY`` -> :func:`hila_lang.osila.imitate`, values as
+YAML scalars: ``0.002``, ``true``; the world's and the back end's own settings through their
+declarations; any other key is refused with "did you mean"), builds the world, then the back end
+on the world's scene, attaches them, and returns an
+:class:`~hila_lang.language.interpreter.Interpreter`.  :func:`finish` ends the run.
 """
 
 from __future__ import annotations
 
+import difflib
+
 from ..errors import InputError
+from ..plugins import registry
+from ..plugins.options import RunOptions
 from . import load_program
 from .interpreter import Interpreter
-from .plugins import RunOptions, make_backend, make_world
 
 
 def osila_options(settings: dict[str, str]) -> dict:
-    """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}``."""
+    """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}`` (other keys are ignored)."""
     import yaml
 
     from ..osila import OPTIONS
@@ -25,8 +31,6 @@ def osila_options(settings: dict[str, str]) -> dict:
     for key, text in settings.items():
         if key.startswith("osila."):
             if key[6:] not in OPTIONS:
-                import difflib
-
                 close = difflib.get_close_matches(key[6:], OPTIONS, n=1)
                 raise InputError(f"unknown OSILA option {key[6:]!r} in --set {key}; known: {', '.join(OPTIONS)}",
                                  hint=f"did you mean 'osila.{close[0]}'?" if close else None)
@@ -37,20 +41,47 @@ def osila_options(settings: dict[str, str]) -> dict:
     return out
 
 
+def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict, dict]:
+    """``--set`` pairs -> (OSILA options, the world's settings, the back end's), each parsed."""
+    world_keys = {s.name for s in world.settings}
+    backend_keys = {s.name for s in backend.settings}
+    mine: dict[str, dict[str, str]] = {"world": {}, "backend": {}}
+    for key, text in settings.items():
+        if key.startswith("osila."):
+            continue
+        if key in world_keys:
+            mine["world"][key] = text
+        elif key in backend_keys:
+            mine["backend"][key] = text
+        else:
+            known = sorted(world_keys | backend_keys)
+            close = difflib.get_close_matches(key, known, n=1)
+            raise InputError(
+                f"unknown setting {key!r} for world {world.name!r} and back end {backend.name!r}; known: "
+                + ", ".join([*known, "osila.OPTION"]),
+                hint=f"did you mean {close[0]!r}?" if close else None)
+    return osila_options(settings), world.parse(mine["world"]), backend.parse(mine["backend"])
+
+
 def prepare(path, options: RunOptions, backend: str | None = None) -> Interpreter:
     """Program + world + back end -> a ready :class:`Interpreter` (at its start state)."""
     checked, fsm = load_program(path)
-    world = make_world(checked.world, options)
-    be = make_backend(world, options, backend)
-    return Interpreter(checked, fsm, world, be, osila_options(options.settings))
+    world_info = registry.world(checked.world)
+    backend_info = registry.backend(backend or world_info.default_backend)
+    osila, world_settings, backend_settings = split_settings(options.settings, world_info, backend_info)
+    world = world_info.build(options, world_settings)
+    be = backend_info.build(world.scene, options, backend_settings)
+    try:
+        world.attach(be)
+        return Interpreter(checked, fsm, world, be, osila)
+    except BaseException:
+        be.close()
+        raise
 
 
 def finish(interp: Interpreter):
-    """``world.finish(trace, fsm=FSM)`` if the world has it (its dict, or None), then close the back end."""
+    """``world.finish(trace, fsm=FSM)`` (its summary, or None), then close the back end."""
     try:
-        fin = getattr(interp.world, "finish", None)
-        return fin(interp.trace, fsm=interp.fsm) if callable(fin) else None
+        return interp.world.finish(interp.trace, fsm=interp.fsm)
     finally:
-        close = getattr(interp.backend, "close", None)
-        if callable(close):
-            close()
+        interp.backend.close()

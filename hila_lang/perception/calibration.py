@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .camera import Camera, project
+from ..sim.camera import Camera, project
 from .distortion import DistortedCamera, distort_points
 
 #: default chessboard: inner corners (columns, rows) and square side, metres; one odd and one
@@ -169,7 +169,7 @@ def chessboard_poses(camera: Camera, dist, n: int, pattern=PATTERN, square: floa
     tilted up to 45 degrees; a pose is kept only if every inner corner lands inside the distorted
     image with a 6 px margin.
     """
-    from scipy.spatial.transform import Rotation
+    from ..rotation import from_euler
 
     rng = np.random.default_rng(seed)
     cols, rows = pattern
@@ -186,10 +186,9 @@ def chessboard_poses(camera: Camera, dist, n: int, pattern=PATTERN, square: floa
         v = camera.height / 2 + gy * camera.height * rng.uniform(0.18, 0.3)
         depth = rng.uniform(0.25, 0.5)
         centre_cam = Kinv @ [u, v, 1.0] * depth
-        tilt = Rotation.from_euler("xyz", [rng.uniform(-45, 45), rng.uniform(-45, 45), rng.uniform(-20, 20)],
-                                   degrees=True)
+        tilt = from_euler("xyz", [rng.uniform(-45, 45), rng.uniform(-45, 45), rng.uniform(-20, 20)], degrees=True)
         # card frame: facing the camera (its +z towards the camera: rotate 180 deg about x)
-        R = tilt.as_matrix() @ Rotation.from_euler("x", 180, degrees=True).as_matrix()
+        R = tilt @ from_euler("x", 180, degrees=True)
         cam_T_card = np.eye(4)
         cam_T_card[:3, :3], cam_T_card[:3, 3] = R, centre_cam
         world_T_card = camera.world_T_camera @ cam_T_card
@@ -206,20 +205,30 @@ def chessboard_poses(camera: Camera, dist, n: int, pattern=PATTERN, square: floa
 def chessboard_views(dcam: DistortedCamera, n: int = 14, pattern=PATTERN, square: float = SQUARE,
                      seed: int = 0) -> list[np.ndarray]:
     """Rendered, distorted images (H, W, 3) uint8 of a chessboard card at ``n`` seeded poses."""
-    from .simworld import SimWorld, chessboard_texture
+    from ..sim.camera import STUDIO
+    from ..sim.scene import SimScene
 
     cols, rows = pattern
     sq_px = 48
     tex = chessboard_texture(cols + 1, rows + 1, sq_px, border=1)
     size = ((cols + 3) * square, (rows + 3) * square)
     images = []
-    with SimWorld(table=False, paper=False, marker=False) as world:
+    with SimScene(style=STUDIO) as sim:
         # the texture's first row is the card's +y edge; OpenCV's corner order is irrelevant here
-        body = world.add_texture_quad(tex, np.eye(4), size)
+        body = sim.add_quad(tex, np.eye(4), size)
         for pose in chessboard_poses(dcam.camera, dcam.dist, n, pattern, square, seed):
-            world.set_pose(body, pose)
-            images.append(dcam.distort(world.render(dcam.render_camera)))
+            sim.set_pose(body, pose)
+            images.append(dcam.distort(sim.render(dcam.render_camera)))
     return images
+
+
+def chessboard_texture(cols: int, rows: int, square_px: int = 40, border: int = 1) -> np.ndarray:
+    """A chessboard of ``cols`` x ``rows`` squares with a white border of ``border`` squares, RGB."""
+    sq = np.indices((rows, cols)).sum(axis=0) % 2
+    board = np.where(sq == 0, 20, 235).astype(np.uint8)
+    board = np.kron(board, np.ones((square_px, square_px), np.uint8))
+    board = np.pad(board, border * square_px, constant_values=235)
+    return np.repeat(board[:, :, None], 3, axis=2)
 
 
 def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, seed: int = 0,
@@ -229,9 +238,8 @@ def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, se
     The card is held around the point both eyes fixate (their optical axes' closest approach),
     up to 0.12 m off it sideways and 0.15 m nearer or farther, facing the eyes within 30 degrees.
     """
-    from scipy.spatial.transform import Rotation
-
-    from .camera import look_at
+    from ..rotation import from_euler
+    from ..sim.camera import look_at
 
     rng = np.random.default_rng(seed)
     cols, rows = pattern
@@ -246,8 +254,7 @@ def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, se
         tries += 1
         centre = fix + rng.uniform(-0.15, 0.15) * view + rng.uniform(-0.12, 0.12, 3) * (1 - np.abs(view))
         face = look_at(centre, eyes)  # z towards the eyes
-        tilt = Rotation.from_euler("xyz", [rng.uniform(-30, 30), rng.uniform(-30, 30), rng.uniform(-25, 25)],
-                                   degrees=True).as_matrix()
+        tilt = from_euler("xyz", [rng.uniform(-30, 30), rng.uniform(-30, 30), rng.uniform(-25, 25)], degrees=True)
         T = np.eye(4)
         T[:3, :3] = face[:3, :3] @ tilt @ np.diag([1.0, -1.0, -1.0])  # card +z faces the eyes
         T[:3, 3] = centre
@@ -277,18 +284,19 @@ def _closest_point(p, d, q, e) -> np.ndarray:
 def stereo_views(left: DistortedCamera, right: DistortedCamera, rig, n: int = 16, pattern=PATTERN,
                  square: float = STEREO_SQUARE, seed: int = 0) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Left and right images of a chessboard card held where both eyes see it, ``n`` poses."""
-    from .simworld import SimWorld, chessboard_texture
+    from ..sim.camera import STUDIO
+    from ..sim.scene import SimScene
 
     cols, rows = pattern
     tex = chessboard_texture(cols + 1, rows + 1, 48, border=1)
     size = ((cols + 3) * square, (rows + 3) * square)
     out_l, out_r = [], []
-    with SimWorld(table=False, paper=False, marker=False) as world:
-        body = world.add_texture_quad(tex, np.eye(4), size)
+    with SimScene(style=STUDIO) as sim:
+        body = sim.add_quad(tex, np.eye(4), size)
         for pose in stereo_poses(rig, n, pattern, square, seed, left.dist):
-            world.set_pose(body, pose)
-            out_l.append(left.distort(world.render(left.render_camera)))
-            out_r.append(right.distort(world.render(right.render_camera)))
+            sim.set_pose(body, pose)
+            out_l.append(left.distort(sim.render(left.render_camera)))
+            out_r.append(right.distort(sim.render(right.render_camera)))
     return out_l, out_r
 
 

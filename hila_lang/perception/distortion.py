@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .camera import Camera
+from ..sim.camera import Camera
 
 #: true distortion of the simulated iCub eye cameras: k1, k2, p1, p2, k3 (OpenCV order)
 TRUE_DISTORTION = (-0.32, 0.12, 0.0, 0.0, 0.0)

@@ -6,34 +6,31 @@
 2. undistorted with each eye's calibration, smoothed with Gaussian RBFs (0.5 pixel),
 3. triangulated with the calibrated intrinsics and the eyes' poses; the marker sits a known
    offset above the pen tip, which is subtracted,
-4. the ICPs detected in the images: the grid read in each undistorted image (the first frame,
-   else the last or the middle one when the hand hides the grid)
-   (:func:`hila_lang.perception.board.read_board`, left and right averaged); the demonstrated
-   cell is the one the pen touches (path points within ``CONTACT_TOLERANCE`` of the paper),
-   its corners become ``tl``, ``tr``, ``br``, ``bl``; the hand's start ``hand`` is the first
-   triangulated point (names as :mod:`hila_lang.games.demonstration` uses them).
+4. the ICPs detected in the images by the caller's *ICP reader*: perception knows no scene, so
+   what the ICPs are (a game board's cell corners, a letter's box) is the world's business.
+   ``read_icps(view, frames, path, surface_z) -> IcpReading`` gets ``view(eye, i)``: frame
+   ``i`` of ``eye`` undistorted, as an image with the calibrated ``K`` and the eye's pose.
+   (The tic-tac-toe world's reader is
+   :func:`hila_lang.worlds.tictactoe.vision.demonstration_icps`.)
 
-:func:`template_from_frames` (a recording folder, or left/right folders or videos) and
-:func:`template_from_sim` (record the seeded demonstration in PyBullet first) then segment the
-path with k-means (:func:`hila_lang.segmentation.segment_template`), after putting pen-tip
+:func:`template_from_frames` (a recording folder, or left/right folders or videos) then segments
+the path with k-means (:func:`hila_lang.segmentation.segment_template`), after putting pen-tip
 points within ``CONTACT_SNAP`` of the known paper plane on it (:attr:`Perception.path` keeps
 the raw triangulation).
 """
 
 from __future__ import annotations
 
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from ..errors import InputError
 from .calibration import Calibration
 
-#: a path point within this height of the paper counts as touching it (demonstrated cell), metres
-CONTACT_TOLERANCE = 0.004
 #: template points at most this far above (or below) the paper are put on it, metres: the
 #: triangulated pen tip scatters about +-2 mm in height, and the robot's pen only inks within
 #: 0.5 mm of the paper, so a drawn stroke must lie exactly on the known table plane
@@ -53,9 +50,9 @@ class Perception:
     times : ndarray, shape (T,)
         Seconds from the first frame.
     icps : dict[str, ndarray]
-        ``tl``, ``tr``, ``br``, ``bl``, ``hand``, each (3,), world, metres.
-    cell : int
-        The demonstrated cell (1..9).
+        Name -> (3,), world, metres, as the ICP reader found them.
+    icp_reading : IcpReading
+        What the ICP reader reported (its note for the template, its details).
     uv : dict[str, ndarray]
         Per eye, the undistorted, smoothed marker track (T, 2), pixels.
     bridged : dict[str, list[int]]
@@ -70,7 +67,7 @@ class Perception:
     path: np.ndarray
     times: np.ndarray
     icps: dict[str, np.ndarray]
-    cell: int
+    icp_reading: "IcpReading"
     uv: dict[str, np.ndarray]
     bridged: dict[str, list[int]]
     reprojection_px: dict[str, float]
@@ -79,17 +76,33 @@ class Perception:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
-class _Undistorted:
-    """A CameraImage-like view of an undistorted frame (rgb, K, world_T_camera, width, height)."""
+@dataclass
+class IcpReading:
+    """What an ICP reader found in a demonstration's images.
 
-    def __init__(self, rgb, K, world_T_camera):
-        self.rgb, self.K, self.world_T_camera = rgb, K, world_T_camera
-        self.height, self.width = rgb.shape[:2]
+    Attributes
+    ----------
+    icps : dict[str, ndarray]
+        Name -> point (3,), world, metres.
+    note : str
+        One sentence for the template's description (how the ICPs were found).
+    detail : dict
+        Anything else worth reporting (e.g. ``{"cell": 5}``).
+    """
+
+    icps: dict[str, np.ndarray]
+    note: str = ""
+    detail: dict = field(default_factory=dict)
+
+
+def frame_name(names, i: int) -> str:
+    """``"frame NAME"`` (or ``"frame i"``) for error messages."""
+    return f"frame {names[i]}" if names is not None else f"frame {i}"
 
 
 def perceive(left: list[np.ndarray], right: list[np.ndarray], calibration: dict[str, Calibration],
-             cameras: dict, *, stereo=None, left_names=None, right_names=None, max_gap: int = 3,
-             smoothing_px: float = 0.5) -> Perception:
+             cameras: dict, read_icps: Callable, *, stereo=None, left_names=None, right_names=None,
+             max_gap: int = 3, smoothing_px: float = 0.5) -> Perception:
     """Run the pipeline on left and right frames (lists of RGB (H, W, 3) uint8).
 
     Parameters
@@ -101,6 +114,9 @@ def perceive(left: list[np.ndarray], right: list[np.ndarray], calibration: dict[
     cameras : dict
         As :func:`hila_lang.perception.recording.load_cameras` returns: per eye
         ``world_T_camera``, plus ``fps``, ``surface_z``, ``marker_offset``.
+    read_icps : callable
+        ``read_icps(view, frames, path, surface_z, names) -> IcpReading`` (see the module
+        docstring); ``names`` maps an eye to its frame names (or None).
     stereo : StereoCalibration, optional
         The eyes' relative pose from a chessboard seen by both; when given, the right eye's
         pose is the left eye's (kinematics) composed with it, which keeps the two rays
@@ -117,9 +133,9 @@ def perceive(left: list[np.ndarray], right: list[np.ndarray], calibration: dict[
     ------
     InputError
         Different frame counts, image size not matching the calibration, the marker lost too
-        long (frames named), no grid found, the pen never touching the paper inside the grid.
+        long (frames named), or whatever the ICP reader could not find.
     """
-    from .board import read_board
+    from ..sim.camera import CameraImage
     from .distortion import undistort_image, undistort_points
     from .extraction import marker_track, rbf_smooth
     from .triangulation import reprojection_error, triangulate
@@ -159,30 +175,16 @@ def perceive(left: list[np.ndarray], right: list[np.ndarray], calibration: dict[
     seconds["triangulate"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     surface_z = float(cameras["surface_z"])
-    readings = []
-    for eye, K, T in (("left", KL, TL), ("right", KR, TR)):
+    poses, Ks = {"left": TL, "right": TR}, {"left": KL, "right": KR}
+
+    def view(eye: str, i: int) -> CameraImage:
         cal = calibration[eye]
-        problems = []
-        for i in dict.fromkeys([0, len(left) - 1, len(left) // 2]):  # the hand may hide the grid
-            img = _Undistorted(undistort_image(frames[eye][i], cal.K, cal.dist), K, T)
-            try:
-                readings.append(read_board(img, surface_z))
-                break
-            except InputError as exc:
-                problems.append(f"{_name(names[eye], i)}: {exc.message}")
-        else:
-            raise InputError(f"no grid found in the {eye} frames tried ({'; '.join(problems)})",
-                             hint="the ICPs (cell corners) are read from the first, last or middle frame")
-    cell = _touched_cell(path, readings[0], surface_z)
-    icps = {name: (readings[0].corners[cell][name] + readings[1].corners[cell][name]) / 2
-            for name in ("tl", "tr", "br", "bl")}
-    icps["hand"] = path[0].copy()
+        rgb = undistort_image(frames[eye][i], cal.K, cal.dist)
+        return CameraImage(rgb, Ks[eye], poses[eye], rgb.shape[1], rgb.shape[0])
+
+    reading = read_icps(view, len(left), path, surface_z, names)
     seconds["icps"] = time.perf_counter() - t0
-    return Perception(path, times, icps, cell, uv, bridged, reproj, dict(calibration), stereo, seconds)
-
-
-def _name(names, i: int) -> str:
-    return f"frame {names[i]}" if names is not None else f"frame {i}"
+    return Perception(path, times, reading.icps, reading, uv, bridged, reproj, dict(calibration), stereo, seconds)
 
 
 def snap_contact(path: np.ndarray, surface_z: float, tolerance: float = CONTACT_SNAP) -> np.ndarray:
@@ -191,24 +193,6 @@ def snap_contact(path: np.ndarray, surface_z: float, tolerance: float = CONTACT_
     near = np.abs(out[:, 2] - surface_z) <= tolerance
     out[near, 2] = surface_z
     return out
-
-
-def _touched_cell(path: np.ndarray, reading, surface_z: float) -> int:
-    """The cell (1..9) holding most path points within CONTACT_TOLERANCE of the paper."""
-    low = path[np.abs(path[:, 2] - surface_z) < CONTACT_TOLERANCE]
-    if len(low) == 0:
-        raise InputError(f"the pen never touches the paper (lowest point {path[:, 2].min() - surface_z:+.3f} m "
-                         f"from the surface): cannot tell which cell was demonstrated")
-    rel = low[:, :2] - reading.center[:2]
-    right = rel @ reading.right[:2] / reading.cell_size
-    far = rel @ reading.far[:2] / reading.cell_size
-    col = np.floor(right + 1.5).astype(int)
-    row = np.floor(1.5 - far).astype(int)
-    inside = (col >= 0) & (col < 3) & (row >= 0) & (row < 3)
-    if not inside.any():
-        raise InputError("the pen touches the paper only outside the grid: cannot tell the demonstrated cell")
-    cells = row[inside] * 3 + col[inside] + 1
-    return int(np.bincount(cells).argmax())
 
 
 def load_calibration_source(source, eye: str) -> Calibration:
@@ -226,8 +210,8 @@ def load_calibration_source(source, eye: str) -> Calibration:
         raise InputError(f"{eye} camera: {exc.message}", file=str(source)) from None
 
 
-def template_from_frames(left, right=None, *, calibration_left=None, calibration_right=None, cameras=None,
-                         stereo=None,
+def template_from_frames(left, right=None, *, read_icps: Callable, calibration_left=None, calibration_right=None,
+                         cameras=None, stereo=None,
                          k: int = 3, tags=DEFAULT_TAGS, contact=DEFAULT_CONTACT, name: str = "circle",
                          seed: int = 0, max_gap: int = 3, description: str = "", return_perception: bool = False):
     """A k-means segmented template from recorded stereo frames.
@@ -240,6 +224,8 @@ def template_from_frames(left, right=None, *, calibration_left=None, calibration
         ``right`` is given.
     right : path, optional
         The right frames (folder or video).
+    read_icps : callable
+        Finds the ICPs in the images (see :func:`perceive`).
     calibration_left, calibration_right : path, optional
         A calibration YAML or a folder of chessboard images per eye (default: the recording's
         ``calibration/left`` and ``calibration/right``).
@@ -292,7 +278,7 @@ def template_from_frames(left, right=None, *, calibration_left=None, calibration
         stereo_cal = calibrate_stereo(sl, sr, calibration["left"], calibration["right"], names=sln)
     t_cal = time.perf_counter() - t0
     cams = load_cameras(cams_path)
-    result = perceive(lframes, rframes, calibration, cams, stereo=stereo_cal, left_names=lnames,
+    result = perceive(lframes, rframes, calibration, cams, read_icps, stereo=stereo_cal, left_names=lnames,
                       right_names=rnames, max_gap=max_gap)
     result.seconds = {"load": t_load, "calibrate": t_cal, **result.seconds}
     desc = description or (
@@ -300,41 +286,9 @@ def template_from_frames(left, right=None, *, calibration_left=None, calibration
         f"{cams['fps']:g} Hz in {root}: hand marker detected sub-pixel in both iCub eye cameras, "
         f"undistorted with chessboard calibrations (RMS reprojection "
         f"{calibration['left'].rms:.3f} / {calibration['right'].rms:.3f} px), Gaussian RBF smoothed "
-        f"(0.5 px), triangulated; points within {CONTACT_SNAP * 1000:g} mm of the paper put on it; ICPs tl, tr, br, bl = corners of cell {result.cell} read from the "
-        f"images, hand = the first triangulated point. Segmented by k-means (k = {k}).")
+        f"(0.5 px), triangulated; points within {CONTACT_SNAP * 1000:g} mm of the paper put on it; "
+        f"{result.icp_reading.note} Segmented by k-means (k = {k}).")
     path = snap_contact(result.path, float(cams["surface_z"]))
     whole = Template(name=name, path=path, icps=result.icps, times=result.times, description=desc)
     template = segment_template(whole, k, list(tags), method="kmeans", seed=seed, contact=tuple(contact))
     return (template, result) if return_perception else template
-
-
-def template_from_sim(seed: int = 0, *, k: int = 3, tags=DEFAULT_TAGS, contact=DEFAULT_CONTACT,
-                      name: str = "circle", recording_dir=None, frames: int | None = None,
-                      n_calibration: int = 40, n_stereo: int = 16, return_perception: bool = False):
-    """Record the seeded demonstration in PyBullet, then learn it with :func:`template_from_frames`.
-
-    ``recording_dir`` keeps the recording (default: a temporary folder, deleted afterwards);
-    ``frames`` records only the first frames, ``n_calibration`` and ``n_stereo`` set the
-    chessboard sessions (see :func:`hila_lang.perception.recording.record_demonstration`).
-    """
-    from .recording import record_demonstration
-
-    def run(folder: Path):
-        record_demonstration(folder, seed, n_calibration=n_calibration, n_stereo=n_stereo, overwrite=True,
-                             frames=frames)
-        out = template_from_frames(folder, k=k, tags=tags, contact=contact, name=name, seed=0,
-                                   return_perception=return_perception)
-        template = out[0] if return_perception else out
-        template.description = (
-            f"Learned by perception from a simulated recording: the seeded human-like demonstration "
-            f"(hila_lang.games.demonstration, seed {seed}) performed by a green hand marker in "
-            f"PyBullet, seen by the iCub's two eye cameras (320x240, 20 Hz, barrel lens distortion). "
-            + template.description.split(f" in {folder}: ", 1)[-1]
-            + f" Made by: hila learn --from-sim --seed {seed} -k {k} --tags {','.join(tags)}"
-            + (f" --contact {','.join(contact)}" if contact else ""))
-        return out
-
-    if recording_dir is not None:
-        return run(Path(recording_dir))
-    with tempfile.TemporaryDirectory(prefix="hila_recording_") as tmp:
-        return run(Path(tmp) / "recording")

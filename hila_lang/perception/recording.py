@@ -13,7 +13,10 @@ A *recording* is a folder::
                                   plane of the demonstration table, the marker's offset above
                                   the pen tip
     truth.yaml                    ground truth for benchmarks and tests only (the pipeline
-                                  never reads it): pen-tip path, times, ICPs, true K and lens
+                                  never reads it): e.g. pen-tip path, times, ICPs, true K and lens
+
+:func:`write_recording` writes one from any simulated scene (the tic-tac-toe world records its
+demonstration with it: :func:`hila_lang.worlds.tictactoe.recording.record_demonstration`).
 
 The folder is built under a temporary name beside the target and renamed into place when
 complete, so a crash never leaves a half-written recording; every file is written atomically.
@@ -30,12 +33,13 @@ import re
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from ..errors import InputError
 from ..fileio import dump_yaml, load_yaml, write_png
-from .camera import Camera
+from ..sim.camera import Camera
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm")
 #: supersampling of the chessboard images (the demonstration frames use 2x)
@@ -112,7 +116,7 @@ def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[n
 def _read_video(path: Path) -> list[np.ndarray]:
     import cv2
 
-    from ..robot.console import quiet_c_output
+    from ..sim.client import quiet_c_output
 
     with quiet_c_output():  # FFmpeg prints its own complaint (e.g. "moov atom not found")
         cap = cv2.VideoCapture(str(path))
@@ -155,48 +159,42 @@ def load_cameras(path: str | os.PathLike) -> dict:
     return out
 
 
-def record_demonstration(out_dir: str | os.PathLike, seed: int = 0, *, n_calibration: int = 40,
-                         n_stereo: int = 16, overwrite: bool = False, frames: int | None = None) -> Path:
-    """Record the seeded demonstration (:func:`hila_lang.games.demonstration.demonstrate`).
-
-    The hand marker's centre follows the pen tip plus :data:`~.simworld.MARKER_OFFSET` while the
-    distorted left and right eye cameras take one image per demonstration sample (20 Hz).
+def write_recording(out_dir: str | os.PathLike, rig, frames: int, render: Callable, *, surface_z: float,
+                    marker_offset=(0.0, 0.0, 0.0), truth: dict | None = None, seed: int = 0,
+                    n_calibration: int = 40, n_stereo: int = 16, overwrite: bool = False) -> Path:
+    """Write a recording folder (see the module docstring) of a simulated scene.
 
     Parameters
     ----------
     out_dir : path
         The recording folder to create.
+    rig : StereoRig
+        The true (undistorted) eye cameras (:mod:`hila_lang.perception.rig`).
+    frames : int
+        Number of frame pairs.
+    render : callable
+        ``render(i, camera) -> RGB (H, W, 3) uint8``: frame ``i`` seen by an ideal ``camera``
+        (the scene moved to time ``i`` first); it is distorted here like the real lenses.
+    surface_z : float
+        World z of the demonstration table's paper (written to ``cameras.yaml``).
+    marker_offset : (3,)
+        How far the tracked marker's centre is above the pen tip, metres.
+    truth : dict, optional
+        Ground truth for ``truth.yaml`` (benchmarks and tests only); the true K and lens are added.
     seed : int
-        Seed of the demonstration.
-    n_calibration : int
-        Chessboard images per eye.
-    n_stereo : int
-        Chessboard image pairs seen by both eyes at once (0: none; the eyes' relative pose then
-        comes from the kinematics alone).
+        Seed of the chessboard poses.
+    n_calibration, n_stereo : int
+        Chessboard images per eye; pairs seen by both eyes at once (0: none).
     overwrite : bool
         Replace an existing folder (otherwise an existing non-empty folder is an error).
-    frames : int, optional
-        Record only the first ``frames`` samples (for quick tests).
-
-    Returns
-    -------
-    Path
-        ``out_dir``.
     """
-    from ..games.demonstration import demonstrate
-    from ..robot.scene import SceneSpec
     from .calibration import chessboard_views, stereo_views
     from .distortion import TRUE_DISTORTION, DistortedCamera
-    from .rig import FPS, demonstration_rig
-    from .simworld import MARKER_OFFSET, SimWorld
+    from .rig import FPS
 
     out = Path(out_dir)
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise InputError("recording folder exists and is not empty (use overwrite)", file=str(out))
-    spec = SceneSpec.demonstration()
-    demo = demonstrate(seed, spec)
-    n = len(demo.path) if frames is None else max(2, min(int(frames), len(demo.path)))
-    rig = demonstration_rig(spec)
     cams = {eye: DistortedCamera(rig.camera(eye), TRUE_DISTORTION) for eye in ("left", "right")}
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
@@ -212,20 +210,15 @@ def record_demonstration(out_dir: str | os.PathLike, seed: int = 0, *, n_calibra
             for i, (a, b) in enumerate(zip(*stereo_views(sl, sr, rig, n_stereo, seed=seed + 2000))):
                 write_png(tmp / "calibration" / "stereo" / "left" / f"pair_{i:03d}.png", a)
                 write_png(tmp / "calibration" / "stereo" / "right" / f"pair_{i:03d}.png", b)
-        with SimWorld(spec, seed=seed) as world:
-            for i in range(n):
-                world.set_marker(demo.path[i] + MARKER_OFFSET)
-                for eye, dcam in cams.items():
-                    write_png(tmp / eye / f"frame_{i:05d}.png", dcam.distort(world.render(dcam.render_camera)))
+        for i in range(frames):
+            for eye, dcam in cams.items():
+                write_png(tmp / eye / f"frame_{i:05d}.png", dcam.distort(render(i, dcam.render_camera)))
         dump_yaml(tmp / "cameras.yaml", {
-            "fps": FPS, "surface_z": spec.surface_z, "marker_offset": MARKER_OFFSET.tolist(),
+            "fps": FPS, "surface_z": surface_z, "marker_offset": np.asarray(marker_offset, float).tolist(),
             "left": camera_to_dict(rig.left), "right": camera_to_dict(rig.right)},
             header="eye camera poses from the iCub's head kinematics while it watched (world frame, metres)")
-        dump_yaml(tmp / "truth.yaml", {
-            "seed": seed, "times": demo.times[:n].tolist(), "path": demo.path[:n].tolist(),
-            "icps": {k: v.tolist() for k, v in demo.icps.items()}, "cell": demo.cell,
-            "K": rig.left.K.tolist(), "dist": list(TRUE_DISTORTION)},
-            header="ground truth of the simulated recording: for benchmarks and tests only")
+        dump_yaml(tmp / "truth.yaml", {**(truth or {}), "K": rig.left.K.tolist(), "dist": list(TRUE_DISTORTION)},
+                  header="ground truth of the simulated recording: for benchmarks and tests only")
         if out.exists():
             shutil.rmtree(out)
         os.replace(tmp, out)

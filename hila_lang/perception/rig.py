@@ -1,4 +1,4 @@
-"""The iCub's stereo eye cameras while it watches a demonstration: intrinsics and poses.
+"""The iCub's stereo eye cameras while it watches something: intrinsics and poses.
 
 The iCub's eyes are 68 mm apart on its head, about 0.33 m above the waist; its cameras run at
 320x240 and 20 Hz (paper section III.C).  While it watches the demonstrator the neck is tilted
@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..robot.scene import SceneSpec
-from .camera import Camera, intrinsics, look_at
+from ..sim.camera import Camera, intrinsics, look_at
 
 WIDTH, HEIGHT = 320, 240
 #: horizontal field of view of the eye cameras, degrees (f ~ 257 px at 320 px)
@@ -40,15 +39,13 @@ class StereoRig:
         return {"left": self.left, "right": self.right}[eye]
 
 
-def demonstration_rig(spec: SceneSpec | None = None, *, eyes_center=EYES_CENTER,
-                      baseline: float = BASELINE, hfov_deg: float = HFOV_DEG,
-                      width: int = WIDTH, height: int = HEIGHT) -> StereoRig:
-    """Eye cameras verging on the demonstration grid's centre.
+def stereo_rig(target, *, eyes_center=EYES_CENTER, baseline: float = BASELINE, hfov_deg: float = HFOV_DEG,
+               width: int = WIDTH, height: int = HEIGHT) -> StereoRig:
+    """Eye cameras verging on ``target`` (3,), world, metres.
 
     The left eye is at +y (the robot's left; it faces +x), the right eye at -y.
     """
-    spec = spec or SceneSpec.demonstration()
-    target = np.array([spec.grid_center[0], spec.grid_center[1], spec.surface_z])
+    target = np.asarray(target, dtype=float)
     c = np.asarray(eyes_center, dtype=float)
     K = intrinsics(width, height, hfov_deg)
     cams = []

@@ -50,6 +50,6 @@ def triangulate(uv_left: np.ndarray, uv_right: np.ndarray, K_left: np.ndarray, w
 
 def reprojection_error(points: np.ndarray, uv: np.ndarray, K: np.ndarray, world_T_camera: np.ndarray) -> np.ndarray:
     """Distance (N,), pixels, between ``uv`` (N, 2) and the projections of ``points`` (N, 3)."""
-    from .camera import project
+    from ..sim.camera import project
 
     return np.linalg.norm(project(points, K, world_T_camera) - uv, axis=1)

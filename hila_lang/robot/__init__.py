@@ -1,13 +1,34 @@
-"""The iCub in PyBullet: scene geometry, pen, IK, execution, ink and eye cameras.
+"""The iCub in PyBullet: its body, arm controller, eyes and paper behind one back end, and the dry back end.
 
-- :mod:`hila_lang.robot.scene`    board geometry (pure numpy): :class:`SceneSpec`, cell corners
-- :mod:`hila_lang.robot.model`    the iCub URDF generated at run time from ``icub-models``
-- :mod:`hila_lang.robot.ik`       forward kinematics, Jacobian, damped least squares IK
+- :mod:`hila_lang.robot.model`     the iCub URDF generated at run time from ``icub-models``
+- :mod:`hila_lang.robot.ik`        forward kinematics, Jacobian, damped least squares IK
 - :mod:`hila_lang.robot.trajectory` densifying paths, trapezoidal speed profile
-- :mod:`hila_lang.robot.console`  silencing PyBullet's C-level console output
-- :mod:`hila_lang.robot.ink`      ink rasterisation into the paper texture
-- :mod:`hila_lang.robot.cameras`  pinhole cameras (eye cameras, top view)
-- :mod:`hila_lang.robot.backend`  :class:`PyBulletBackend`, the Backend the interpreter drives
+- :mod:`hila_lang.robot.workspace` the table in front of the robot; the default sheet of paper
+- :mod:`hila_lang.robot.body`      the iCub loaded in a simulated scene: joints, links, chains
+- :mod:`hila_lang.robot.arm`       the arm controller: IK along a path, the 240 Hz control loop
+- :mod:`hila_lang.robot.eyes`      gaze and the eye cameras (the ``eyes`` capability)
+- :mod:`hila_lang.robot.paper`     ink on the paper (``ink``), the camera above it (``overview``)
+- :mod:`hila_lang.robot.backend`   :class:`PyBulletBackend`, the thin façade the interpreter drives
+- :mod:`hila_lang.robot.dry`       :class:`DryBackend`: kinematic, no physics
 
-Importing this package imports nothing heavy; pybullet is loaded by ``backend``.
+The robot knows a neutral drawing surface (:class:`hila_lang.sim.surface.Surface`): what is
+printed on it is a world's business.  ``DRY`` and ``PYBULLET`` declare the two back ends (entry
+points ``hila.backends``).  Importing this package imports nothing heavy; pybullet is loaded by
+``backend``.
 """
+
+from ..plugins.registry import BackendInfo
+from ..plugins.settings import Setting, point
+
+DRY = BackendInfo(
+    name="dry",
+    factory="hila_lang.robot.dry:make_backend",
+    doc="kinematic, no physics: the hand follows every path exactly",
+    settings=(Setting("hand", "where the hand starts when the world does not say", point, metavar="X,Y,Z"),),
+)
+
+PYBULLET = BackendInfo(
+    name="pybullet",
+    factory="hila_lang.robot.backend:make_backend",
+    doc="the iCub in PyBullet: IK, 240 Hz position control, ink on the paper, eye cameras",
+)

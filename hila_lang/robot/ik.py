@@ -24,34 +24,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..rotation import from_rpy, pose
+
 #: weight of the pen-axis error against the position error, metres per radian
 ORIENTATION_WEIGHT = 0.1
 
 
-def rpy_to_matrix(rpy) -> np.ndarray:
-    """URDF roll-pitch-yaw (radians) to a rotation matrix, shape (3, 3): ``Rz(y) Ry(p) Rx(r)``."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix (3, 3) of ``angle`` radians about the unit ``axis`` (3,), Rodrigues' formula.
 
-
-def matrix_to_rpy(rotation: np.ndarray) -> tuple[float, float, float]:
-    """Inverse of :func:`rpy_to_matrix`: URDF (roll, pitch, yaw), radians, of a rotation (3, 3)."""
-    r = np.asarray(rotation, dtype=float)
-    pitch = math.atan2(-r[2, 0], math.hypot(r[0, 0], r[1, 0]))
-    if math.hypot(r[0, 0], r[1, 0]) < 1e-9:  # gimbal lock: put everything in yaw
-        return 0.0, pitch, math.atan2(-r[0, 1], r[1, 1])
-    return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
-
-
-def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix (3, 3) of ``angle`` radians about the unit ``axis`` (3,) (Rodrigues)."""
+    The forward kinematics' inner loop only: it runs for every joint of every IK iteration, where
+    a scipy ``Rotation`` costs ten times more.  Everything else rotates through
+    :mod:`hila_lang.rotation`; ``tests/test_robot_ik.py`` holds the two equal.
+    """
     x, y, z = axis
     c, s = math.cos(angle), math.sin(angle)
     t = 1.0 - c
@@ -62,16 +47,6 @@ def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
             [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
         ]
     )
-
-
-def transform(rotation: np.ndarray | None = None, translation=None) -> np.ndarray:
-    """Homogeneous transform (4, 4) from a rotation (3, 3) and a translation (3,)."""
-    out = np.eye(4)
-    if rotation is not None:
-        out[:3, :3] = rotation
-    if translation is not None:
-        out[:3, 3] = translation
-    return out
 
 
 @dataclass(frozen=True)
@@ -124,7 +99,7 @@ class KinematicChain:
             origin = joint.find("origin")
             xyz = [float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()]
             rpy = [float(v) for v in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()]
-            pending = pending @ transform(rpy_to_matrix(rpy), xyz)
+            pending = pending @ pose(from_rpy(rpy), xyz)
             kind = joint.get("type")
             if kind == "fixed":
                 continue
@@ -168,7 +143,7 @@ class KinematicChain:
             positions[i] = frame[:3, 3]
             world_axes[i] = frame[:3, :3] @ self.axes[i]
             rot = np.eye(4)
-            rot[:3, :3] = axis_angle_matrix(self.axes[i], q[i])
+            rot[:3, :3] = _axis_rotation(self.axes[i], q[i])
             frame = frame @ rot
         return frame @ self.tip, positions, world_axes
 

@@ -171,7 +171,7 @@ def _prune_leaves(robot: ET.Element) -> None:
 
 
 def _freeze(robot: ET.Element) -> None:
-    from .ik import axis_angle_matrix, matrix_to_rpy, rpy_to_matrix
+    from ..rotation import from_axis_angle, from_rpy, to_rpy
 
     for joint in robot.findall("joint"):
         name = joint.get("name")
@@ -181,8 +181,8 @@ def _freeze(robot: ET.Element) -> None:
         rpy = [float(v) for v in origin.get("rpy", "0 0 0").split()]
         axis = [float(v) for v in joint.find("axis").get("xyz").split()]
         norm = math.sqrt(sum(a * a for a in axis))
-        rotation = rpy_to_matrix(rpy) @ axis_angle_matrix([a / norm for a in axis], FROZEN_POSTURE.get(name, 0.0))
-        origin.set("rpy", _fmt(matrix_to_rpy(rotation)))
+        rotation = from_rpy(rpy) @ from_axis_angle([a / norm for a in axis], FROZEN_POSTURE.get(name, 0.0))
+        origin.set("rpy", _fmt(to_rpy(rotation)))
         joint.set("type", "fixed")
         for tag in ("axis", "limit", "dynamics"):
             for element in joint.findall(tag):

@@ -1,7 +1,7 @@
 """The robot reads the tic-tac-toe board through its own eye cameras (issue 6, item 5).
 
 Before each of its moves the robot looks at the board and reads, with
-:func:`hila_lang.perception.board.read_board` (OpenCV), where the grid's cells are (their
+:func:`hila_lang.worlds.tictactoe.reading.read_board` (OpenCV), where the grid's cells are (their
 corners become the ICPs the program binds) and which cells hold a cross or a circle (the board
 minimax plays on).  Nothing of the game's memory goes into the reading; the game's own record
 is used only to check it (and to decide to look again).
@@ -42,7 +42,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..errors import HilaRuntimeError, InputError
+from ...errors import HilaRuntimeError, InputError
 
 #: the views tried in order: (name, eye, where the arm is: "still", "lifted" or "aside")
 VIEWS = (("left eye", "left", "still"), ("left eye (arm lifted)", "left", "lifted"),
@@ -81,8 +81,8 @@ def look_at_board(backend, surface_z: float, record: Sequence[str], lift: np.nda
     Parameters
     ----------
     backend
-        Has ``camera_image(eye) -> CameraImage``; ``hand_position()`` and ``move(path)`` for
-        moving the arm (without them the arm stays where it is).
+        A :class:`~hila_lang.plugins.protocols.Backend` with eyes (``backend.eyes``); it moves
+        the arm with ``move`` when ``lift`` is given.
     surface_z : float
         World z of the paper, metres.
     record : sequence of 9 str
@@ -94,7 +94,7 @@ def look_at_board(backend, surface_z: float, record: Sequence[str], lift: np.nda
         A pen position with the arm out of the eyes' view of the board; None: not used.
     read : callable, optional
         ``read(image, surface_z) -> BoardReading``; default
-        :func:`hila_lang.perception.board.read_board`.
+        :func:`hila_lang.worlds.tictactoe.reading.read_board`.
 
     Raises
     ------
@@ -103,16 +103,16 @@ def look_at_board(backend, surface_z: float, record: Sequence[str], lift: np.nda
         the record (the message names them).
     """
     if read is None:
-        from ..perception import board as board_vision
+        from .reading import read_board
 
-        read = board_vision.read_board
+        read = read_board
     record = tuple(record)
     marks: list[str | None] = [None] * 9
     corners = None
     fewest_hidden = 10
     views: list[dict[str, Any]] = []
     arm = "still"
-    can_move = lift is not None and callable(getattr(backend, "move", None))
+    can_move = lift is not None
     try:
         for name, eye, where in VIEWS:
             if where != arm:
@@ -123,7 +123,7 @@ def look_at_board(backend, surface_z: float, record: Sequence[str], lift: np.nda
                 arm = where
                 if not moved:  # the pen was already that high: the same view again would not help
                     continue
-            image = backend.camera_image(eye)
+            image = backend.eyes.camera_image(eye)
             try:
                 reading = read(image, surface_z)
             except InputError as exc:
@@ -176,3 +176,60 @@ def corner_error(sight: BoardSight, true_corners: dict[int, dict[str, np.ndarray
     """Largest distance (metres) between perceived and true cell corners."""
     return max(float(np.linalg.norm(sight.corners[c][n] - true_corners[c][n]))
                for c in true_corners for n in true_corners[c])
+
+
+# --------------------------------------------------------------------------- learning the demonstration
+
+#: a path point within this height of the paper counts as touching it (demonstrated cell), metres
+CONTACT_TOLERANCE = 0.004
+
+
+def demonstration_icps(view, frames: int, path: np.ndarray, surface_z: float, names=None):
+    """The ICP reader of the circle demonstration (for :func:`hila_lang.perception.learn.perceive`).
+
+    The grid is read in each eye's undistorted image (:func:`.reading.read_board`; the first
+    frame, else the last or the middle one when the hand hides the grid); the demonstrated cell
+    is the one the pen touches (path points within :data:`CONTACT_TOLERANCE` of the paper), its
+    corners (left and right averaged) become ``tl``, ``tr``, ``br``, ``bl``, and ``hand`` is the
+    first triangulated point (names as :mod:`.demonstration` uses them).
+    """
+    from ...perception.learn import IcpReading, frame_name
+    from .reading import read_board
+
+    names = names or {}
+    readings = []
+    for eye in ("left", "right"):
+        problems = []
+        for i in dict.fromkeys([0, frames - 1, frames // 2]):  # the hand may hide the grid
+            try:
+                readings.append(read_board(view(eye, i), surface_z))
+                break
+            except InputError as exc:
+                problems.append(f"{frame_name(names.get(eye), i)}: {exc.message}")
+        else:
+            raise InputError(f"no grid found in the {eye} frames tried ({'; '.join(problems)})",
+                             hint="the ICPs (cell corners) are read from the first, last or middle frame")
+    cell = _touched_cell(path, readings[0], surface_z)
+    icps = {name: (readings[0].corners[cell][name] + readings[1].corners[cell][name]) / 2
+            for name in ("tl", "tr", "br", "bl")}
+    icps["hand"] = path[0].copy()
+    return IcpReading(icps, f"ICPs tl, tr, br, bl = corners of cell {cell} read from the images, "
+                            f"hand = the first triangulated point.", {"cell": cell})
+
+
+def _touched_cell(path: np.ndarray, reading, surface_z: float) -> int:
+    """The cell (1..9) holding most path points within CONTACT_TOLERANCE of the paper."""
+    low = path[np.abs(path[:, 2] - surface_z) < CONTACT_TOLERANCE]
+    if len(low) == 0:
+        raise InputError(f"the pen never touches the paper (lowest point {path[:, 2].min() - surface_z:+.3f} m "
+                         f"from the surface): cannot tell which cell was demonstrated")
+    rel = low[:, :2] - reading.center[:2]
+    right = rel @ reading.right[:2] / reading.cell_size
+    far = rel @ reading.far[:2] / reading.cell_size
+    col = np.floor(right + 1.5).astype(int)
+    row = np.floor(1.5 - far).astype(int)
+    inside = (col >= 0) & (col < 3) & (row >= 0) & (row < 3)
+    if not inside.any():
+        raise InputError("the pen touches the paper only outside the grid: cannot tell the demonstrated cell")
+    cells = row[inside] * 3 + col[inside] + 1
+    return int(np.bincount(cells).argmax())

@@ -1,7 +1,7 @@
 """Tic-tac-toe rules and a minimax player that never loses.
 
 The board is a tuple of 9 strings, cell 1 first (row-major as the robot sees the grid: cell 1 is
-far-left, cell 9 near-right, see :mod:`hila_lang.robot.scene`).  An entry is ``""`` (empty),
+far-left, cell 9 near-right, see :mod:`hila_lang.worlds.tictactoe.board`).  An entry is ``""`` (empty),
 ``"O"`` (a circle: the robot's mark) or ``"X"`` (a cross: the opponent's mark).  Cells are
 numbered 1..9 everywhere in this module's interface.
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 from functools import lru_cache
 from typing import Sequence
 
-from ..errors import InputError
+from ...errors import InputError
 
 EMPTY, CIRCLE, CROSS = "", "O", "X"
 #: the three-in-a-row lines, as 0-based indices

@@ -9,8 +9,9 @@
 
 Every ``notify`` is kept in :attr:`log` as ``(event, data)``.  From the command line,
 ``--set script=FILE.yaml`` loads a YAML mapping with the keys ``points``, ``answers``,
-``events`` (and optionally ``home``: where the dry back end starts the hand); without a script
-the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
+``events`` (and optionally ``home``: where the back end starts the hand, ``scene.home``); without
+a script the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
+A question or event the script does not name is an :class:`~hila_lang.errors.UnknownNameError`.
 """
 
 from __future__ import annotations
@@ -19,26 +20,30 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HilaRuntimeError, InputError
+from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...sim.surface import Scene
 
 
 class ScriptedWorld:
-    default_backend = "dry"
-    SETTINGS = ("script",)
+    """Implements :class:`hila_lang.plugins.protocols.World` from a script (see the module docstring)."""
 
     def __init__(self, points=None, answers=None, events=None, home=None) -> None:
         self._points = {str(k): _point(v, f"point {k!r}") for k, v in (points or {}).items()}
         self.answers = {k: (list(v) if isinstance(v, list) else v) for k, v in (answers or {}).items()}
         self.events = {k: list(v) for k, v in (events or {}).items()}
         self.home = None if home is None else _point(home, "home")
+        self.scene = None if self.home is None else Scene(home=self.home)
         self.log: list[tuple[str, dict]] = []
+
+    def attach(self, backend) -> None:
+        pass
 
     def points(self) -> dict[str, np.ndarray]:
         return dict(self._points)
 
     def query(self, name: str, *args: Any) -> Any:
         if name not in self.answers:
-            raise KeyError(name)
+            raise UnknownNameError("question", name, self.answers, owner="the scripted world")
         value = self.answers[name]
         if isinstance(value, list):
             if not value:
@@ -48,7 +53,7 @@ class ScriptedWorld:
 
     def wait(self, event: str, *args: Any) -> Any:
         if event not in self.events:
-            raise KeyError(event)
+            raise UnknownNameError("event", event, self.events, owner="the scripted world")
         if not self.events[event]:
             raise HilaRuntimeError(f"the script has no more '{event}' events")
         return self.events[event].pop(0)
@@ -56,7 +61,7 @@ class ScriptedWorld:
     def notify(self, event: str, **data: Any) -> None:
         self.log.append((event, data))
 
-    def finish(self, trace=None, **extra) -> dict:
+    def finish(self, trace=None, *, fsm=None) -> dict:
         runs = [t for t in (trace or []) if t.kind == "run"]
         return {"states": len(trace or []), "runs": len(runs)}
 
@@ -73,7 +78,7 @@ def _point(value, what: str) -> np.ndarray:
 
 def load_script(path) -> ScriptedWorld:
     """A :class:`ScriptedWorld` from a YAML script file."""
-    from ..fileio import load_yaml
+    from ...fileio import load_yaml
 
     doc = load_yaml(path, "world script", unique_keys=True) or {}
     if not isinstance(doc, dict):
@@ -89,7 +94,7 @@ def load_script(path) -> ScriptedWorld:
         raise
 
 
-def make_world(options) -> ScriptedWorld:
+def make_world(options, settings) -> ScriptedWorld:
     """Plug-in factory: ``--set script=FILE.yaml`` or an empty world."""
-    script = options.settings.get("script") if options is not None else None
+    script = settings.get("script")
     return load_script(script) if script else ScriptedWorld()

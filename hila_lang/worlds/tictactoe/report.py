@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from ..fileio import atomic_write_text
-from . import tictactoe as ttt
+from ...fileio import atomic_write_text
+from . import rules as ttt
 
 PLANNED_BGR = (60, 170, 60)
 EXECUTED_BGR = (200, 80, 20)
@@ -70,13 +70,13 @@ def build_report(world, trace=None) -> dict[str, Any]:
         "seed": world.seed,
         "opponent": world.opponent.name,
         "first": world.first,
-        "backend": getattr(backend, "name", None),
+        "backend": None if backend is None else backend.name,
         "park": [round(float(v), 5) for v in world.park],
         "scene": {
-            "grid_center": list(world.scene.grid_center),
-            "grid_size": world.scene.grid_size,
-            "grid_rotation_deg": round(float(np.degrees(world.scene.grid_rotation)), 3),
-            "surface_z": world.scene.surface_z,
+            "grid_center": list(world.spec.grid_center),
+            "grid_size": world.spec.grid_size,
+            "grid_rotation_deg": round(float(np.degrees(world.spec.grid_rotation)), 3),
+            "surface_z": world.spec.surface_z,
         },
         "moves": world.moves,
         "board": list(world.board),
@@ -176,17 +176,17 @@ def paper_view(world) -> np.ndarray:
     With the PyBullet back end this is the texture the cameras see; otherwise the ink is
     rasterised here from the pen traces that touched the paper and the opponent's strokes.
     """
-    from ..robot.ink import INK_RGB, InkCanvas
+    from ...sim.canvas import INK_RGB, Canvas
     from .marks import on_paper
 
-    canvas = InkCanvas(world.scene)
-    ink_image = getattr(world.backend, "ink_image", None)
-    if callable(ink_image):
-        rgb = np.ascontiguousarray(ink_image()).copy()
+    canvas = Canvas(world.spec.paper())
+    ink = None if world.backend is None else world.backend.ink
+    if ink is not None:
+        rgb = np.ascontiguousarray(ink.ink_image()).copy()
     else:
         for st in world.states:
             if st["pen_down"] and st["executed"] is not None:
-                touching = on_paper(st["executed"], world.scene.surface_z)
+                touching = on_paper(st["executed"], world.spec.surface_z)
                 if len(touching) >= 2:
                     canvas.draw_polyline(touching)
         for strokes in world.crosses:
@@ -199,16 +199,16 @@ def paper_view(world) -> np.ndarray:
 def top_view(world) -> np.ndarray:
     """The board from above (RGB) with planned and executed paths: a rendered camera view
     with the PyBullet back end (the arm may hide part of it), else :func:`paper_view`."""
-    view = getattr(world.backend, "top_view_image", None)
-    if not callable(view):
+    overview = None if world.backend is None else world.backend.overview
+    if overview is None:
         return paper_view(world)
-    image = view()
+    image = overview.top_view_image()
     return _overlay(np.ascontiguousarray(image.rgb).copy(), world, image.project)
 
 
 def write_outputs(world, report: dict[str, Any]) -> Path:
     """Write the output folder of ``world``'s game; returns the folder."""
-    from ..fileio import write_png
+    from ...fileio import write_png
 
     folder = output_folder(world.options.out, world.seed)
     files = ["paper.png", "report.json", "traces.csv", "top.png"]
@@ -216,7 +216,7 @@ def write_outputs(world, report: dict[str, Any]) -> Path:
     write_png(folder / "top.png", top_view(world))
     write_png(folder / "paper.png", paper_view(world))
     if world.sees:
-        write_png(folder / "eye.png", world.backend.camera_image("left").rgb)
+        write_png(folder / "eye.png", world.backend.eyes.camera_image("left").rgb)
         files.append("eye.png")
     if world.fsm is not None:
         atomic_write_text(folder / "fsm.dot", world.fsm.to_dot())

@@ -6,12 +6,11 @@ import numpy as np
 import pytest
 
 from hila_lang.errors import InputError
-from hila_lang.robot.scene import (
+from hila_lang.robot.workspace import TABLE_FRONT_X, TABLE_TOP_Z
+from hila_lang.worlds.tictactoe.board import (
     CORNER_NAMES,
     DEMONSTRATION_DROP,
-    TABLE_FRONT_X,
-    TABLE_TOP_Z,
-    SceneSpec,
+    Grid,
     cell_at,
     cell_center,
     cell_corners,
@@ -19,7 +18,7 @@ from hila_lang.robot.scene import (
 
 
 def test_game_board_is_smaller_rotated_and_higher_than_the_demonstration():
-    demo, game = SceneSpec.demonstration(), SceneSpec.game()
+    demo, game = Grid.demonstration(), Grid.game()
     assert game.grid_size == pytest.approx(0.8 * demo.grid_size)
     assert math.degrees(game.grid_rotation - demo.grid_rotation) == pytest.approx(15.0)
     assert game.surface_z - demo.surface_z == pytest.approx(DEMONSTRATION_DROP)
@@ -29,7 +28,7 @@ def test_game_board_is_smaller_rotated_and_higher_than_the_demonstration():
     assert corners[:, 0].min() >= 0.20 and corners[:, 0].min() > TABLE_FRONT_X
 
 
-@pytest.mark.parametrize("spec", [SceneSpec.game(), SceneSpec.demonstration(), SceneSpec((0.3, 0.1), 0.09, -1.0, 0.5)])
+@pytest.mark.parametrize("spec", [Grid.game(), Grid.demonstration(), Grid((0.3, 0.1), 0.09, -1.0, 0.5)])
 def test_cells_tile_the_grid_and_are_numbered_as_the_robot_sees_them(spec):
     size = spec.grid_size / 3
     right, far = spec.axes()
@@ -52,7 +51,7 @@ def test_cells_tile_the_grid_and_are_numbered_as_the_robot_sees_them(spec):
 
 
 def test_world_to_grid_inverts_grid_to_world():
-    spec = SceneSpec.game()
+    spec = Grid.game()
     rng = np.random.default_rng(1)
     rf = rng.uniform(-0.2, 0.2, size=(50, 2))
     np.testing.assert_allclose(spec.world_to_grid(spec.grid_to_world(rf[:, 0], rf[:, 1])), rf, atol=1e-12)
@@ -61,9 +60,9 @@ def test_world_to_grid_inverts_grid_to_world():
 @pytest.mark.parametrize("cell", [0, 10, -1, 2.0, True, "5", None])
 def test_bad_cell_is_an_input_error(cell):
     with pytest.raises(InputError, match="cell must be"):
-        cell_corners(SceneSpec.game(), cell)
+        cell_corners(Grid.game(), cell)
     with pytest.raises(InputError, match="cell must be"):
-        cell_center(SceneSpec.game(), cell)
+        cell_center(Grid.game(), cell)
 
 
 @pytest.mark.parametrize(
@@ -78,4 +77,4 @@ def test_bad_cell_is_an_input_error(cell):
 )
 def test_bad_scene_spec_says_what_is_wrong(kwargs, message):
     with pytest.raises(InputError, match=message):
-        SceneSpec(**kwargs)
+        Grid(**kwargs)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..robot.scene import SceneSpec, cell_center
+from .board import Grid, cell_center
 
 #: a pen-tip point within this height of the paper touches it, metres (the PyBullet back end
 #: inks within the same 0.5 mm)
@@ -16,7 +16,7 @@ CONTACT_TOLERANCE = 0.0005
 CROSS_HALF = 0.30
 
 
-def cross_strokes(spec: SceneSpec, cell: int, rng: np.random.Generator,
+def cross_strokes(spec: Grid, cell: int, rng: np.random.Generator,
                   points_per_stroke: int = 12) -> list[np.ndarray]:
     """Two hand-drawn strokes of a cross in ``cell`` on the paper, each shape (N, 3).
 
@@ -53,7 +53,7 @@ def similarity_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (N, D)
     """
-    from ..osila.fallback import fit_similarity
+    from ...osila.fallback import fit_similarity
 
     src = np.asarray(source, dtype=float)
     dst = np.asarray(target, dtype=float)
@@ -85,7 +85,7 @@ def mark_correlation(drawn: np.ndarray, demonstrated: np.ndarray, n: int = 200) 
     aligned onto the demonstrated one (:func:`similarity_align`), and R is the paper's eq. 1
     (:func:`hila_lang.metrics.correlation`).
     """
-    from ..metrics import correlation, resample
+    from ...metrics import correlation, resample
 
     m = max(len(drawn), len(demonstrated), n)
     a = resample(by_arc_length(drawn, m), n)
@@ -118,7 +118,7 @@ def tracking_error(planned: np.ndarray, executed: np.ndarray, step: float = 0.00
     return dist
 
 
-def outside_cell(spec: SceneSpec, cell: int, points: np.ndarray) -> float:
+def outside_cell(spec: Grid, cell: int, points: np.ndarray) -> float:
     """How far (metres) the farthest of ``points`` lies outside ``cell``, seen from above; 0 inside."""
     size = spec.grid_size / 3
     centre = spec.world_to_grid(cell_center(spec, cell))

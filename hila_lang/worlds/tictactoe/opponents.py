@@ -15,8 +15,8 @@ import random
 import sys
 from typing import Protocol, TextIO
 
-from ..errors import HilaRuntimeError, InputError
-from .tictactoe import CROSS, Board, best_moves, free_cells, render
+from ...errors import HilaRuntimeError, InputError
+from .rules import CROSS, Board, best_moves, free_cells, render
 
 #: names accepted by ``--opponent``
 NAMES = ("random", "minimax", "human")

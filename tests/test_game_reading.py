@@ -9,13 +9,13 @@ pytest.importorskip("pybullet")
 pytest.importorskip("cv2")
 
 from hila_lang.errors import InputError  # noqa: E402
-from hila_lang.perception.board import read_board  # noqa: E402
-from hila_lang.perception.camera import Camera, intrinsics, look_at  # noqa: E402
-from hila_lang.perception.simworld import SimWorld  # noqa: E402
-from hila_lang.robot.cameras import CameraImage  # noqa: E402
-from hila_lang.robot.scene import CORNER_NAMES, SceneSpec, cell_corners  # noqa: E402
+from hila_lang.worlds.tictactoe.reading import read_board  # noqa: E402
+from hila_lang.sim.camera import Camera, intrinsics, look_at  # noqa: E402
+from hila_lang.worlds.tictactoe.recording import DemonstrationScene  # noqa: E402
+from hila_lang.sim.camera import CameraImage  # noqa: E402
+from hila_lang.worlds.tictactoe.board import CORNER_NAMES, Grid, cell_corners  # noqa: E402
 
-def eye_image(world: SimWorld, spec: SceneSpec, eye=(0.05, 0.034, 0.95)) -> CameraImage:
+def eye_image(world: DemonstrationScene, spec: Grid, eye=(0.05, 0.034, 0.95)) -> CameraImage:
     """A 320x240 pinhole image from about where the iCub's left eye is, looking at the grid."""
     target = np.array([*spec.grid_center, spec.surface_z])
     cam = Camera(intrinsics(320, 240, 64.0), look_at(eye, target), 320, 240)
@@ -30,10 +30,10 @@ def corner_error(reading, spec) -> float:
 @pytest.mark.parametrize("scene", ["game", "demonstration"])
 @pytest.mark.parametrize("seed", range(4))
 def test_board_read_equals_true_board(scene, seed):
-    spec = getattr(SceneSpec, scene)()
+    spec = getattr(Grid, scene)()
     rng = np.random.default_rng(100 + seed)
     marks = [str(m) for m in rng.choice(["", "O", "X"], 9, p=[0.4, 0.3, 0.3])]
-    with SimWorld(spec, marks=marks, seed=seed, marker=False) as world:
+    with DemonstrationScene(spec, marks=marks, seed=seed, marker=False) as world:
         reading = read_board(eye_image(world, spec), spec.surface_z)
     assert reading.marks == marks
     assert corner_error(reading, spec) < 1.0e-3  # metres
@@ -42,10 +42,10 @@ def test_board_read_equals_true_board(scene, seed):
 
 
 def test_rotated_grid_keeps_cell_1_far_left():
-    spec = SceneSpec(grid_center=(0.30, -0.08), grid_size=0.15, grid_rotation=np.radians(35.0),
+    spec = Grid(grid_center=(0.30, -0.08), grid_size=0.15, grid_rotation=np.radians(35.0),
                      surface_z=0.571)
     marks = ["X", "", "", "", "O", "", "", "", ""]
-    with SimWorld(spec, marks=marks, marker=False) as world:
+    with DemonstrationScene(spec, marks=marks, marker=False) as world:
         reading = read_board(eye_image(world, spec), spec.surface_z)
     assert reading.marks == marks
     assert corner_error(reading, spec) < 1.0e-3
@@ -54,38 +54,34 @@ def test_rotated_grid_keeps_cell_1_far_left():
 def test_board_in_the_robot_backend_eye_camera():
     """The game engineer's scene: the iCub's own left eye, opponent crosses inked on the paper."""
     backend_mod = pytest.importorskip("hila_lang.robot.backend")
-    from hila_lang.games.marks import cross_strokes
+    from hila_lang.worlds.tictactoe.marks import cross_strokes
 
-    spec = SceneSpec.game()
-    with backend_mod.PyBulletBackend(spec, seed=0) as backend:
+    spec = Grid.game()
+    with backend_mod.PyBulletBackend(spec.paper()) as backend:
         rng = np.random.default_rng(0)
         for cell in (1, 9):
             for stroke in cross_strokes(spec, cell, rng):
-                backend.ink_polyline(stroke)
-        reading = read_board(backend.camera_image("left"), spec.surface_z)
+                backend.ink.ink_polyline(stroke)
+        reading = read_board(backend.eyes.camera_image("left"), spec.surface_z)
     assert reading.marks == ["X", "", "", "", "", "", "", "", "X"]
     assert corner_error(reading, spec) < 0.5e-3  # measured 0.07 mm (1.8 mm before the GL offset fix)
 
 
 def test_no_paper_is_a_clear_error():
-    spec = SceneSpec.game()
-    with SimWorld(spec, paper=False, marker=False) as world:
+    spec = Grid.game()
+    with DemonstrationScene(spec, paper=False, marker=False) as world:
         image = eye_image(world, spec)
     with pytest.raises(InputError, match="no sheet of paper found in the image"):
         read_board(image, spec.surface_z)
 
 
 def test_paper_without_grid_is_a_clear_error():
-    spec = SceneSpec.game()
-    with SimWorld(spec, marker=False) as world:
-        world.hide(world.paper)
-        from hila_lang.perception.simworld import paper_texture
+    spec = Grid.game()
+    with DemonstrationScene(spec, marker=False) as world:
+        world.sim.hide(world.paper)
+        from hila_lang.worlds.tictactoe.recording import paper_texture
 
-        T = np.eye(4)
-        right, far = spec.axes()
-        T[:3, 0], T[:3, 1], T[:3, 2] = right, far, np.cross(right, far)
-        T[:3, 3] = (*spec.grid_center, spec.surface_z)
-        world.add_texture_quad(paper_texture(spec, grid=False), T, spec.paper_size)
+        world.sim.add_surface(spec.paper(printed=False), paper_texture(spec, grid=False))
         image = eye_image(world, spec)
     with pytest.raises(InputError, match="no grid found on the sheet"):
         read_board(image, spec.surface_z)

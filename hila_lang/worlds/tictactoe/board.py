@@ -1,8 +1,8 @@
 """Board geometry: where the paper and the 3x3 grid are, in the world frame (pure numpy).
 
-World frame: metres, z up, origin on the floor below the robot.  The iCub's root (waist) is
-fixed at (0, 0, 0.62) facing +x; its right side is -y.  The table top is at z = 0.57 with its
-front edge at x = 0.12 (see ``DESIGN.md`` section 4).
+World frame: metres, z up (see :mod:`hila_lang.robot.workspace` for the table).  The grid is
+printed on a sheet (:meth:`Grid.paper`, a :class:`~hila_lang.sim.surface.Surface` whose texture
+shows the grid lines); the robot and the simulator know only that sheet, not the grid.
 
 Grid frame.  Cells are numbered 1..9 row-major *as the robot sees them*: cell 1 is far-left,
 cell 3 far-right, cell 9 near-right.  "Far" is away from the robot (+x when the grid is not
@@ -17,19 +17,19 @@ rows, i.e. the robot's left-right, extent along the grid's columns, i.e. depth),
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
+from ...robot.workspace import PAPER_THICKNESS, TABLE_TOP_Z
+from ...sim.surface import Surface
 
-#: world z of the game table's top, metres
-TABLE_TOP_Z = 0.57
-#: world x of the game table's front edge (the edge nearest the robot), metres
-TABLE_FRONT_X = 0.12
-#: paper thickness, metres: the drawing surface is this far above the table top
-PAPER_THICKNESS = 0.001
+#: width of the printed grid's lines, metres, and their colour (RGB)
+GRID_WIDTH = 0.002
+GRID_RGB = (40, 40, 40)
 #: how far below the game table the demonstrator's low table is, metres (paper: "20 cm higher")
 DEMONSTRATION_DROP = 0.20
 
@@ -40,7 +40,7 @@ _CORNER_OFFSETS = {"tl": (-1.0, 1.0), "tr": (1.0, 1.0), "br": (1.0, -1.0), "bl":
 
 
 @dataclass(frozen=True)
-class SceneSpec:
+class Grid:
     """Where the paper and grid are.
 
     Attributes
@@ -71,17 +71,17 @@ class SceneSpec:
         for name in ("grid_size", "grid_rotation", "surface_z"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise InputError(f"SceneSpec.{name} must be a number, got {value!r}")
+                raise InputError(f"Grid.{name} must be a number, got {value!r}")
             if not math.isfinite(float(value)):
-                raise InputError(f"SceneSpec.{name} must be finite, got {value!r}")
+                raise InputError(f"Grid.{name} must be finite, got {value!r}")
             object.__setattr__(self, name, float(value))
         if self.grid_size <= 0:
-            raise InputError(f"SceneSpec.grid_size must be > 0 metres, got {self.grid_size}")
+            raise InputError(f"Grid.grid_size must be > 0 metres, got {self.grid_size}")
         if min(paper) <= 0:
-            raise InputError(f"SceneSpec.paper_size must be positive, got {paper}")
+            raise InputError(f"Grid.paper_size must be positive, got {paper}")
 
     @classmethod
-    def demonstration(cls) -> "SceneSpec":
+    def demonstration(cls) -> "Grid":
         """The demonstrator's scene: an A4 sheet with a 0.20 m grid, not rotated, on a low table.
 
         The low table's top is 0.20 m below the game table (z = 0.37); the paper lies on it.
@@ -96,7 +96,7 @@ class SceneSpec:
         )
 
     @classmethod
-    def game(cls) -> "SceneSpec":
+    def game(cls) -> "Grid":
         """The robot's board: 20 % smaller (0.16 m), rotated 15 degrees, on the table, reachable."""
         return cls(
             grid_center=(0.31, -0.09),
@@ -106,12 +106,26 @@ class SceneSpec:
         )
 
     # -- frames -------------------------------------------------------------------------------
+    def paper(self, printed: bool = True) -> Surface:
+        """The sheet the grid is printed on, centred on the grid and turned with it; its texture
+        shows the grid lines (``printed``), else it is blank."""
+        blank = self._sheet
+        if not printed:
+            return blank
+        from ...sim.canvas import Canvas
+
+        canvas = Canvas(blank)
+        for segment in self.grid_lines():
+            canvas.draw_polyline(segment, color=GRID_RGB, width=GRID_WIDTH)
+        return Surface(self.grid_center, self.grid_rotation, self.surface_z, self.paper_size, texture=canvas.image)
+
+    @functools.cached_property
+    def _sheet(self) -> Surface:
+        return Surface(self.grid_center, self.grid_rotation, self.surface_z, self.paper_size)
+
     def axes(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit vectors (right, far) of the grid in the world frame, each shape (3,), z = 0."""
-        c, s = math.cos(self.grid_rotation), math.sin(self.grid_rotation)
-        far = np.array([c, s, 0.0])
-        right = np.array([s, -c, 0.0])
-        return right, far
+        return self._sheet.axes()
 
     def grid_to_world(self, right: float | np.ndarray, far: float | np.ndarray) -> np.ndarray:
         """World points on the surface from grid coordinates (metres from the grid centre).
@@ -125,27 +139,15 @@ class SceneSpec:
         -------
         ndarray, shape (3,) or (N, 3)
         """
-        r_axis, f_axis = self.axes()
-        origin = np.array([self.grid_center[0], self.grid_center[1], self.surface_z])
-        right = np.asarray(right, dtype=float)
-        far = np.asarray(far, dtype=float)
-        return origin + right[..., None] * r_axis + far[..., None] * f_axis
+        return self._sheet.to_world(right, far)
 
     def world_to_grid(self, points: np.ndarray) -> np.ndarray:
         """Grid coordinates (right, far) of world points, shape (..., 2); z is ignored."""
-        pts = np.asarray(points, dtype=float)
-        if pts.shape[-1] not in (2, 3):
-            raise InputError(f"expected points of shape (..., 3), got {pts.shape}")
-        r_axis, f_axis = self.axes()
-        d = pts[..., :2] - np.asarray(self.grid_center)
-        return np.stack([d @ r_axis[:2], d @ f_axis[:2]], axis=-1)
+        return self._sheet.to_local(points)
 
     def paper_corners(self) -> np.ndarray:
         """The sheet's corners on the surface, shape (4, 3), order tl, tr, br, bl."""
-        hw, hd = self.paper_size[0] / 2, self.paper_size[1] / 2
-        right = np.array([-hw, hw, hw, -hw])
-        far = np.array([hd, hd, -hd, -hd])
-        return self.grid_to_world(right, far)
+        return self._sheet.corners()
 
     def grid_lines(self) -> list[np.ndarray]:
         """The four inner grid lines as segments, each shape (2, 3), on the surface.
@@ -166,11 +168,11 @@ def _finite_tuple(value, n: int, name: str) -> tuple[float, ...]:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"SceneSpec.{name} must be {n} numbers, got {value!r}") from None
+        raise InputError(f"Grid.{name} must be {n} numbers, got {value!r}") from None
     if arr.shape != (n,):
-        raise InputError(f"SceneSpec.{name} must be {n} numbers, got shape {arr.shape}")
+        raise InputError(f"Grid.{name} must be {n} numbers, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise InputError(f"SceneSpec.{name} must be finite, got {value!r}")
+        raise InputError(f"Grid.{name} must be finite, got {value!r}")
     return tuple(float(v) for v in arr)
 
 
@@ -182,13 +184,21 @@ def _check_cell(cell) -> int:
     return int(cell)
 
 
-def _cell_grid_center(spec: SceneSpec, cell: int) -> tuple[float, float]:
+def _cell_grid_center(spec: Grid, cell: int) -> tuple[float, float]:
     row, col = divmod(cell - 1, 3)
     step = spec.grid_size / 3
     return (col - 1) * step, (1 - row) * step
 
 
-def cell_center(spec: SceneSpec, cell: int) -> np.ndarray:
+def _cell_points(spec: Grid, cell, offsets: dict) -> dict[str, np.ndarray]:
+    """Points of ``cell`` at (right, far) ``offsets`` in half cell sizes from its centre."""
+    cell = _check_cell(cell)
+    right, far = _cell_grid_center(spec, cell)
+    half = spec.grid_size / 6
+    return {name: spec.grid_to_world(right + dr * half, far + df * half) for name, (dr, df) in offsets.items()}
+
+
+def cell_center(spec: Grid, cell: int) -> np.ndarray:
     """Centre of ``cell`` (1..9, 1 = far-left) on the paper surface, shape (3,), world, metres.
 
     Raises
@@ -196,12 +206,10 @@ def cell_center(spec: SceneSpec, cell: int) -> np.ndarray:
     InputError
         ``cell`` is not an integer in 1..9.
     """
-    cell = _check_cell(cell)
-    right, far = _cell_grid_center(spec, cell)
-    return spec.grid_to_world(right, far)
+    return _cell_points(spec, cell, {"centre": (0.0, 0.0)})["centre"]
 
 
-def cell_corners(spec: SceneSpec, cell: int) -> dict[str, np.ndarray]:
+def cell_corners(spec: Grid, cell: int) -> dict[str, np.ndarray]:
     """The four corners of ``cell`` on the paper surface, world frame, metres.
 
     Returns
@@ -215,16 +223,10 @@ def cell_corners(spec: SceneSpec, cell: int) -> dict[str, np.ndarray]:
     InputError
         ``cell`` is not an integer in 1..9.
     """
-    cell = _check_cell(cell)
-    right, far = _cell_grid_center(spec, cell)
-    half = spec.grid_size / 6
-    return {
-        name: spec.grid_to_world(right + dr * half, far + df * half)
-        for name, (dr, df) in _CORNER_OFFSETS.items()
-    }
+    return _cell_points(spec, cell, _CORNER_OFFSETS)
 
 
-def cell_at(spec: SceneSpec, point: np.ndarray) -> int | None:
+def cell_at(spec: Grid, point: np.ndarray) -> int | None:
     """The cell (1..9) containing ``point`` (shape (3,) or (2,), world) seen from above, or None."""
     right, far = spec.world_to_grid(np.asarray(point, dtype=float))
     step = spec.grid_size / 3

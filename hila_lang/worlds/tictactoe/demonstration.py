@@ -1,7 +1,7 @@
 """The seeded human-like demonstration behind ``primitives/circle.yaml``.
 
 One demonstration of "reach a cell, draw a circle, retract" (the paper's Experiment B, Fig. 6a),
-made in :meth:`SceneSpec.demonstration` (an A4 sheet with a 0.20 m grid on a low table), in the
+made in :meth:`Grid.demonstration` (an A4 sheet with a 0.20 m grid on a low table), in the
 world frame, metres, sampled at 20 Hz like the iCub's cameras.  It is a documented motion model,
 not a recording, and not a parametric circle:
 
@@ -26,7 +26,7 @@ the target cell :data:`CORNER_ICPS` = ``tl``, ``tr``, ``br``, ``bl`` (far-left, 
 near-right, near-left as the robot sees the board) and :data:`HAND_ICP` = ``hand`` (the hand's
 start).
 
-Run ``python -m hila_lang.games.demonstration -o primitives/circle.yaml`` to (re)make the file.
+Run ``python -m hila_lang.worlds.tictactoe.demonstration -o primitives/circle.yaml`` to (re)make the file.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..motion import minimum_jerk_samples
+from ...motion import minimum_jerk_samples
 
 #: the four corners of the target cell, as ICP names
 CORNER_ICPS = ("tl", "tr", "br", "bl")
@@ -112,8 +112,8 @@ def demonstrate(seed: int = 0, scene=None, cell: int = DEMO_CELL) -> Demonstrati
     ----------
     seed : int
         Fixes every random choice (start, circle shape, closure, tremor, timing).
-    scene : SceneSpec, optional
-        The demonstration scene; :meth:`SceneSpec.demonstration` by default.
+    scene : Grid, optional
+        The demonstration scene; :meth:`Grid.demonstration` by default.
     cell : int
         The cell to draw in, 1..9.
 
@@ -121,9 +121,9 @@ def demonstrate(seed: int = 0, scene=None, cell: int = DEMO_CELL) -> Demonstrati
     -------
     Demonstration
     """
-    from ..robot.scene import SceneSpec, cell_center, cell_corners
+    from .board import Grid, cell_center, cell_corners
 
-    spec = SceneSpec.demonstration() if scene is None else scene
+    spec = Grid.demonstration() if scene is None else scene
     rng = np.random.default_rng(seed)
     corners = cell_corners(spec, cell)
     centre_grid = spec.world_to_grid(cell_center(spec, cell))
@@ -209,13 +209,13 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
         Named ``circle``, ICPs :data:`ICP_NAMES`, segments tagged :data:`TAGS` with contact on
         ``draw``, times in seconds, and a description saying how it was made.
     """
-    from ..segmentation import segment_template
-    from ..template import Template
+    from ...segmentation import segment_template
+    from ...template import Template
 
     demo = demonstrate(seed)
     description = (
         f"Human-like demonstration made by a documented motion model "
-        f"(hila_lang.games.demonstration, seed {seed}): in the demonstration scene (A4 sheet, "
+        f"(hila_lang.worlds.tictactoe.demonstration, seed {seed}): in the demonstration scene (A4 sheet, "
         f"0.20 m grid on a low table, world frame, metres, {RATE_HZ:g} Hz) the hand reaches from "
         f"its start (ICP 'hand') to cell {demo.cell} with a minimum-jerk movement, draws one "
         "uneven hand-drawn circle (radius wobble, overlap or gap where it closes, slight "
@@ -223,7 +223,7 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
         "cell's corners. Segmented by k-means (k = 3) into reach, draw (contact), retract; the "
         "draw cluster also holds the last part of the approach and the first part of the "
         "lift-off (the pen touches the paper only in its middle). "
-        "Made by: python -m hila_lang.games.demonstration -o primitives/circle.yaml "
+        "Made by: python -m hila_lang.worlds.tictactoe.demonstration -o primitives/circle.yaml "
         f"--seed {seed}"
     )
     whole = Template(
@@ -238,12 +238,12 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m hila_lang.games.demonstration -o primitives/circle.yaml [--seed N]``."""
-    from ..errors import HilaError
-    from ..template import save_template
+    """``python -m hila_lang.worlds.tictactoe.demonstration -o primitives/circle.yaml [--seed N]``."""
+    from ...errors import HilaError
+    from ...template import save_template
 
     parser = argparse.ArgumentParser(
-        prog="python -m hila_lang.games.demonstration",
+        prog="python -m hila_lang.worlds.tictactoe.demonstration",
         description="Write the seeded human-like circle demonstration as a segmented template.",
     )
     parser.add_argument("-o", "--output", default="primitives/circle.yaml", help="template file to write")

@@ -1,6 +1,6 @@
 """The ``tictactoe`` world that ``programs/game.hila`` runs in (the paper's Experiment B).
 
-The iCub plays circles (``O``) on :meth:`SceneSpec.game` -- a grid 20 % smaller than the
+The iCub plays circles (``O``) on :meth:`Grid.game` -- a grid 20 % smaller than the
 demonstration's, rotated and 0.20 m higher -- against an opponent who plays crosses (``X``).
 
 Scene points (:meth:`TicTacToeWorld.points`), world frame, metres:
@@ -22,21 +22,23 @@ Events: ``wait("opponent_moved")`` asks the opponent for a cell, inks its cross 
 returns the cell.  ``notify("state_done", pen_down=True, executed=TRACE, ...)`` records the robot's
 circle in the cell where the pen actually drew.  The board is printed after every move.
 
-Seeing the board (issue 6, item 5).  With a back end that has eye cameras (``camera_image``:
+Seeing the board (issue 6, item 5).  With a back end that has eyes (``backend.eyes``:
 PyBullet) the robot reads the board through them before each of its moves
-(:func:`hila_lang.games.vision.look_at_board`): the left eye first; when the arm hides a cell or
+(:func:`hila_lang.worlds.tictactoe.vision.look_at_board`): the left eye first; when the arm hides a cell or
 the reading differs from the record, the pen is lifted straight up to ``arm.lift`` (where the
 next reach starts anyway) and the left eye looks again; as a last resort the pen goes aside
 (:meth:`TicTacToeWorld.aside_point`), both eyes look, and it comes back to ``arm.lift``.  The corners it finds are the scene points
 ``board.cellN.*`` and ``board.move.*`` (the ICPs the program binds), and minimax plays on the
 marks it reads.  A reading that differs from the game's own record (a misread or an uninked mark)
 is a :class:`~hila_lang.errors.HilaRuntimeError` naming the cells.  With the dry back end (no
-cameras) the corners come from the known geometry (:meth:`SceneSpec.game`) and the board from
+cameras) the corners come from the known geometry (:meth:`Grid.game`) and the board from
 the game's memory.  ``report.json`` says which (``vision``), with the largest distance of a
 perceived corner from the true one.
 
-Settings (``--set key=value``): ``first=robot|opponent`` (default robot, as in the paper),
-``report=yes|no`` (write the output folder, default yes).  Each circle is compared with the
+Settings (``--set key=value``, declared in :mod:`hila_lang.worlds.tictactoe`):
+``opponent=random|minimax|human`` (default minimax; ``--opponent`` is an alias),
+``first=robot|opponent`` (default robot, as in the paper), ``report=yes|no`` (write the output
+folder, default yes).  Each circle is compared with the
 demonstration it was warped from: the path of the program's pen-down sub-template.
 """
 
@@ -48,9 +50,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HilaRuntimeError, InputError
-from ..robot.scene import SceneSpec, cell_at, cell_corners
-from . import tictactoe as ttt
+from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...sim.surface import Scene
+from .board import Grid, cell_at, cell_corners
+from . import rules as ttt
 from .marks import cross_strokes, on_paper
 from .opponents import make_opponent
 
@@ -59,12 +62,9 @@ PARK_HEIGHT = (0.08, 0.13)
 ROBOT, OPPONENT = "robot", "opponent"
 #: how far beyond the grid's right edge the pen goes to take the arm out of the eyes' view, metres
 ASIDE_MARGIN = 0.06
-#: accepted values of ``--set report=...``
-REPORT_VALUES = {"yes": True, "true": True, "1": True, "on": True,
-                 "no": False, "false": False, "0": False, "off": False}
 
 
-def park_position(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
+def park_position(spec: Grid, rng: np.random.Generator) -> np.ndarray:
     """A seeded random place above the grid (within its middle 70 %), shape (3,), metres."""
     half = 0.35 * spec.grid_size
     right, far = rng.uniform(-half, half, size=2)
@@ -79,33 +79,28 @@ class TicTacToeWorld:
     Parameters
     ----------
     options : RunOptions
-        ``seed``, ``opponent``, ``out``, ``settings``, ``stdin``, ``stdout`` are used.
+        ``seed``, ``out``, ``stdin``, ``stdout`` are used.
+    settings : dict
+        ``opponent``, ``first``, ``report``, parsed (see :data:`hila_lang.worlds.tictactoe.WORLD`).
     """
 
-    SETTINGS = ("first", "report")
+    def __init__(self, options, settings: dict[str, Any] | None = None) -> None:
+        from . import WORLD
 
-    default_backend = "pybullet"
-
-    def __init__(self, options) -> None:
         self.t0 = time.perf_counter()
         self.options = options
         self.seed = int(options.seed)
-        self.scene = SceneSpec.game()
-        self.settings = dict(options.settings or {})
-        first = self.settings.get("first", ROBOT)
-        if first not in (ROBOT, OPPONENT):
-            raise InputError(f"expected --set first=robot|opponent, got first={first!r}")
-        self.first = first
-        report = self.settings.get("report", "yes").lower()
-        if report not in REPORT_VALUES:
-            raise InputError(f"expected --set report=yes|no, got report={report!r}")
-        self.write_report = REPORT_VALUES[report]
+        self.settings = {**WORLD.parse({}), **(settings or {})}
+        self.spec = Grid.game()
+        self.scene = Scene(surface=self.spec.paper())
+        self.first = self.settings["first"]
+        self.write_report = self.settings["report"]
         out = options.out
         if self.write_report and out is not None and Path(out).exists() and not Path(out).is_dir():
             raise InputError("expected --out to be a folder, got a file", file=str(out))
         self.rng = np.random.default_rng([self.seed, 5])
-        self.park = park_position(self.scene, self.rng)
-        self.opponent = make_opponent(options.opponent, self.seed, options.stdin, options.stdout)
+        self.park = park_position(self.spec, self.rng)
+        self.opponent = make_opponent(self.settings["opponent"], self.seed, options.stdin, options.stdout)
         self.stdout = options.stdout
         self.board: ttt.Board = ttt.empty_board()
         self.moves: list[dict[str, Any]] = []
@@ -126,9 +121,7 @@ class TicTacToeWorld:
     def attach(self, backend) -> None:
         """Park the arm at :attr:`park` (no drawing) and keep the back end for inking."""
         self.backend = backend
-        reset = getattr(backend, "reset_hand", None)
-        if callable(reset):
-            reset(self.park)
+        backend.reset_hand(self.park)
         self._print(f"tic-tac-toe: the robot plays O, the opponent ({self.opponent.name}) plays X; "
                     f"{self.first} starts")
         self._print(ttt.render(self.board))
@@ -148,8 +141,8 @@ class TicTacToeWorld:
     # -- seeing the board ----------------------------------------------------------------------
     @property
     def sees(self) -> bool:
-        """Whether the board is read through eye cameras (the back end has ``camera_image``)."""
-        return callable(getattr(self.backend, "camera_image", None))
+        """Whether the board is read through eye cameras (the back end has eyes)."""
+        return self.backend is not None and self.backend.eyes is not None
 
     def cell_corners(self) -> dict[int, dict[str, np.ndarray]]:
         """Cell (1..9) -> ``tl|tr|br|bl`` -> point (3,), metres: as last seen by the eyes
@@ -157,7 +150,7 @@ class TicTacToeWorld:
         geometry (no cameras)."""
         sight = self.look()
         if sight is None:
-            return {cell: cell_corners(self.scene, cell) for cell in range(1, 10)}
+            return {cell: cell_corners(self.spec, cell) for cell in range(1, 10)}
         return sight["corners"]
 
     def look(self) -> dict[str, Any] | None:
@@ -171,9 +164,9 @@ class TicTacToeWorld:
         from .vision import corner_error, look_at_board
 
         clock = time.perf_counter()
-        sight = look_at_board(self.backend, self.scene.surface_z, self.board, self.lift_point(),
+        sight = look_at_board(self.backend, self.spec.surface_z, self.board, self.lift_point(),
                               self.aside_point())
-        true = {cell: cell_corners(self.scene, cell) for cell in range(1, 10)}
+        true = {cell: cell_corners(self.spec, cell) for cell in range(1, 10)}
         entry = {"moves_before": len(self.moves), "board": sight.board, "corners": sight.corners,
                  "views": sight.views, "arm": sight.arm, "corner_error_m": corner_error(sight, true),
                  "seconds": time.perf_counter() - clock}
@@ -214,22 +207,25 @@ class TicTacToeWorld:
             if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 9:
                 raise InputError(f"query 'free' expects a cell 1..9, got {cell!r}")
             return self.board[cell - 1] == ttt.EMPTY
-        raise KeyError(name)
+        from . import WORLD
+
+        raise UnknownNameError("question", name, WORLD.questions, owner="the tictactoe world")
 
     def wait(self, event: str, *args: Any) -> Any:
         if event != "opponent_moved":
-            raise KeyError(event)
+            from . import WORLD
+
+            raise UnknownNameError("event", event, WORLD.events, owner="the tictactoe world")
         if ttt.game_over(self.board):
             return None
         if self.to_move() != OPPONENT:
             raise HilaRuntimeError("waiting for the opponent, but it is the robot's turn")
         cell = int(self.opponent.choose(self.board))
         self.board = ttt.play(self.board, cell, ttt.CROSS)
-        strokes = cross_strokes(self.scene, cell, self.rng)
-        ink = getattr(self.backend, "ink_polyline", None)
-        if callable(ink):
+        strokes = cross_strokes(self.spec, cell, self.rng)
+        if self.backend is not None and self.backend.ink is not None:
             for stroke in strokes:
-                ink(stroke)
+                self.backend.ink.ink_polyline(stroke)
         self.crosses.append(strokes)
         self._record_move(OPPONENT, cell)
         return cell
@@ -271,8 +267,8 @@ class TicTacToeWorld:
     def aside_point(self) -> np.ndarray:
         """Where the pen goes so that the arm is out of the eyes' view of the board, shape (3,):
         beyond the grid's near-right corner (the arm's side), at the park height."""
-        half = self.scene.grid_size / 2
-        point = self.scene.grid_to_world(half + ASIDE_MARGIN, -half)
+        half = self.spec.grid_size / 2
+        point = self.spec.grid_to_world(half + ASIDE_MARGIN, -half)
         point[2] = self.park[2]
         return point
 
@@ -298,9 +294,9 @@ class TicTacToeWorld:
         if drawn is None or len(drawn) == 0:
             raise HilaRuntimeError("the robot drew, but the back end reported no path",
                                    state=entry["state"])
-        touching = on_paper(drawn, self.scene.surface_z)
+        touching = on_paper(drawn, self.spec.surface_z)
         ink = touching if len(touching) >= 3 else drawn
-        cell = cell_at(self.scene, np.median(ink, axis=0))
+        cell = cell_at(self.spec, np.median(ink, axis=0))
         if cell is None:
             raise HilaRuntimeError("the robot drew its circle outside the grid", state=entry["state"])
         if self.to_move() != ROBOT:
@@ -312,7 +308,7 @@ class TicTacToeWorld:
         demo = None if template is None else np.asarray(template.path, dtype=float)
         demo_circle = None if demo is None else on_paper(demo, float(demo[:, 2].min()))
         planned = entry["planned"]
-        planned_circle = None if planned is None else on_paper(planned, self.scene.surface_z)
+        planned_circle = None if planned is None else on_paper(planned, self.spec.surface_z)
 
         def r_of(circle):
             ok = demo_circle is not None and circle is not None and len(circle) >= 4 and len(demo_circle) >= 4
@@ -325,7 +321,7 @@ class TicTacToeWorld:
             "planned": planned,
             "executed": drawn,
             "contact_points": int(len(touching)),
-            "outside_cell_m": outside_cell(self.scene, cell, ink),
+            "outside_cell_m": outside_cell(self.spec, cell, ink),
             "r": r_of(touching),
             "r_planned": r_of(planned_circle),
         }
@@ -345,12 +341,12 @@ class TicTacToeWorld:
         self._print(ttt.render(self.board))
 
     # -- the end -----------------------------------------------------------------------------
-    def finish(self, trace=None, **extra: Any) -> dict[str, Any]:
+    def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
         """Print the result and write the output folder; returns the report as a dict."""
         from .report import build_report, write_outputs
 
-        if extra.get("fsm") is not None:
-            self.fsm = extra["fsm"]
+        if fsm is not None:
+            self.fsm = fsm
         result = self.result()
         text = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw",
                 None: "unfinished"}[result]
@@ -364,6 +360,6 @@ class TicTacToeWorld:
         return report
 
 
-def make_world(options) -> TicTacToeWorld:
-    """Plug-in factory: ``WORLDS["tictactoe"]``."""
-    return TicTacToeWorld(options)
+def make_world(options, settings) -> TicTacToeWorld:
+    """Plug-in factory (:data:`hila_lang.worlds.tictactoe.WORLD`)."""
+    return TicTacToeWorld(options, settings)

@@ -1,34 +1,33 @@
-"""The paper's texture: a white sheet with the grid, onto which strokes are rasterised.
+"""A surface's texture as a raster that strokes are drawn into (the ink on the paper).
 
-Pure numpy + OpenCV; the back end uploads the image to PyBullet once per stroke.
+Pure numpy + OpenCV; a simulated scene uploads the image to PyBullet when it changes.
 
-Texture frame: row 0 is the sheet's far edge and column 0 its left edge as the robot sees it
-(so the image looks like the board seen from the robot's seat, cell 1 top-left).  A point at
-grid coordinates (right, far) metres (see :meth:`SceneSpec.world_to_grid`) is at
-``col = (right + across/2) * ppm``, ``row = (depth/2 - far) * ppm`` with ``ppm`` pixels per metre.
+Texture frame: row 0 is the surface's far edge and column 0 its left edge as the robot sees it
+(:mod:`hila_lang.sim.surface`).  A point at local coordinates (right, far) metres is at
+``col = (right + across/2) * ppm - 0.5``, ``row = (depth/2 - far) * ppm - 0.5`` with ``ppm``
+pixels per metre.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .scene import SceneSpec
+from .surface import Surface
 
 #: texture resolution, pixels per metre (2 px/mm: an A4 sheet is 420 x 594 pixels)
 PIXELS_PER_METRE = 2000.0
-#: width of the pen's line and of the printed grid, metres
+#: width of the pen's line, metres
 PEN_WIDTH = 0.003
-GRID_WIDTH = 0.002
+#: a blank sheet's colour, RGB
 PAPER_RGB = (245, 245, 240)
-GRID_RGB = (40, 40, 40)
 #: ink colours by name, RGB
 INK_RGB = {"robot": (20, 40, 200), "opponent": (200, 30, 30), "black": (0, 0, 0)}
 
 _SHIFT = 4  # cv2 fixed-point bits for sub-pixel line ends
 
 
-class InkCanvas:
-    """The paper texture of one :class:`SceneSpec`.
+class Canvas:
+    """The texture of one :class:`Surface`, starting from what is printed on it.
 
     Attributes
     ----------
@@ -37,26 +36,29 @@ class InkCanvas:
         How many strokes have been drawn (changes whenever the image does).
     """
 
-    def __init__(self, scene: SceneSpec, *, pixels_per_metre: float = PIXELS_PER_METRE, draw_grid: bool = True) -> None:
-        self.scene = scene
+    def __init__(self, surface: Surface, *, pixels_per_metre: float = PIXELS_PER_METRE) -> None:
+        self.surface = surface
         self.ppm = float(pixels_per_metre)
-        across, depth = scene.paper_size
+        across, depth = surface.size
         self.width = max(2, int(round(across * self.ppm)))
         self.height = max(2, int(round(depth * self.ppm)))
         self.image = np.empty((self.height, self.width, 3), dtype=np.uint8)
-        self.image[:] = PAPER_RGB
+        if surface.texture is None:
+            self.image[:] = PAPER_RGB
+        else:
+            import cv2
+
+            tex = np.asarray(surface.texture, dtype=np.uint8)
+            self.image[:] = tex if tex.shape[:2] == (self.height, self.width) else cv2.resize(
+                tex, (self.width, self.height), interpolation=cv2.INTER_AREA)
         self.strokes = 0
-        if draw_grid:
-            for segment in scene.grid_lines():
-                self.draw_polyline(segment, color=GRID_RGB, width=GRID_WIDTH)
-            self.strokes = 0
 
     def to_pixels(self, points: np.ndarray) -> np.ndarray:
         """Texture coordinates (N, 2) as (col, row), float pixels, of world points (N, 3)."""
-        grid = np.atleast_2d(self.scene.world_to_grid(np.asarray(points, dtype=float)))
-        across, depth = self.scene.paper_size
-        col = (grid[:, 0] + across / 2) * self.ppm - 0.5
-        row = (depth / 2 - grid[:, 1]) * self.ppm - 0.5
+        local = np.atleast_2d(self.surface.to_local(np.asarray(points, dtype=float)))
+        across, depth = self.surface.size
+        col = (local[:, 0] + across / 2) * self.ppm - 0.5
+        row = (depth / 2 - local[:, 1]) * self.ppm - 0.5
         return np.column_stack([col, row])
 
     def draw_polyline(self, points: np.ndarray, *, color=INK_RGB["robot"], width: float = PEN_WIDTH) -> None:

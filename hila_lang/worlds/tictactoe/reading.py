@@ -13,7 +13,7 @@ homography ``K [r1 r2 z r3 + t]``, so the grid is seen without perspective, at m
    crossings give the grid's centre, axes and spacing;
 3. cell corners follow at 0.5 and 1.5 spacings from the centre; "far" is the grid axis closest
    to world +x (the robot faces +x), "right" is far rotated by -90 degrees about z, matching
-   :mod:`hila_lang.robot.scene` (cell 1 far-left, ``tl`` far-left corner);
+   :mod:`hila_lang.worlds.tictactoe.board` (cell 1 far-left, ``tl`` far-left corner);
 4. each cell's ink, away from the grid lines, is a circle ("O") when it rings an empty middle
    and a cross ("X") when it crosses it; little ink means empty ("").
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
 
 #: size of a top-down pixel, metres
 RESOLUTION = 0.001
@@ -120,7 +120,7 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     """
     import cv2
 
-    from .camera import intersect_plane_z
+    from ...sim.camera import intersect_plane_z
 
     rgb = np.ascontiguousarray(np.asarray(image.rgb)[:, :, :3])
     K, T = np.asarray(image.K, float), np.asarray(image.world_T_camera, float)

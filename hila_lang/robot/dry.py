@@ -1,8 +1,9 @@
 """The dry back end: kinematic, no physics — the hand follows every path exactly.
 
-Where the hand starts: the world's ``home`` attribute (a point) if it has one, else
-``--set hand=X,Y,Z``, else the origin; a program's ``hand at POINT`` then moves it there with
-:meth:`DryBackend.reset_hand` before the first state.
+Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
+``--set hand=X,Y,Z`` (a setting of this back end), else the origin; a program's
+``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
+It has no eyes, no ink and no overview camera (those capabilities are None).
 """
 
 from __future__ import annotations
@@ -14,9 +15,12 @@ from ..validation import check_path
 
 
 class DryBackend:
-    """Implements :class:`hila_lang.interfaces.Backend`; records every move in :attr:`moves`."""
+    """Implements :class:`hila_lang.plugins.protocols.Backend`; records every move in :attr:`moves`."""
 
     name = "dry"
+    eyes = None
+    ink = None
+    overview = None
 
     def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
@@ -44,19 +48,9 @@ class DryBackend:
         pass
 
 
-def _parse_point(text: str) -> np.ndarray:
-    try:
-        values = [float(v) for v in text.replace("(", "").replace(")", "").split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 3:
-        raise InputError(f"expected --set hand=X,Y,Z (three numbers, metres), got {text!r}")
-    return np.array(values)
-
-
-def make_backend(world, options) -> DryBackend:
-    """Plug-in factory (see :mod:`hila_lang.language.plugins`)."""
-    home = getattr(world, "home", None)
-    if home is None and options is not None and "hand" in options.settings:
-        home = _parse_point(options.settings["hand"])
+def make_backend(scene, options, settings) -> DryBackend:
+    """Plug-in factory (see :mod:`hila_lang.plugins.registry`)."""
+    home = None if scene is None else scene.home
+    if home is None:
+        home = settings.get("hand")
     return DryBackend(home if home is not None else (0.0, 0.0, 0.0))

@@ -1,0 +1,232 @@
+"""What a world and a back end are: :class:`World`, :class:`Backend` and the back-end capabilities.
+
+The interpreter knows nothing about PyBullet or tic-tac-toe.  A *back end* moves the hand; a
+*world* names scene points, answers questions and reports events.  Both are
+``typing.Protocol`` s: a plug-in implements every member (a hook it does not need is a one-line
+no-op), and ``tests/test_plugins.py`` checks every registered plug-in against them, member by
+member and signature by signature.
+
+What only some back ends have is a *capability*: an attribute of the back end holding an object
+that implements a small protocol, or None.  ``backend.eyes`` (:class:`Eyes`: the robot's
+cameras), ``backend.ink`` (:class:`Ink`: a drawing surface that keeps the ink) and
+``backend.overview`` (:class:`Overview`: a camera outside the robot, for reports and never for
+decisions).  A world asks ``if backend.eyes is not None`` -- it never probes for methods.
+
+Lifecycle of a run (:mod:`hila_lang.language.runner`)::
+
+    world = WorldInfo.build(options, settings)        # the world (and its scene) exists
+    backend = BackendInfo.build(world.scene, options, settings)
+    world.attach(backend)                             # e.g. park the arm, keep the back end
+    ... interpreter: world.points/query/wait/notify, backend.hand_position/reset_hand/move ...
+    world.finish(trace, fsm=fsm)                      # results, output files
+    backend.close()
+
+Units and frames: every point is a numpy array of shape (3,), metres, world frame (z up);
+paths are arrays of shape (T, 3).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence, runtime_checkable
+
+if TYPE_CHECKING:  # numpy and the scene types only for annotations: importing this stays light
+    import numpy as np
+
+    from ..sim.camera import CameraImage
+    from ..sim.surface import Scene, Surface
+
+
+@runtime_checkable
+class Eyes(Protocol):
+    """The robot's eye cameras.  An image carries what the robot may know about it: the
+    camera's intrinsics and pose, and the joint angles it was taken at (``CameraImage.joints``),
+    so a caller can recompute the pose from the kinematic chain (:meth:`chain`)."""
+
+    def look_at(self, point: "np.ndarray") -> float:
+        """Aim the eyes at ``point`` (3,); returns the angle (radians) the joint limits leave."""
+        ...
+
+    def camera_pose(self, eye: str = "left") -> "np.ndarray":
+        """``world_T_camera`` (4, 4) of ``eye`` now (OpenCV camera frame)."""
+        ...
+
+    def camera_image(self, eye: str = "left") -> "CameraImage":
+        """An image (240, 320, 3) of ``eye`` with its intrinsics, pose and joint angles."""
+        ...
+
+    def chain(self, eye: str = "left") -> Any:
+        """The kinematic chain from the world to ``eye`` (:class:`hila_lang.robot.ik.KinematicChain`)."""
+        ...
+
+
+@runtime_checkable
+class Ink(Protocol):
+    """A drawing surface that keeps what is drawn on it (the paper)."""
+
+    surface: "Surface"
+
+    def ink_polyline(self, points: "np.ndarray", color: Any = "opponent") -> None:
+        """Draw a stroke through ``points`` (N, 3) on the surface without the robot."""
+        ...
+
+    def ink_image(self) -> "np.ndarray":
+        """The surface's texture (H, W, 3) uint8 RGB, row 0 its far edge."""
+        ...
+
+
+@runtime_checkable
+class Overview(Protocol):
+    """A camera outside the robot, for reports only (never for the robot's decisions)."""
+
+    def top_view_image(self, size_px: int = 480) -> "CameraImage":
+        """A square image straight down on the drawing surface."""
+        ...
+
+
+@runtime_checkable
+class Backend(Protocol):
+    """Executes Cartesian paths and reports where the hand (pen tip) is."""
+
+    name: str
+    #: capabilities: an object implementing the protocol, or None when the back end lacks it
+    eyes: "Eyes | None"
+    ink: "Ink | None"
+    overview: "Overview | None"
+
+    def hand_position(self) -> "np.ndarray":
+        """Current pen-tip position, shape (3,), metres, world frame."""
+        ...
+
+    def reset_hand(self, point: "np.ndarray") -> None:
+        """Put the hand at ``point`` (3,) at once, without drawing (``hand at``, parking)."""
+        ...
+
+    def move(self, path: "np.ndarray", *, pen_down: bool = False, label: str = "") -> "np.ndarray":
+        """Follow ``path`` (T, 3) and return the pen-tip trace actually executed (T', 3).
+
+        ``pen_down`` says the segment is meant to touch the paper (drawing): ink is laid only
+        where the pen is down and the tip touches the surface.  ``label`` names the FSM state,
+        for traces and error messages.  Raises :class:`~hila_lang.errors.UnreachableError`
+        when a waypoint cannot be reached.
+        """
+        ...
+
+    def close(self) -> None:
+        """Release resources (a PyBullet client, windows); safe to call twice."""
+        ...
+
+
+@runtime_checkable
+class World(Protocol):
+    """Named scene points, questions (``ask``), events (``wait``) and the scene to simulate."""
+
+    #: what a simulating back end builds (the drawing surface, where the hand starts); None:
+    #: the back end's default
+    scene: "Scene | None"
+
+    def attach(self, backend: Backend) -> None:
+        """Called once the back end exists (park the arm, keep the back end for ink and eyes)."""
+        ...
+
+    def points(self) -> Mapping[str, "np.ndarray"]:
+        """Every named scene point known now, e.g. ``{"board.cell5.tl": array([x, y, z]), ...}``."""
+        ...
+
+    def query(self, name: str, *args: Any) -> Any:
+        """Answer ``ask NAME(args)``; a name the world does not declare raises
+        :class:`~hila_lang.errors.UnknownNameError`."""
+        ...
+
+    def wait(self, event: str, *args: Any) -> Any:
+        """Block until ``event`` happens and return its value (``UnknownNameError`` likewise)."""
+        ...
+
+    def notify(self, event: str, **data: Any) -> None:
+        """Told what the robot did: ``"state_done"`` (state, path, executed, kind, pen_down, icps,
+        template) after each run state, ``"program_done"`` at the end."""
+        ...
+
+    def finish(self, trace: Sequence[Any], *, fsm: Any = None) -> "dict | None":
+        """After the run: print results, write output files; returns a summary or None."""
+        ...
+
+
+#: the capability attributes of a back end and the protocol each must implement when not None
+CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview}
+
+
+def _members(protocol: type) -> list[str]:
+    names = set(getattr(protocol, "__annotations__", {}))
+    names |= {k for k, v in vars(protocol).items() if callable(v) and not k.startswith("_")}
+    return sorted(names)
+
+
+def _compatible(wanted, given) -> str | None:
+    """Why signature ``given`` (an implementation) cannot be called as ``wanted``, or None."""
+    import inspect
+
+    P = inspect.Parameter
+    have = list(given.parameters.values())
+    has_var_pos = any(p.kind is P.VAR_POSITIONAL for p in have)
+    has_var_kw = any(p.kind is P.VAR_KEYWORD for p in have)
+    positional = [p for p in have if p.kind in (P.POSITIONAL_ONLY, P.POSITIONAL_OR_KEYWORD)]
+    by_name = {p.name: p for p in have}
+    used = set()
+    for i, w in enumerate(p for p in wanted.parameters.values() if p.name != "self"):
+        if w.kind in (P.POSITIONAL_ONLY, P.POSITIONAL_OR_KEYWORD):
+            g = positional[i] if i < len(positional) else None
+            if g is None and not has_var_pos:
+                return f"takes no positional parameter {w.name!r}"
+            if g is not None:
+                if g.name != w.name and w.kind is P.POSITIONAL_OR_KEYWORD:
+                    return f"names its parameter {i + 1} {g.name!r}, expected {w.name!r}"
+                if w.default is not P.empty and g.default is P.empty:
+                    return f"parameter {w.name!r} needs a default"
+                used.add(g.name)
+        elif w.kind is P.KEYWORD_ONLY:
+            g = by_name.get(w.name)
+            if g is None and not has_var_kw:
+                return f"takes no keyword {w.name!r}"
+            if g is not None:
+                if g.kind not in (P.KEYWORD_ONLY, P.POSITIONAL_OR_KEYWORD):
+                    return f"parameter {w.name!r} cannot be passed by keyword"
+                if w.default is not P.empty and g.default is P.empty:
+                    return f"parameter {w.name!r} needs a default"
+                used.add(g.name)
+        elif w.kind is P.VAR_POSITIONAL and not has_var_pos:
+            return "takes no *args"
+        elif w.kind is P.VAR_KEYWORD and not has_var_kw:
+            return "takes no **keywords"
+    extra = [p.name for p in have if p.name not in used and p.default is P.empty
+             and p.kind in (P.POSITIONAL_ONLY, P.POSITIONAL_OR_KEYWORD, P.KEYWORD_ONLY)]
+    if extra:
+        return f"requires parameter {extra[0]!r}, which callers do not pass"
+    return None
+
+
+def conformance(obj: Any, protocol: type) -> list[str]:
+    """What keeps ``obj`` from implementing ``protocol``: missing members and methods whose
+    signature cannot be called as the protocol's; for a :class:`Backend`, its capabilities too.
+    An empty list means it conforms."""
+    import inspect
+
+    problems = []
+    for name in _members(protocol):
+        if not hasattr(obj, name):
+            problems.append(f"has no {name!r}")
+            continue
+        wanted = vars(protocol).get(name)
+        if callable(wanted):
+            given = getattr(obj, name)
+            if not callable(given):
+                problems.append(f"{name!r} is not a method")
+                continue
+            why = _compatible(inspect.signature(wanted), inspect.signature(given))
+            if why:
+                problems.append(f"{name}() {why}")
+    if protocol is Backend:
+        for name, cap in CAPABILITIES.items():
+            part = getattr(obj, name, None)
+            if part is not None:
+                problems += [f"{name} {p}" for p in conformance(part, cap)]
+    return problems

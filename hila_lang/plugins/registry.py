@@ -1,0 +1,190 @@
+"""Worlds and back ends found through entry points, declared without being built.
+
+A plug-in is a :class:`WorldInfo` or :class:`BackendInfo` object named by an entry point in the
+group ``hila.worlds`` or ``hila.backends`` (hila's own are in its ``pyproject.toml``; a
+third-party package adds its own the same way, without editing hila).  The declaration says,
+without building anything or starting a simulator: the plug-in's one-line doc, its settings
+(:class:`~hila_lang.plugins.settings.Setting`), for a world the questions (``ask``) and events
+(``wait``) it answers, each with a one-line doc, and its default back end.  ``factory`` names the
+callable that builds it (``"module:callable"``), imported only when a run needs it, so listing
+plug-ins (``--backend`` choices, ``check``) stays light.
+
+Names come from the entry points alone (:func:`names`); declarations are loaded on demand
+(:func:`world`, :func:`backend`).  :func:`refresh` forgets what was found (tests that install a
+throwaway distribution call it).
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import importlib
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from ..errors import InputError
+from .settings import Setting, parse_settings
+
+GROUPS = {"world": "hila.worlds", "back end": "hila.backends"}
+#: the world of a program without ``world NAME``
+DEFAULT_WORLD = "scripted"
+
+
+def _import(target: str):
+    """``"module:attr"`` -> the object; a module that is not installed is an InputError."""
+    module_name, _, attr = target.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        raise InputError(f"{target} is not available in this installation: it needs the module "
+                         f"{exc.name!r}") from None
+    return getattr(module, attr)
+
+
+def _check_conforms(obj: Any, protocol: type, what: str) -> None:
+    from .protocols import conformance
+
+    problems = conformance(obj, protocol)
+    if problems:  # a plug-in bug, not a user error: it propagates as an internal error
+        raise TypeError(f"{what} ({type(obj).__module__}.{type(obj).__qualname__}) does not implement "
+                        f"{protocol.__name__}: " + "; ".join(problems))
+
+
+@dataclass(frozen=True)
+class WorldInfo:
+    """A world plug-in's declaration.
+
+    Attributes
+    ----------
+    name : str
+        As written in ``world NAME``.
+    factory : str
+        ``"module:callable"``; ``callable(options: RunOptions, settings: dict) -> World``.
+    doc : str
+        One line.
+    settings : tuple of Setting
+    questions, events : mapping name -> one-line doc
+        What ``ask NAME`` and ``wait NAME`` may name.
+    default_backend : str
+        The back end when ``--backend`` is not given.
+    dynamic_names : bool
+        The world's questions and events are known only when it runs (a script names them), so
+        ``questions`` and ``events`` are not the whole list.
+    """
+
+    name: str
+    factory: str
+    doc: str
+    settings: tuple[Setting, ...] = ()
+    questions: Mapping[str, str] = field(default_factory=dict)
+    events: Mapping[str, str] = field(default_factory=dict)
+    default_backend: str = "dry"
+    dynamic_names: bool = False
+
+    def parse(self, given: dict[str, str]) -> dict[str, Any]:
+        return parse_settings(self.settings, given, f"world {self.name}")
+
+    def build(self, options, settings: dict[str, Any]):
+        """The world for a run (``settings`` as :meth:`parse` returns them), checked to be a World."""
+        from .protocols import World
+
+        world = _import(self.factory)(options, settings)
+        _check_conforms(world, World, f"world {self.name!r}")
+        return world
+
+
+@dataclass(frozen=True)
+class BackendInfo:
+    """A back-end plug-in's declaration.
+
+    Attributes
+    ----------
+    name : str
+        As given to ``--backend``.
+    factory : str
+        ``"module:callable"``; ``callable(scene: Scene | None, options: RunOptions, settings: dict) -> Backend``.
+    doc : str
+        One line.
+    settings : tuple of Setting
+    """
+
+    name: str
+    factory: str
+    doc: str
+    settings: tuple[Setting, ...] = ()
+
+    def parse(self, given: dict[str, str]) -> dict[str, Any]:
+        return parse_settings(self.settings, given, f"back end {self.name}")
+
+    def build(self, scene, options, settings: dict[str, Any]):
+        """The back end for a run, checked to be a Backend (capabilities included)."""
+        from .protocols import Backend
+
+        backend = _import(self.factory)(scene, options, settings)
+        try:
+            _check_conforms(backend, Backend, f"back end {self.name!r}")
+        except TypeError:
+            backend.close()
+            raise
+        return backend
+
+
+@functools.lru_cache(maxsize=None)
+def _entry_points(group: str) -> dict:
+    from importlib.metadata import entry_points
+
+    found: dict = {}
+    for ep in entry_points(group=group):
+        found.setdefault(ep.name, ep)
+    return found
+
+
+def names(kind: str) -> list[str]:
+    """Registered names of ``kind`` ("world" or "back end"), sorted; nothing is imported."""
+    return sorted(_entry_points(GROUPS[kind]))
+
+
+@functools.lru_cache(maxsize=None)
+def _info(kind: str, name: str):
+    eps = _entry_points(GROUPS[kind])
+    if name not in eps:
+        close = difflib.get_close_matches(name, list(eps), n=1)
+        raise InputError(f"unknown {kind} {name!r}; known: {', '.join(sorted(eps)) or 'none'}",
+                         hint=f"did you mean {close[0]!r}?" if close else None)
+    ep = eps[name]
+    try:
+        info = ep.load()
+    except ModuleNotFoundError as exc:
+        raise InputError(f"{kind} {name!r} is not available in this installation "
+                         f"({ep.value} needs the module {exc.name!r})") from None
+    wanted = WorldInfo if kind == "world" else BackendInfo
+    if not isinstance(info, wanted) or info.name != name:
+        raise TypeError(f"entry point {GROUPS[kind]}:{name} = {ep.value} is not a {wanted.__name__} named {name!r}")
+    return info
+
+
+def world(name: str) -> WorldInfo:
+    """The declaration of world ``name`` (InputError with "did you mean" when unknown)."""
+    return _info("world", name)
+
+
+def backend(name: str) -> BackendInfo:
+    """The declaration of back end ``name`` (InputError with "did you mean" when unknown)."""
+    return _info("back end", name)
+
+
+def declarations(kind: str) -> list:
+    """Every declaration of ``kind`` that loads (for help texts); broken plug-ins are skipped."""
+    out = []
+    for name in names(kind):
+        try:
+            out.append(_info(kind, name))
+        except Exception:  # noqa: BLE001 - a broken third-party plug-in must not break --help
+            continue
+    return out
+
+
+def refresh() -> None:
+    """Forget the entry points and declarations found so far."""
+    _entry_points.cache_clear()
+    _info.cache_clear()

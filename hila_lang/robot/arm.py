@@ -1,0 +1,262 @@
+"""The arm controller: IK along a path, then the 240 Hz position-control loop.
+
+:meth:`Arm.move` prefixes the path with the current pen-tip position, densifies it to waypoints
+at most 2 mm apart, and solves every waypoint by IK (:mod:`.ik`), warm-started from the
+previous one, over torso + right arm within *comfort limits* (a margin inside the URDF limits,
+the torso kept near upright).  Only when every waypoint is solved does the arm move: joint
+targets are interpolated along the path's arc length with a trapezoidal speed profile (drawing
+5 cm/s with the pen down, 15 cm/s with it up), sent to PyBullet's position controllers with
+realistic force limits at 240 Hz, with the matching joint velocities as feed forward.  The pen
+tip is recorded every step and joint limits are checked every step.  A target more than 2 mm
+below the paper inside the table is refused like any unreachable target.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import HilaRuntimeError, UnreachableError
+from . import ik, model
+from .trajectory import densify, trapezoid_profile
+from .workspace import TABLE_FRONT_X, TABLE_SIZE
+
+#: simulation rate, Hz
+SIM_RATE = 240.0
+#: pen speeds, m/s
+DRAW_SPEED = 0.05
+TRAVEL_SPEED = 0.15
+#: Cartesian acceleration of the speed profile, m/s^2
+ACCELERATION = 0.5
+#: maximum spacing of IK waypoints along a path, metres
+WAYPOINT_SPACING = 0.002
+#: an IK solution is accepted within these residuals (metres, radians)
+IK_ACCEPT_ERROR = 1e-4
+IK_ACCEPT_TILT = 0.01
+#: margin kept inside the URDF limits by the IK, radians
+LIMIT_MARGIN = 0.02
+#: joint-limit check during execution: allowed excess over the URDF limits, radians
+LIMIT_CHECK_TOLERANCE = 1e-3
+#: torso comfort range for the IK, radians: (pitch, roll, yaw) lower and upper
+TORSO_COMFORT = ((-0.10, -0.35, -0.60), (0.60, 0.35, 0.60))
+#: relative IK weight of torso joints (they move less than the arm)
+TORSO_WEIGHT = 0.3
+#: position-controller gains
+POSITION_GAIN = 0.3
+VELOCITY_GAIN = 1.0
+#: seed posture of torso + right arm for the first IK (hand in front, palm down), radians
+SEED_POSTURE = np.array([0.10, 0.20, 0.0, -0.55, 0.60, 0.55, 1.30, 0.50, -0.10, 0.0])
+#: rest posture of torso + right arm (hand by the side, out of the cameras' way), radians
+REST_POSTURE = np.array([0.0, 0.0, 0.0, -0.30, 0.45, 0.0, 0.80, 0.0, 0.0, 0.0])
+#: physics solver iterations per step (PyBullet's default 50 costs 60 % more time for a
+#: tracking gain of 0.002 mm)
+SOLVER_ITERATIONS = 20
+
+
+@dataclass
+class Trace:
+    """One executed move.
+
+    Attributes
+    ----------
+    label : str
+        The FSM state (or caller's label) that asked for it.
+    pen_down : bool
+    planned : ndarray, shape (T, 3)
+        The path as given, world frame, metres.
+    executed : ndarray, shape (T', 3)
+        The pen tip at every simulation step (240 Hz), world frame, metres.
+    joints : ndarray, shape (T', 10)
+        Torso + right-arm joint angles at every step, radians, order ``model.ARM_CHAIN``.
+    reference : ndarray, shape (T', 3)
+        The point of the (densified) path the controller was aiming at at every step; the
+        tracking error is ``executed - reference``.
+    inked : int
+        Number of executed samples that left ink.
+    """
+
+    label: str
+    pen_down: bool
+    planned: np.ndarray
+    executed: np.ndarray
+    joints: np.ndarray = field(repr=False)
+    reference: np.ndarray = field(repr=False)
+    inked: int = 0
+
+
+def _fmt(point) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in np.asarray(point, dtype=float)) + ")"
+
+
+class Arm:
+    """Torso + right arm of ``body`` holding a pen over a table whose paper is at ``surface_z``.
+
+    ``stats`` (a dict) gains ``ik_solves``, ``ik_seconds``, ``steps`` and ``step_seconds``.
+    ``realtime``: pace the control loop at its simulated speed (a GUI window).
+    """
+
+    def __init__(self, body, surface_z: float, stats: dict, *, realtime: bool = False) -> None:
+        self.body = body
+        self.chain = body.arm_chain
+        self.surface_z = float(surface_z)
+        self.stats = stats
+        self.realtime = realtime
+        lo, hi = self.chain.lower + LIMIT_MARGIN, self.chain.upper - LIMIT_MARGIN
+        lo[:3] = np.maximum(lo[:3], TORSO_COMFORT[0])
+        hi[:3] = np.minimum(hi[:3], TORSO_COMFORT[1])
+        self.ik_lower, self.ik_upper = lo, hi
+        self.weights = np.array([TORSO_WEIGHT] * 3 + [1.0] * 7)
+        self.rest_posture = np.clip(REST_POSTURE, lo, hi)
+        self.ready_posture = self.rest_posture
+
+    def ready_at(self, point: np.ndarray) -> bool:
+        """Find the ready posture: the pen vertical at ``point`` (3,); False when out of reach
+        (the ready posture is then the rest posture)."""
+        ready = ik.solve(self.chain, point, SEED_POSTURE, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights)
+        self.ready_posture = ready.q if ready.converged else self.rest_posture
+        return bool(ready.converged)
+
+    def joint_positions(self) -> np.ndarray:
+        """Torso + right-arm joint angles (10,), radians, order ``model.ARM_CHAIN``."""
+        return self.body.arm_angles()
+
+    def hand_position(self) -> np.ndarray:
+        """The pen tip, shape (3,), world frame, metres."""
+        return self.chain.tip_position(self.joint_positions())
+
+    def _solve(self, target: np.ndarray, q0: np.ndarray) -> ik.IKResult:
+        result = ik.solve(self.chain, target, q0, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights)
+        converged = result.error <= IK_ACCEPT_ERROR and result.tilt <= IK_ACCEPT_TILT
+        if converged != result.converged:
+            result = ik.IKResult(result.q, result.position, result.error, result.tilt, result.iterations, converged)
+        return result
+
+    def _check_above_table(self, point: np.ndarray, k: int, total: int, label: str) -> None:
+        on_table = TABLE_FRONT_X <= point[0] <= TABLE_FRONT_X + TABLE_SIZE[0]
+        if on_table and point[2] < self.surface_z - 0.002:
+            raise UnreachableError(
+                f"cannot reach {_fmt(point)} m (waypoint {k + 1} of {total}): it is "
+                f"{(self.surface_z - point[2]) * 1000:.1f} mm below the paper; the arm did not move",
+                state=label or None,
+            )
+
+    def _raise_if_unreachable(self, result: ik.IKResult, point, k: int, total: int, label: str) -> None:
+        if result.converged:
+            return
+        tilt = f", pen tilted {math.degrees(result.tilt):.1f} deg" if result.tilt > IK_ACCEPT_TILT else ""
+        distance = np.linalg.norm(result.position - np.asarray(point, dtype=float))
+        raise UnreachableError(
+            f"cannot reach {_fmt(point)} m (waypoint {k + 1} of {total}): the pen gets no closer "
+            f"than {distance * 1000:.1f} mm, to {_fmt(result.position)}{tilt}; the arm did not move",
+            state=label or None,
+            hint="targets must be above the table, in front of the robot (x 0.20-0.45 m, "
+            "y -0.30-0.10 m works at table height)",
+        )
+
+    def reset_hand(self, target: np.ndarray) -> np.ndarray:
+        """Put the pen tip at ``target`` (3,) at once (no motion, no trace); returns the angles (10,).
+
+        Raises :class:`UnreachableError` when the point cannot be reached.
+        """
+        self._check_above_table(target, 0, 1, "reset_hand")
+        result = self._solve(target, self.joint_positions())
+        if not result.converged:
+            result = min((result, self._solve(target, self.ready_posture)), key=lambda r: r.error)
+        self._raise_if_unreachable(result, target, 0, 1, "reset_hand")
+        self.body.set_arm(result.q)
+        return result.q
+
+    def move(self, planned: np.ndarray, *, pen_down: bool = False, label: str = "") -> Trace:
+        """Follow ``planned`` (T, 3) (checked) from where the pen is; the executed move.
+
+        Raises :class:`UnreachableError` (the arm does not move) when a waypoint cannot be
+        reached, :class:`HilaRuntimeError` if a joint leaves its limits during execution.
+        """
+        for k, point in enumerate(planned):
+            self._check_above_table(point, k, len(planned), label)
+        q_start = self.joint_positions()
+        start = self.chain.tip_position(q_start)
+        dense, origin_index, arc = densify(np.vstack([start, planned]), WAYPOINT_SPACING)
+        qs = np.empty((len(dense), self.chain.dof))
+        qs[0] = q_start
+        clock = time.perf_counter()
+        for i in range(1, len(dense)):
+            result = self._solve(dense[i], qs[i - 1])
+            if not result.converged:
+                # dense[i] lies on the way to waypoint k: report how near to *it* the pen gets
+                k = int(origin_index[i])
+                last = self.chain.tip_position(qs[i - 1])
+                if np.linalg.norm(last - planned[k]) < np.linalg.norm(result.position - planned[k]):
+                    result = ik.IKResult(qs[i - 1], last, result.error, result.tilt, result.iterations, False)
+                self._raise_if_unreachable(result, planned[k], k, len(planned), label)
+            qs[i] = result.q
+        self.stats["ik_solves"] += len(dense) - 1
+        self.stats["ik_seconds"] += time.perf_counter() - clock
+        clock = time.perf_counter()
+        executed, joints, reference = self._execute(qs, dense, arc, DRAW_SPEED if pen_down else TRAVEL_SPEED)
+        self.stats["steps"] += len(executed)
+        self.stats["step_seconds"] += time.perf_counter() - clock
+        return Trace(label, bool(pen_down), planned, executed, joints, reference)
+
+    def _execute(self, qs: np.ndarray, dense: np.ndarray, arc: np.ndarray, speed: float):
+        """Run the joint path ``qs`` (M, 10) through ``dense`` (M, 3) at arc lengths ``arc`` (M,)."""
+        pb, c = self.body.sim.pb, self.body.sim.client
+        dt = 1.0 / SIM_RATE
+        times = trapezoid_profile(arc[-1], speed, ACCELERATION, dt)
+        executed, joints, reference = [], [], []
+        final = dense[-1]
+        slopes = np.zeros_like(qs)
+        if len(arc) > 1:
+            ds = np.diff(arc)
+            slopes[:-1] = np.diff(qs, axis=0) / np.where(ds > 0, ds, 1.0)[:, None]
+            slopes[-1] = slopes[-2]
+        lower, upper = self.chain.lower - LIMIT_CHECK_TOLERANCE, self.chain.upper + LIMIT_CHECK_TOLERANCE
+        started = time.perf_counter()
+
+        def step(q_target, qd_target, point):
+            reference.append(point)
+            self.body.command(q_target, qd_target, POSITION_GAIN, VELOCITY_GAIN)
+            pb.stepSimulation(physicsClientId=c)
+            if self.realtime:  # a window shows the motion at its real speed
+                ahead = len(reference) * dt - (time.perf_counter() - started)
+                if ahead > 0:
+                    time.sleep(ahead)
+            q = self.joint_positions()
+            if np.any(q < lower) or np.any(q > upper):
+                bad = int(np.argmax(np.maximum(lower - q, q - upper)))
+                raise HilaRuntimeError(
+                    f"joint {model.ARM_CHAIN[bad]} left its limits during a move "
+                    f"({q[bad]:.3f} rad, limits {self.chain.lower[bad]:.3f}..{self.chain.upper[bad]:.3f})"
+                )
+            joints.append(q)
+            executed.append(self.body.link_position(model.PEN_TIP_LINK))
+
+        def along(s):
+            i = min(int(np.searchsorted(arc, s, side="right")) - 1, len(arc) - 2)
+            frac = (s - arc[i]) / max(arc[i + 1] - arc[i], 1e-12)
+            return i, qs[i] + frac * (qs[i + 1] - qs[i]), dense[i] + frac * (dense[i + 1] - dense[i])
+
+        # PyBullet's position motor ends a step at (target + dt * target velocity): aim at the
+        # previous sample's position with this sample's velocity to be at this sample's point
+        previous = 0.0
+        for s, v in times:
+            if len(arc) > 1:
+                i, _, point = along(s)
+                _, q_target, _ = along(previous)
+                step(q_target, slopes[i] * v, point)
+            else:
+                step(qs[0], np.zeros(self.chain.dof), dense[0])
+            previous = s
+        # settle: hold the last target until the tip is within 0.05 mm (at most 0.25 s)
+        for _ in range(int(0.25 * SIM_RATE)):
+            if executed and np.linalg.norm(executed[-1] - final) < 5e-5:
+                break
+            step(qs[-1], np.zeros(self.chain.dof), final)
+        return (
+            np.array(executed).reshape(-1, 3),
+            np.array(joints).reshape(-1, self.chain.dof),
+            np.array(reference).reshape(-1, 3),
+        )

@@ -1,0 +1,91 @@
+"""The paper on the robot's table: ink where the pen touches it, and a camera above it.
+
+:class:`Paper` implements :class:`hila_lang.plugins.protocols.Ink`: a
+:class:`~hila_lang.sim.surface.Surface` shown as a textured quad whose texture (a
+:class:`~hila_lang.sim.canvas.Canvas`, starting from what is printed on the surface) takes the
+ink.  The pen leaves ink where it is down and its tip is within 0.5 mm of the surface (or
+below): the robot has no collision shapes, so contact is decided geometrically.  The texture is
+uploaded once per stroke.  :class:`TopView` implements :class:`~hila_lang.plugins.protocols.Overview`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..sim.camera import Camera, CameraImage
+from ..sim.canvas import Canvas
+from ..validation import check_path
+
+#: the pen touches the paper when its tip is at most this far above the surface, metres
+CONTACT_TOLERANCE = 0.0005
+
+
+class Paper:
+    """``surface`` in ``sim``, taking ink (see the module docstring)."""
+
+    def __init__(self, sim, surface) -> None:
+        self.sim = sim
+        self.surface = surface
+        self.canvas = Canvas(surface)
+        # the robot's sheet faces away from the diffuse light (ambient only): the eye-camera
+        # board reading was measured on it so
+        self.body = sim.add_surface(surface, self.canvas.image, lit=False)
+
+    def touching(self, points: np.ndarray) -> np.ndarray:
+        """Boolean (N,): which points (N, 3) are on the paper (tip at or below its surface + tol)."""
+        return self.surface.contains(points) & (points[:, 2] <= self.surface.z + CONTACT_TOLERANCE)
+
+    def ink_trace(self, executed: np.ndarray, color="robot") -> int:
+        """Ink the parts of a pen trace (N, 3) that touch the paper; returns how many points did."""
+        touching = self.touching(executed)
+        if not touching.any():
+            return 0
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], touching.astype(int), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2]):
+            self.canvas.draw_polyline(executed[start:stop], color=color)
+        self.sim.set_texture(self.body, self.canvas.image)
+        return int(touching.sum())
+
+    def ink_polyline(self, points: np.ndarray, color="opponent") -> None:
+        """Draw a stroke through ``points`` (N, 3) (or (N, 2)) on the paper without the robot.
+
+        ``color`` is an RGB triple or a name in :data:`hila_lang.sim.canvas.INK_RGB`.
+        """
+        self.canvas.draw_polyline(check_path(points, "points"), color=color)
+        self.sim.set_texture(self.body, self.canvas.image)
+
+    def ink_image(self) -> np.ndarray:
+        """A copy of the paper texture (H, W, 3) uint8 RGB; row 0 = far edge."""
+        return self.canvas.image.copy()
+
+    def move_to(self, surface) -> None:
+        """Put the sheet (and its ink) at ``surface``'s pose (the same size), e.g. nudged mid-game."""
+        if tuple(surface.size) != tuple(self.surface.size):
+            raise InputError(f"a moved sheet keeps its size {self.surface.size}, got {surface.size}")
+        self.surface = surface
+        self.canvas.surface = surface
+        self.sim.set_pose(self.body, surface.world_T_surface())
+
+
+class TopView:
+    """A pinhole camera straight above the paper's centre, for reports (never for the robot)."""
+
+    def __init__(self, paper: Paper, render) -> None:
+        self.paper, self._render = paper, render
+
+    def top_view_image(self, size_px: int = 480, *, height: float = 1.0) -> CameraImage:
+        """A square image ``height`` metres above the paper's centre looking straight down: image
+        up is the paper's far side, image right the robot's right.  The whole sheet is in view."""
+        if isinstance(size_px, bool) or not isinstance(size_px, (int, np.integer)) or not 16 <= size_px <= 4096:
+            raise InputError(f"size_px must be an integer in 16..4096, got {size_px!r}")
+        surface = self.paper.surface
+        right, far = surface.axes()
+        pose = np.eye(4)
+        pose[:3, :3] = np.column_stack([right, -far, [0.0, 0.0, -1.0]])
+        pose[:3, 3] = surface.to_world(0.0, 0.0) + np.array([0.0, 0.0, height])
+        extent = float(np.hypot(*surface.size)) * 1.05
+        f = size_px * height / extent
+        K = np.array([[f, 0.0, (size_px - 1) / 2], [0.0, f, (size_px - 1) / 2], [0.0, 0.0, 1.0]])
+        camera = Camera(K, pose, size_px, size_px)
+        return CameraImage(self._render(camera), K, pose, size_px, size_px)

@@ -1,0 +1,27 @@
+"""The robot's workplace: the table in front of the iCub (measured facts, DESIGN.md section 4).
+
+World frame: metres, z up, origin on the floor below the robot.  The iCub's root (waist) is
+fixed at (0, 0, 0.62) facing +x; its right side is -y.  The table top is at z = 0.57 with its
+front edge at x = 0.12.  A sheet of paper on it has its surface :data:`PAPER_THICKNESS` higher.
+"""
+
+from __future__ import annotations
+
+import math
+
+#: world z of the table's top, metres
+TABLE_TOP_Z = 0.57
+#: world x of the table's front edge (the edge nearest the robot), metres
+TABLE_FRONT_X = 0.12
+#: table size (depth along x, width along y, thickness), metres
+TABLE_SIZE = (0.60, 1.00, 0.03)
+#: paper thickness, metres: the drawing surface is this far above the table top
+PAPER_THICKNESS = 0.001
+
+
+def default_surface():
+    """A blank A4 sheet on the table where the robot reaches it well: centred at (0.31, -0.09),
+    turned 15 degrees (where the tic-tac-toe game's sheet lies; a world that says nothing gets it)."""
+    from ..sim.surface import Surface
+
+    return Surface(center=(0.31, -0.09), rotation=math.radians(15.0), z=TABLE_TOP_Z + PAPER_THICKNESS)
