@@ -151,3 +151,25 @@ def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
     if header:
         header = "".join(f"# {ln}\n" if ln else "#\n" for ln in header.splitlines())
     return atomic_write_text(path, header + body)
+
+
+def output_folder(out, name: str) -> Path:
+    """``out`` as given (created), or a fresh ``runs/<name>-<UTC time>[-k]`` folder (created).
+
+    A run that writes files by default writes them where the user will find them and never over
+    an earlier run's.
+    """
+    import time
+
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    base = Path("runs") / name.replace("{time}", stamp)
+    folder, k = base, 1
+    while folder.exists():
+        k += 1
+        folder = base.with_name(f"{base.name}-{k}")
+    folder.mkdir(parents=True)
+    return folder

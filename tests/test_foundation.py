@@ -170,3 +170,14 @@ def test_write_png_keeps_channel_order(tmp_path):
     for name in ("rgb.png", "bgr.png"):
         back = cv2.imread(str(tmp_path / name))  # BGR
         assert back.shape == (4, 5, 3) and (back[..., 2] == 200).all() and (back[..., :2] == 0).all()
+
+
+def test_output_folder_is_fresh_unless_given(tmp_path, monkeypatch):
+    from hila_lang.fileio import output_folder
+
+    monkeypatch.chdir(tmp_path)
+    a, b = output_folder(None, "run-{time}"), output_folder(None, "run-{time}")
+    assert a != b and a.parent == b.parent == Path("runs") and a.is_dir() and b.is_dir()
+    assert b.name.startswith(a.name)  # the same second: a numbered sibling, never the same folder
+    given = tmp_path / "mine" / "deep"
+    assert output_folder(given, "ignored") == given and given.is_dir()

@@ -38,14 +38,10 @@ class Paper:
 
     def ink_trace(self, executed: np.ndarray, color="robot") -> int:
         """Ink the parts of a pen trace (N, 3) that touch the paper; returns how many points did."""
-        touching = self.touching(executed)
-        if not touching.any():
-            return 0
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], touching.astype(int), [0]])))
-        for start, stop in zip(edges[::2], edges[1::2]):
-            self.canvas.draw_polyline(executed[start:stop], color=color)
-        self.sim.set_texture(self.body, self.canvas.image)
-        return int(touching.sum())
+        inked = self.canvas.ink_touching(executed, self.surface.z, CONTACT_TOLERANCE, color)
+        if inked:
+            self.sim.set_texture(self.body, self.canvas.image)
+        return inked
 
     def ink_polyline(self, points: np.ndarray, color="opponent") -> None:
         """Draw a stroke through ``points`` (N, 3) (or (N, 2)) on the paper without the robot.

@@ -80,3 +80,14 @@ class Canvas:
         else:
             cv2.polylines(self.image, [fixed], False, tuple(int(c) for c in color), thickness, cv2.LINE_AA, _SHIFT)
         self.strokes += 1
+
+    def ink_touching(self, points: np.ndarray, surface_z: float, tolerance: float, color="robot") -> int:
+        """Draw the runs of a pen trace ``points`` (N, 3) that touch the surface -- over it, and
+        at most ``tolerance`` above ``surface_z`` (or below) -- as strokes; returns how many
+        points touched."""
+        points = np.asarray(points, dtype=float)
+        touching = self.surface.contains(points) & (points[:, 2] <= surface_z + tolerance)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], touching.astype(int), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2]):
+            self.draw_polyline(points[start:stop], color=color)
+        return int(touching.sum())

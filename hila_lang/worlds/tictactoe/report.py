@@ -118,18 +118,9 @@ def vision_summary(world) -> dict[str, Any]:
 
 def output_folder(out: Path | str | None, seed: int) -> Path:
     """``out`` as given, or a fresh ``runs/game-<UTC time>-seed<N>[-k]`` folder (created)."""
-    if out is not None:
-        folder = Path(out)
-        folder.mkdir(parents=True, exist_ok=True)
-        return folder
-    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-    base = Path("runs") / f"game-{stamp}-seed{seed}"
-    folder, k = base, 1
-    while folder.exists():
-        k += 1
-        folder = base.with_name(f"{base.name}-{k}")
-    folder.mkdir(parents=True)
-    return folder
+    from ...fileio import output_folder as folder
+
+    return folder(out, f"game-{{time}}-seed{seed}")
 
 
 def traces_csv(world) -> str:
