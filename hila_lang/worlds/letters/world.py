@@ -1,0 +1,152 @@
+"""The ``letters`` world: a word to write, its letters' slots on the paper, and the paper's image.
+
+Scene points (:meth:`LettersWorld.points`), world frame, metres: ``paper.slotK.tl|tr|br|bl``,
+the corners of the K-th letter's box (:mod:`.layout`), and ``paper.home``, where the hand waits.
+
+Questions: ``done`` (every letter written), ``next_slot`` (the next letter's point group, e.g.
+``"paper.slot2"``, so ``run H(s.*)`` binds the template's box corners ``tl tr br bl`` to the
+slot's), ``next_letter`` (``"I"``), ``word``.  It has no events.
+
+The world follows the program: each state that runs with the pen down writes the next letter
+(``notify("state_done", pen_down=True, ...)``); a template for another letter in that slot is a
+run error, and so is asking for the same letter three times without writing it (a program
+without a branch for that letter would otherwise loop for ever).
+
+At the end it prints the word and writes ``--out`` (default ``runs/write-<UTC time>``):
+``paper.png``, the sheet straight from above -- the ink texture of a back end that has one
+(PyBullet), else the pen-down trace that touched the paper rasterised the same way -- and
+``report.json`` (the word, each letter's slot corners and template, how many points touched).
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...sim.surface import Scene
+from .layout import PAPER, layout
+
+#: a pen-tip point within this height of the paper touches it, metres (as the robot's ink)
+CONTACT_TOLERANCE = 0.0005
+#: how often a program may ask for a letter without writing it
+MAX_ASKS = 3
+
+
+class LettersWorld:
+    """Writing ``settings["word"]`` (see the module docstring)."""
+
+    def __init__(self, options, settings: dict[str, Any]) -> None:
+        from pathlib import Path
+
+        self.options = options
+        self.word = settings["word"]
+        self.write_report = settings["report"]
+        self.layout = layout(self.word, settings["size"])
+        if self.write_report and options.out is not None and Path(options.out).exists() and not Path(options.out).is_dir():
+            raise InputError("expected --out to be a folder, got a file", file=str(options.out))
+        self.scene = Scene(surface=PAPER, home=self.layout.home)
+        self.written: list[dict[str, Any]] = []
+        self.backend = None
+        self._asks = 0
+
+    # -- plug-in hooks -----------------------------------------------------------------------
+    def attach(self, backend) -> None:
+        self.backend = backend
+        backend.reset_hand(self.layout.home)
+
+    def points(self) -> dict[str, np.ndarray]:
+        return self.layout.points()
+
+    def _next(self) -> int:
+        k = len(self.written)
+        if k >= len(self.layout.slots):
+            raise HilaRuntimeError(f"every letter of {self.word!r} is written: there is no next letter",
+                                   hint="loop with 'until ask done'")
+        return k
+
+    def query(self, name: str, *args: Any) -> Any:
+        if name == "done":
+            return len(self.written) == len(self.layout.slots)
+        if name == "word":
+            return self.word
+        if name == "next_slot":
+            return f"paper.slot{self._next() + 1}"
+        if name == "next_letter":
+            k = self._next()
+            self._asks += 1
+            letter = self.layout.slots[k]["letter"]
+            if self._asks > MAX_ASKS:
+                raise HilaRuntimeError(f"letter {k + 1} ({letter!r}) was asked for {MAX_ASKS} times and never written",
+                                       hint=f"does the program run a template for {letter!r}?")
+            return letter
+        from . import WORLD
+
+        raise UnknownNameError("question", name, WORLD.questions, owner="the letters world")
+
+    def wait(self, event: str, *args: Any) -> Any:
+        raise UnknownNameError("event", event, (), owner="the letters world",
+                               hint="the letters world has no events; ask it instead")
+
+    def notify(self, event: str, **data: Any) -> None:
+        if event != "state_done" or not data.get("pen_down"):
+            return
+        k = self._next()
+        slot = self.layout.slots[k]
+        template = data.get("template")
+        name = None if template is None else template.name.split(".")[0]
+        if name is not None and name != slot["letter"]:
+            raise HilaRuntimeError(f"the template {name!r} wrote in the box of letter {k + 1} ({slot['letter']!r})",
+                                   state=data.get("state"))
+        executed = data.get("executed")
+        drawn = np.asarray(data["path"] if executed is None else executed, dtype=float)
+        touching = PAPER.contains(drawn) & (drawn[:, 2] <= PAPER.z + CONTACT_TOLERANCE)
+        self.written.append({"letter": slot["letter"], "slot": k + 1, "state": data.get("state"),
+                             "template": name, "drawn": drawn, "contact_points": int(touching.sum())})
+        self._asks = 0
+
+    # -- the end -----------------------------------------------------------------------------
+    def paper_image(self) -> np.ndarray:
+        """The sheet from above (H, W, 3) uint8 RGB, row 0 its far edge (the letters' tops)."""
+        if self.backend is not None and self.backend.ink is not None:
+            return self.backend.ink.ink_image()
+        from ...sim.canvas import Canvas
+
+        canvas = Canvas(PAPER)
+        for w in self.written:
+            canvas.ink_touching(w["drawn"], PAPER.z, CONTACT_TOLERANCE)
+        return canvas.image.copy()
+
+    def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
+        """Print what was written; write ``paper.png`` and ``report.json`` (unless report=no)."""
+        from ...fileio import atomic_write_text, output_folder, write_png
+
+        where = [i for i, c in enumerate(self.word) if c != " "]
+        text = self.word[: where[len(self.written) - 1] + 1] if self.written else ""
+        report = {
+            "world": "letters", "word": self.word, "written": text,
+            "complete": len(self.written) == len(self.layout.slots),
+            "letter_height_m": self.layout.height,
+            "paper": {"center": list(PAPER.center), "rotation": PAPER.rotation, "z": PAPER.z, "size": list(PAPER.size)},
+            "letters": [{"letter": w["letter"], "slot": w["slot"], "state": w["state"], "template": w["template"],
+                         "contact_points": w["contact_points"],
+                         "corners": {n: [round(float(v), 6) for v in p]
+                                     for n, p in self.layout.slots[w["slot"] - 1]["corners"].items()}}
+                        for w in self.written],
+            "backend": None if self.backend is None else self.backend.name,
+        }
+        print(f"wrote {text!r}" + ("" if report["complete"] else f" of {self.word!r}"), file=self.options.stdout)
+        if self.write_report:
+            folder = output_folder(self.options.out, "write-{time}")
+            write_png(folder / "paper.png", self.paper_image())
+            atomic_write_text(folder / "report.json", json.dumps(report, indent=2) + "\n")
+            report["out"] = str(folder)
+            print(f"outputs written to {folder}", file=self.options.stdout)
+        return report
+
+
+def make_world(options, settings) -> LettersWorld:
+    """Plug-in factory (:data:`hila_lang.worlds.letters.WORLD`)."""
+    return LettersWorld(options, settings)
