@@ -306,3 +306,21 @@ def test_nothing_but_the_paths_reaches_the_console(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == [str(tmp_path / "eye_left.png"), str(tmp_path / "board_top.png")]
     assert done.stderr == ""
+
+
+def test_the_paper_can_be_moved_during_a_run_and_keeps_its_ink():
+    """A world may nudge the sheet between moves (a referee's perturbation): the quad moves, the
+    ink stays on the sheet, and contact follows the sheet."""
+    sheet = GRID.paper()
+    with PyBulletBackend(sheet, arm="rest") as robot:
+        robot.ink.ink_polyline(np.array([sheet.to_world(-0.02, 0.0), sheet.to_world(0.02, 0.0)]), color="black")
+        before = robot.overview.top_view_image(160).rgb
+        ink = robot.ink.ink_image()
+        moved = sheet.moved(center=(sheet.center[0] + 0.03, sheet.center[1] - 0.02), rotation=sheet.rotation + 0.2)
+        robot.ink.move_to(moved)
+        assert np.array_equal(robot.ink.ink_image(), ink)
+        assert robot.ink.touching(np.array([moved.to_world(0.09, 0.13)]))[0]
+        assert not robot.ink.touching(np.array([sheet.to_world(-0.10, -0.14)]))[0]
+        assert not np.array_equal(robot.overview.top_view_image(160).rgb, before)
+        with pytest.raises(InputError, match="stays on the table"):
+            robot.ink.move_to(moved.moved(z=moved.z + 0.01))

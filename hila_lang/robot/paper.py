@@ -57,8 +57,9 @@ class Paper:
 
     def move_to(self, surface) -> None:
         """Put the sheet (and its ink) at ``surface``'s pose (the same size), e.g. nudged mid-game."""
-        if tuple(surface.size) != tuple(self.surface.size):
-            raise InputError(f"a moved sheet keeps its size {self.surface.size}, got {surface.size}")
+        if tuple(surface.size) != tuple(self.surface.size) or surface.z != self.surface.z:
+            raise InputError(f"a moved sheet keeps its size {self.surface.size} and stays on the table "
+                             f"(z = {self.surface.z}), got {surface.size} at z = {surface.z}")
         self.surface = surface
         self.canvas.surface = surface
         self.sim.set_pose(self.body, surface.world_T_surface())
