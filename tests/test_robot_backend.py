@@ -324,3 +324,10 @@ def test_the_paper_can_be_moved_during_a_run_and_keeps_its_ink():
         assert not np.array_equal(robot.overview.top_view_image(160).rgb, before)
         with pytest.raises(InputError, match="stays on the table"):
             robot.ink.move_to(moved.moved(z=moved.z + 0.01))
+
+
+def test_every_render_is_counted_for_the_benchmarks(robot):
+    n, seconds = robot.stats["renders"], robot.stats["render_seconds"]
+    robot.eyes.camera_image("right")
+    robot.overview.top_view_image(64)
+    assert robot.stats["renders"] == n + 2 and robot.stats["render_seconds"] > seconds

@@ -16,6 +16,8 @@ Frames: world frame, metres, z up; the root is at (0, 0, 0.62) and the robot fac
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..errors import InputError
@@ -92,17 +94,25 @@ class PyBulletBackend:
             self.body = Body(self.sim)
             self._build_table(self.surface.z - PAPER_THICKNESS)
             self.ink = Paper(self.sim, self.surface)
-            self.overview = TopView(self.ink, self.sim.render)
+            self.overview = TopView(self.ink, self._render)
             self.arm = Arm(self.body, self.surface.z, self.stats, realtime=gui)
             centre = self.surface.to_world(0.0, 0.0)
             reachable = self.arm.ready_at(centre + np.array([0.0, 0.0, READY_HEIGHT]))
             low_table = self.surface.z < TABLE_TOP_Z - 0.05
             rest = arm == "rest" or (arm == "auto" and (low_table or not reachable))
             self.body.set_arm(self.arm.rest_posture if rest else self.arm.ready_posture)
-            self.eyes = Eyes(self.sim, self.body, centre, self.stats)
+            self.eyes = Eyes(self.body, centre, self._render)
         except BaseException:
             self.close()
             raise
+
+    def _render(self, camera, *, shadow: bool = False) -> np.ndarray:
+        """An image of ``camera`` in the scene, counted in :attr:`stats`."""
+        clock = time.perf_counter()
+        rgb = self.sim.render(camera, shadow=shadow)
+        self.stats["renders"] += 1
+        self.stats["render_seconds"] += time.perf_counter() - clock
+        return rgb
 
     def _build_table(self, top: float) -> None:
         depth, width, thick = TABLE_SIZE

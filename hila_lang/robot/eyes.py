@@ -9,8 +9,6 @@ camera pose and the joint angles of the chain from the world to the eye
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from ..errors import InputError
@@ -34,13 +32,13 @@ def _check_eye(eye: str) -> str:
 
 
 class Eyes:
-    """The two eye cameras of ``body`` in ``sim``, looking at ``target`` until told otherwise.
+    """The two eye cameras of ``body``, looking at ``target`` until told otherwise.
 
-    ``stats`` (a dict) gains ``renders`` and ``render_seconds``.
+    ``render(camera, shadow=False) -> RGB`` renders the scene the body is in.
     """
 
-    def __init__(self, sim, body, target: np.ndarray, stats: dict) -> None:
-        self.sim, self.body, self.stats = sim, body, stats
+    def __init__(self, body, target: np.ndarray, render) -> None:
+        self.body, self.render = body, render
         self._gaze_chain = body.chain_to("eyes_tilt_link")
         self._chains: dict[str, ik.KinematicChain] = {}
         self.target = _check_point(target)
@@ -88,11 +86,3 @@ class Eyes:
         joints = self.body.angles(self.chain(eye).names)
         return CameraImage(self.render(camera, shadow=shadow), camera.K.copy(), camera.world_T_camera.copy(),
                            EYE_WIDTH, EYE_HEIGHT, joints)
-
-    def render(self, camera: Camera, *, shadow: bool = False) -> np.ndarray:
-        """An image of ``camera`` in the robot's scene (counted in ``stats``)."""
-        clock = time.perf_counter()
-        rgb = self.sim.render(camera, shadow=shadow)
-        self.stats["renders"] += 1
-        self.stats["render_seconds"] += time.perf_counter() - clock
-        return rgb
