@@ -331,3 +331,13 @@ def test_every_render_is_counted_for_the_benchmarks(robot):
     robot.eyes.camera_image("right")
     robot.overview.top_view_image(64)
     assert robot.stats["renders"] == n + 2 and robot.stats["render_seconds"] > seconds
+
+
+def test_an_eye_image_carries_what_the_robot_knows_to_place_it(robot):
+    """Joint angles + the eye's kinematic chain give the camera pose by forward kinematics."""
+    for eye in ("left", "right"):
+        image = robot.eyes.camera_image(eye)
+        chain = robot.eyes.chain(eye)
+        assert set(chain.names) <= set(image.joints) and "neck_pitch" in chain.names
+        world_T_eye = chain.forward(np.array([image.joints[n] for n in chain.names]))[0]
+        np.testing.assert_allclose(world_T_eye, image.world_T_camera, atol=1e-6)
