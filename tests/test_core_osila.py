@@ -304,11 +304,44 @@ def test_nearly_collinear_icps_do_not_blow_up():
     src, dst = path[idx], target[idx]  # the middle point lies on the other side of the chord
     bare = fit_warp(src, dst)(path)
     res = imitate_detailed(path, src, dst, threshold=0)
-    assert res.warp.kind == "similarity" and res.warp.amplification > 6
+    assert res.warp.kind == "similarity"  # D + 1 pairs: an affine map with nothing to check it
     err = lambda p: np.linalg.norm(p - target, axis=1).max()  # noqa: E731
     assert err(bare) > 0.2  # the exact affine map flips the S
     assert err(res.path) < 0.05
     np.testing.assert_allclose(res.path[idx], dst, atol=1e-9)  # the constraints are still met
+
+
+def test_an_amplifying_tps_falls_back_even_when_it_fits_the_icps_best():
+    # four nearly collinear ICPs moved by an exact (anisotropic) affine map: the TPS predicts every
+    # ICP from the others perfectly, but off the line it multiplies any ICP error by Λ
+    t = np.linspace(0, 1, 200)
+    path = np.column_stack([t, 0.3 * np.sin(2 * np.pi * t)])
+    src = np.array([[0.0, 0.0], [0.33, 0.004], [0.66, -0.003], [1.0, 0.002]])
+    A = np.array([[1.1, 0.2], [0.1, 0.7]])
+    tps = fit_warp(src, src @ A.T, on=path, max_amplification=np.inf)
+    assert tps.kind == "tps" and tps.amplification > 50
+    warp = fit_warp(src, src @ A.T, on=path)
+    assert warp.kind == "similarity" and warp.amplification == pytest.approx(tps.amplification)
+    np.testing.assert_allclose(warp(src), src @ A.T, atol=1e-9)
+
+
+def test_loo_chooses_the_map_that_predicts_left_out_icps():
+    from hila_lang.osila.tps import similarity_loo
+
+    rng = np.random.default_rng(11)
+    path = wavy_path()
+    src = icps_around(path, 7, 3)
+    bent = src + 0.15 * np.sin(3 * src[:, ::-1])  # a smooth bend: the TPS predicts it better
+    noisy = 1.2 * src + rng.normal(0, 0.05, src.shape)  # a similarity plus noise: the similarity does
+    assert fit_warp(bent, bent, on=path).kind == "tps"
+    w_bent = fit_warp(src, bent, on=path)
+    w_noisy = fit_warp(src, noisy, on=path)
+    assert w_bent.kind == "tps" and w_bent.loo < similarity_loo(src, bent)
+    assert w_noisy.kind == "similarity"
+    # Rippa's closed form equals refitting without each pair
+    explicit = np.mean([((fit_warp(np.delete(src, k, 0), np.delete(bent, k, 0))(src[k:k + 1]) - bent[k]) ** 2).sum()
+                        for k in range(len(src))])
+    assert w_bent.loo == pytest.approx(explicit, rel=1e-6)
 
 
 def test_well_spread_icps_keep_the_tps():
@@ -344,3 +377,51 @@ def test_an_obstacle_that_segments_cannot_avoid_is_an_error():
     # pinned ends on both sides of a wall-like sphere that the two-point path must cross
     with pytest.raises(ConstraintError, match=r"obstacle 0 .* entered between stamps"):
         imitate(path[[0, -1]], icps, icps, obstacles=[[50.0, 0.0, 10.0]], pin=(0, -1), rounds=3)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("K", [4, 5, 8])
+def test_similarity_loo_equals_refitting_without_each_pair(dim, K):
+    from hila_lang.osila.tps import _similarity, _similarity_parts, similarity_loo
+
+    if K < dim + 2:
+        pytest.skip("the choice needs K >= D + 2")
+    rng = np.random.default_rng(10 * K + dim)
+    src = rng.normal(size=(K, dim))
+    dst = 1.3 * src + rng.normal(0, 0.1, src.shape)
+    explicit = []
+    for k in range(K):
+        keep = np.arange(K) != k
+        fit = _similarity(src[keep], dst[keep], *_similarity_parts(src[keep], dst[keep], np.zeros(K - 1), dim), None)
+        explicit.append(((fit(src[k:k + 1]) - dst[k]) ** 2).sum())
+    assert similarity_loo(src, dst) == pytest.approx(np.mean(explicit), rel=1e-9)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_choice_kernel_equals_numpy(dim):
+    from hila_lang import jit
+    from hila_lang.osila import tps
+
+    pytest.importorskip("numba")
+    if not jit.enabled():
+        pytest.skip("HILA_JIT=0")
+    rng = np.random.default_rng(dim)
+    for K in (dim + 2, 9):
+        src = rng.normal(size=(K, dim))
+        dst = src @ rng.normal(size=(dim, dim)) + rng.normal(0, 0.2, src.shape)
+        ridge = np.where(np.arange(K) % 2, 0.0, 0.1)
+        fast, slow = tps._choice(src, dst, ridge), tps._choice_numpy(src, dst, ridge)
+        for a, b in zip(fast[:3], slow[:3]):
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+        assert fast[3] == pytest.approx(slow[3], rel=1e-9)
+
+
+def test_osila_without_numba_gives_the_same_path(monkeypatch):
+    from hila_lang import jit
+
+    path = wavy_path(dim=3)
+    icps = icps_around(path, 7, 5)
+    task = icps * 1.1 + np.random.default_rng(0).normal(0, 0.05, icps.shape)
+    compiled = imitate(path, icps, task)
+    monkeypatch.setattr(jit, "compiled", lambda func, *warm: None)
+    np.testing.assert_allclose(imitate(path, icps, task), compiled, atol=1e-12)

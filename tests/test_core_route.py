@@ -123,6 +123,7 @@ def test_jit_without_a_usable_cache_compiles_uncached(monkeypatch):
     from hila_lang import jit
 
     pytest.importorskip("numba")
+    monkeypatch.setenv("HILA_JIT", "1")
     real = jit._compile
     tried = []
 

@@ -6,11 +6,13 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
 
 - a *forced waypoint* is violated when no route point lies within ``threshold`` of it; the repair
   pair is (template point whose mapped point is nearest the forced point -> the forced point);
-- a *pinned* stamp (option ``pin``) has one candidate only.  Pinned to a given point, the pair
-  (template point at that stamp -> the point) joins the warp as an exact pair, placed after every
-  other pair so it wins a merge with an ICP at the same template point, and the waypoint IS the
-  point (bit for bit).  Pinned without a point, the waypoint is its mapped point, which is
-  exactly the ICP's task point when the stamp's template point is an ICP (the last one given);
+- a *pinned* stamp has one candidate only.  Stamps are pinned by the option ``pin``, and
+  automatically where an ICP's template point is a waypoint of the template (a segment
+  boundary, a sub-template's start or end): a bound ICP on the path is met exactly, not within
+  the threshold.  Pinned to a given point, the pair (template point at that stamp -> the point)
+  joins the warp as an exact pair, placed after every other pair so it wins a merge with an ICP
+  at the same template point, and the waypoint IS the point (bit for bit).  Pinned without a
+  point, the waypoint is its mapped point (the ICP's task point, if the stamp is an ICP);
 - an *obstacle* (sphere) is violated when the route — its waypoints AND the straight segments
   between consecutive waypoints — comes closer than ``radius + margin`` to its centre.  For each
   run of consecutive violating segments the deepest one is repaired: if its nearest point to
@@ -19,8 +21,9 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
   the segment passes through between its waypoints, both waypoints are paired with themselves
   moved out in parallel, past the sphere by ``threshold``.
 
-Template points already used by a pair (or pinned) are not reused, so a repair pair never merges
-with an existing one.  After ``rounds`` rounds without conforming, :class:`ConstraintError` names
+A repaired stamp is pinned from then on (its waypoint is the pair's point), and template points
+already used by a pair (or pinned) are not reused, so a repair pair never merges with an
+existing one.  After ``rounds`` rounds without conforming, :class:`ConstraintError` names
 the violated constraints and the pairs that failed to fix them.  A forced waypoint whose whole
 threshold ball lies inside an obstacle is contradictory from the start and is reported before
 any round.
@@ -166,15 +169,8 @@ def adjust(
         None, to the stamp's mapped point.
     """
     T, D = path.shape
-    eps = MERGE_TOL * float(span(np.vstack([path, src])).max())
-    pinned = [t for t, _ in pin]
-    exact_pins = []
-    for t, q in pin:
-        if q is None:  # its mapped point; exactly an ICP's task point when the stamp is that ICP
-            at = np.flatnonzero(((src - path[t]) ** 2).sum(1) <= eps * eps)
-            q = dst[at[-1]] if len(at) else None
-        if q is not None:
-            exact_pins.append((t, q))
+    given = dict(pin)
+    exact_pins = [(t, q) for t, q in pin if q is not None]
     pin_src = path[[t for t, _ in exact_pins]].reshape(-1, D)
     pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
     pairs_src, pairs_dst = src, dst
@@ -183,10 +179,20 @@ def adjust(
     violations: list[str] = []
     for rnd in range(1, rounds + 1):
         # pins last: they win a merge with an ICP at the same template point
-        all_src, all_dst = np.vstack([pairs_src, pin_src]), np.vstack([pairs_dst, pin_dst])
-        exact = np.arange(len(all_src)) >= len(pairs_src)
+        if len(pin_src):
+            all_src, all_dst = np.vstack([pairs_src, pin_src]), np.vstack([pairs_dst, pin_dst])
+            exact = np.arange(len(all_src)) >= len(pairs_src)
+        else:
+            all_src, all_dst, exact = pairs_src, pairs_dst, None
         warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
         mapped = warp.mapped
+        if rnd == 1:
+            # an ICP whose template point IS a waypoint (a boundary, a sub-template's start or end)
+            # is met exactly at that stamp; explicit pins win
+            met = {t: warp.dst[k] for t, k in warp.at.items()}
+            met.update((t, q) for t, q in given.items() if q is not None)
+            exact_pins = list(met.items())
+            pinned = sorted({*met, *given})
         if offsets is None:
             if threshold is None:
                 threshold = default_threshold(mapped)
@@ -211,6 +217,7 @@ def adjust(
         if not len(forced) and not len(obstacles):
             return OsilaResult(route, mapped, warp, threshold, rnd, energy, added)
         # template indices already pinned by a pair (never reuse them)
+        eps = MERGE_TOL * float(span(np.vstack([path, src])).max())
         used = np.zeros(T, bool)
         used[pinned] = True
         for s in pairs_src:
@@ -259,6 +266,7 @@ def adjust(
         if not new:
             break
         added.extend(new)
+        pinned = sorted({*pinned, *(t for t, _, _ in new)})  # a repaired waypoint stays where the pair puts it
         pairs_src = np.vstack([pairs_src, path[[t for t, _, _ in new]]])
         pairs_dst = np.vstack([pairs_dst, np.array([q for _, q, _ in new])])
     shown = 5  # a hopeless constraint can add a pair per stamp: name the first few only

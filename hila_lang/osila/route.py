@@ -29,9 +29,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def _route_numpy(centres, offsets, unary, choice) -> float:
-    """Fill ``choice`` (T,) with the optimal candidates; return min W[T-1] (see the module docstring)."""
+def _route_numpy(centres, offsets, base, extra, choice) -> float:
+    """Fill ``choice`` (T,) with the optimal candidates; return min W[T-1] (see the module docstring).
+
+    The unary cost of candidate j at stamp t is ``base[j] + extra[t, j]`` (``extra`` of one row:
+    the same row at every stamp).
+    """
     T, D = centres.shape
+    unary = base + extra if len(extra) == T else np.broadcast_to(base + extra[0], (T, len(base)))
     step = centres[1:] - centres[:-1]
     dot = step[:, 0:1] * offsets[:, 0]
     for d in range(1, D):
@@ -57,15 +62,15 @@ def _route_numpy(centres, offsets, unary, choice) -> float:
     return float(W[-1, choice[-1]])
 
 
-def _route_kernel(centres, offsets, unary, choice):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _route_kernel(centres, offsets, base, extra, choice):  # pragma: no cover - compiled by numba (hila_lang.jit)
     """:func:`_route_numpy` as explicit loops: the same sums in the same order, first-minimum ties.
 
     The forward pass keeps only the values W (an elementwise running minimum over the previous
-    candidates, which the compiler vectorises); the back-pointers are recomputed along the chosen
-    route only, from the same sums.
+    candidates); the back-pointers are recomputed along the chosen route only, from the same sums.
     """
     T, D = centres.shape
     M = offsets.shape[0]
+    per_stamp = extra.shape[0] == T and T > 1
     G = np.empty((M, M))
     for i in range(M):
         for j in range(M):
@@ -75,37 +80,32 @@ def _route_kernel(centres, offsets, unary, choice):  # pragma: no cover - compil
                 diff = offsets[i, d] - offsets[j, d]
                 g = g + diff * diff
             G[i, j] = g
-    lin = np.empty(M)
-    nxt_lin = np.empty(M)
-    W = np.empty((T, M))
-    nxt = np.empty(M)
-    if T > 1:
+    lin = np.empty((max(T - 1, 1), M))
+    for t in range(T - 1):
         for j in range(M):
-            dot = (centres[1, 0] - centres[0, 0]) * offsets[j, 0]
+            dot = (centres[t + 1, 0] - centres[t, 0]) * offsets[j, 0]
             for d in range(1, D):
-                dot = dot + (centres[1, d] - centres[0, d]) * offsets[j, d]
-            lin[j] = 2.0 * dot
-            W[0, j] = unary[0, j] - lin[j]
-    else:
-        for j in range(M):
-            W[0, j] = unary[0, j]
+                dot = dot + (centres[t + 1, d] - centres[t, d]) * offsets[j, d]
+            lin[t, j] = 2.0 * dot
+    W = np.empty((T, M))
+    for j in range(M):
+        u = base[j] + extra[0, j]
+        W[0, j] = u - lin[0, j] if T > 1 else u
+    nxt = np.empty(M)
     for t in range(T - 1):
         for j in range(M):
             nxt[j] = W[t, 0] + G[0, j]
         for i in range(1, M):
             wi = W[t, i]
             for j in range(M):
-                nxt[j] = min(nxt[j], wi + G[i, j])
+                v = wi + G[i, j]
+                nxt[j] = v if v < nxt[j] else nxt[j]
+        r = t + 1 if per_stamp else 0
         for j in range(M):
-            ct = lin[j] + unary[t + 1, j]
+            ct = lin[t, j] + (base[j] + extra[r, j])
             if t + 2 < T:
-                dot = (centres[t + 2, 0] - centres[t + 1, 0]) * offsets[j, 0]
-                for d in range(1, D):
-                    dot = dot + (centres[t + 2, d] - centres[t + 1, d]) * offsets[j, d]
-                nxt_lin[j] = 2.0 * dot
-                ct = ct - nxt_lin[j]
+                ct = ct - lin[t + 1, j]
             W[t + 1, j] = nxt[j] + ct
-        lin, nxt_lin = nxt_lin, lin
     last = 0
     for j in range(1, M):
         if W[T - 1, j] < W[T - 1, last]:
@@ -127,7 +127,8 @@ def _route_kernel(centres, offsets, unary, choice):  # pragma: no cover - compil
 def _compiled_route():
     from ..jit import compiled
 
-    return compiled(_route_kernel, np.zeros((3, 2)), np.zeros((2, 2)), np.zeros((3, 2)), np.zeros(3, dtype=np.intp))
+    return compiled(_route_kernel, np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros((1, 2)),
+                    np.zeros(3, dtype=np.intp))
 
 
 def min_energy_route(
@@ -160,17 +161,18 @@ def min_energy_route(
     centres = np.ascontiguousarray(centres, dtype=float)
     offsets = np.ascontiguousarray(offsets, dtype=float)
     T, M = centres.shape[0], offsets.shape[0]
-    unary = np.empty((T, M))
-    unary[:] = distortion * (offsets**2).sum(1)
-    if blocked is not None:
+    base = distortion * (offsets * offsets).sum(1)
+    if blocked is None:
+        extra = np.zeros((1, M))
+    else:
         free = ~blocked
         free[~free.any(1)] = True
-        unary[~free] = np.inf
+        extra = np.where(free, 0.0, np.inf)
     choice = np.empty(T, dtype=np.intp)
     kernel = _compiled_route()
-    best = (_route_numpy if kernel is None else kernel)(centres, offsets, unary, choice)
+    best = (_route_numpy if kernel is None else kernel)(centres, offsets, base, extra, choice)
     step = centres[1:] - centres[:-1]
-    return choice, float(best + (step * step).sum())
+    return choice, float(best + np.einsum("ij,ij->", step, step))
 
 
 def route_energy(route: np.ndarray, centres: np.ndarray, distortion: float = 0.0) -> float:
