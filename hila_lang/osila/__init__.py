@@ -153,7 +153,9 @@ def imitate(
     **options
         threshold : float, default 1 % of the mapped path's bounding-box diagonal
             Radius of the candidate ball (task units); every waypoint stays within it of its
-            mapped point.  0 returns the warped path itself.
+            mapped point, the first and last waypoints are the mapped start and goal, and an
+            ICP whose template point is a waypoint is met exactly there.  0 returns the warped
+            path itself.
         rounds : int, default 10
             Maximum plan-adjustment rounds.
         smoothing : float, default 0

@@ -6,7 +6,10 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
 
 - a *forced waypoint* is violated when no route point lies within ``threshold`` of it; the repair
   pair is (template point whose mapped point is nearest the forced point -> the forced point);
-- a *pinned* stamp has one candidate only.  Stamps are pinned by the option ``pin``, and
+- a *pinned* stamp has one candidate only.  The first and the last stamp are always pinned: the
+  route runs between the mapped start and the mapped goal (free ends would let the energy term
+  shorten the movement at both ends, an undershoot of up to the threshold).  Stamps are pinned
+  by the option ``pin``, and
   automatically where an ICP's template point is a waypoint of the template (a segment
   boundary, a sub-template's start or end): a bound ICP on the path is met exactly, not within
   the threshold.  Pinned to a given point, the pair (template point at that stamp -> the point)
@@ -192,7 +195,7 @@ def adjust(
             met = {t: warp.dst[k] for t, k in warp.at.items()}
             met.update((t, q) for t, q in given.items() if q is not None)
             exact_pins = list(met.items())
-            pinned = sorted({*met, *given})
+            pinned = sorted({0, T - 1, *met, *given})  # the ends: the mapped start and goal
         if offsets is None:
             if threshold is None:
                 threshold = default_threshold(mapped)
@@ -246,21 +249,26 @@ def adjust(
             violations.append(f"{label} entered between stamps " + ", ".join(
                 f"{a}-{min(b, last)}" for a, b in runs))
             for a, b in runs:
-                k = a + int(depth[a:b].argmax())  # the deepest segment [k, k+1] of the run
-                ends = [k] if len(route) == 1 else [k, k + 1]
-                near = [t for t in ends if np.allclose(route[t], foot[k])]
-                if near:  # a waypoint is the nearest point: push it radially out
-                    t = near[0]
-                    if not used[t]:
+                # the deepest segment [k, k+1] of the run that still has a waypoint free to move
+                for k in a + np.argsort(-depth[a:b], kind="stable"):
+                    ends = [int(k)] if len(route) == 1 else [int(k), int(k) + 1]
+                    near = [t for t in ends if np.allclose(route[t], foot[k])]
+                    if near:  # a waypoint is the nearest point: push it radially out
+                        t = near[0]
+                        if used[t]:
+                            continue
                         used[t] = True
                         new.append((t, c + _away(route[t], c, mapped[t]) * (r + threshold), label))
-                    continue
-                # the segment passes through: move both ends out, parallel, past the sphere
-                shift = _away(foot[k], c, mapped[k]) * (depth[k] + threshold)
-                for t in ends:
-                    if not used[t]:
+                        break
+                    free = [t for t in ends if not used[t]]
+                    if not free:
+                        continue
+                    # the segment passes through: move its ends out, parallel, past the sphere
+                    shift = _away(foot[k], c, mapped[k]) * (depth[k] + threshold)
+                    for t in free:
                         used[t] = True
                         new.append((t, route[t] + shift, label))
+                    break
         if not violations:
             return OsilaResult(route, mapped, warp, threshold, rnd, energy, added)
         if not new:
