@@ -54,6 +54,23 @@ def equal_segments(T: int, n: int) -> list[tuple[int, int]]:
     return [(cuts[i], cuts[i + 1]) for i in range(n)]
 
 
+def _checked(path: Any, k: int, min_size: int) -> tuple[np.ndarray, int, int]:
+    """(path (T, D), T, k) validated for ``k`` segments of at least ``min_size`` points."""
+    path = check_path(path, "path")
+    T = path.shape[0]
+    k = check_int(k, "k", minimum=1)
+    if min_size * k > T:
+        least = "" if min_size == 1 else f" of at least {min_size} points"
+        raise InputError(f"cannot split {T} points into k = {k} segments{least} (expected k <= {T // min_size})")
+    return path, T, k
+
+
+def _ranges(cuts, T: int) -> list[tuple[int, int]]:
+    """``[start, stop)`` ranges from inner cut indices."""
+    bounds = [0, *sorted(int(c) for c in cuts), T]
+    return [(bounds[i], bounds[i + 1]) for i in range(len(bounds) - 1)]
+
+
 def _ordered_assignment(cost: np.ndarray) -> np.ndarray:
     """Non-decreasing labels 0..k-1 (each used) minimising Σ cost[t, label_t]; cost (T, k)."""
     T, k = cost.shape
@@ -98,11 +115,7 @@ def kmeans_segments(
     """
     from sklearn.cluster import KMeans
 
-    path = check_path(path, "path")
-    T = path.shape[0]
-    k = check_int(k, "k", minimum=1)
-    if k > T:
-        raise InputError(f"cannot split {T} points into k = {k} segments (expected k <= {T})")
+    path, T, k = _checked(path, k, 1)
     if k == 1:
         return [(0, T)]
     t = _times(T, times)
@@ -113,9 +126,7 @@ def kmeans_segments(
     centres = km.cluster_centers_[np.argsort(km.cluster_centers_[:, -1])]
     cost = ((feats[:, None, :] - centres[None, :, :]) ** 2).sum(-1)
     labels = _ordered_assignment(cost)
-    cuts = np.flatnonzero(np.diff(labels)) + 1
-    bounds = [0, *cuts.tolist(), T]
-    return [(bounds[i], bounds[i + 1]) for i in range(k)]
+    return _ranges(np.flatnonzero(np.diff(labels)) + 1, T)
 
 
 def _times(T: int, times: Any) -> np.ndarray:
@@ -161,11 +172,7 @@ def speed_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[int, i
     list of (start, stop)
         Covering ``[0, T)`` in order.
     """
-    path = check_path(path, "path")
-    T = path.shape[0]
-    k = check_int(k, "k", minimum=1)
-    if 2 * k > T:
-        raise InputError(f"cannot split {T} points into k = {k} segments of at least 2 points (expected k <= {T // 2})")
+    path, T, k = _checked(path, k, 2)
     if k == 1:
         return [(0, T)]
     from scipy.signal import find_peaks
@@ -182,8 +189,7 @@ def speed_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[int, i
             cuts.append(int(c))
             if len(cuts) == k - 1:
                 break
-    bounds = [0, *sorted(cuts), T]
-    return [(bounds[i], bounds[i + 1]) for i in range(k)]
+    return _ranges(cuts, T)
 
 
 def changepoint_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[int, int]]:
@@ -198,17 +204,11 @@ def changepoint_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[
     except ImportError:
         raise InputError("segmentation method 'changepoint' needs the optional package ruptures",
                          hint="pip install 'hila-lang[changepoint]', or use --method speed") from None
-    path = check_path(path, "path")
-    T = path.shape[0]
-    k = check_int(k, "k", minimum=1)
-    if 2 * k > T:
-        raise InputError(f"cannot split {T} points into k = {k} segments of at least 2 points (expected k <= {T // 2})")
+    path, T, k = _checked(path, k, 2)
     if k == 1:
         return [(0, T)]
     v = np.gradient(path, _times(T, times), axis=0)
-    cuts = ruptures.Dynp(model="l2", min_size=2, jump=1).fit(v).predict(n_bkps=k - 1)
-    bounds = [0, *cuts[:-1], T]
-    return [(bounds[i], bounds[i + 1]) for i in range(k)]
+    return _ranges(ruptures.Dynp(model="l2", min_size=2, jump=1).fit(v).predict(n_bkps=k - 1)[:-1], T)
 
 
 def segments(path: Any, k: int, method: str = DEFAULT_METHOD, *, times: Any = None, seed: int = 0) -> list[tuple[int, int]]:
