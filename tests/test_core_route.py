@@ -69,9 +69,15 @@ def test_both_backends_equal_reference(backend, seed):
     centres = np.cumsum(rng.normal(0, 1, (T, dim)), axis=0)
     offsets = rng.normal(0, 0.5, (int(rng.integers(1, 9)), dim))
     blocked = rng.random((T, len(offsets))) < 0.3 if seed % 2 else None
-    fast, e_fast = min_energy_route(centres, offsets, 0.5 * seed, blocked)
-    slow, e_slow = min_energy_route_reference(centres, offsets, 0.5 * seed, blocked)
+    pinned = sorted({0, T - 1, int(rng.integers(0, T))}) if seed % 3 else []
+    fast, e_fast = min_energy_route(centres, offsets, 0.5 * seed, blocked, pinned=pinned)
+    ref_blocked = np.zeros((T, len(offsets)), bool) if blocked is None else blocked.copy()
+    for t in pinned:
+        ref_blocked[t] = True
+        ref_blocked[t, 0] = False
+    slow, e_slow = min_energy_route_reference(centres, offsets, 0.5 * seed, ref_blocked)
     np.testing.assert_array_equal(fast, slow)
+    assert (fast[pinned] == 0).all()
     assert e_fast == pytest.approx(e_slow, rel=1e-9, abs=1e-9)
 
 

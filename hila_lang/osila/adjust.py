@@ -204,16 +204,12 @@ def adjust(
                 raise ConstraintError("contradictory constraints: " + "; ".join(bad))
             offsets = ball_offsets(D, threshold, shells, directions)
         blocked = None
-        if pinned:
-            blocked = np.zeros((T, len(offsets)), bool)
-            blocked[pinned, 1:] = True
         if len(obstacles):
             cand = mapped[:, None, :] + offsets[None, :, :]  # (T, M, D)
-            if blocked is None:
-                blocked = np.zeros(cand.shape[:2], bool)
+            blocked = np.zeros(cand.shape[:2], bool)
             for ob in obstacles:
                 blocked |= ((cand - ob[:-1]) ** 2).sum(-1) < (ob[-1] + margin) ** 2
-        choice, energy = min_energy_route(mapped, offsets, distortion, blocked)
+        choice, energy = min_energy_route(mapped, offsets, distortion, blocked, pinned=pinned)
         route = mapped + offsets[choice]
         for t, q in exact_pins:
             route[t] = q  # the warp meets it up to rounding; make it exact

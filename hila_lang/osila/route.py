@@ -26,17 +26,20 @@ they return the same route, ties included:
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 
-def _route_numpy(centres, offsets, base, extra, choice) -> float:
+def _route_numpy(centres, offsets, base, extra, pinned, choice) -> float:
     """Fill ``choice`` (T,) with the optimal candidates; return min W[T-1] (see the module docstring).
 
     The unary cost of candidate j at stamp t is ``base[j] + extra[t, j]`` (``extra`` of one row:
-    the same row at every stamp).
+    the same row at every stamp), and infinite for j > 0 where ``pinned[t]``.
     """
     T, D = centres.shape
-    unary = base + extra if len(extra) == T else np.broadcast_to(base + extra[0], (T, len(base)))
+    unary = base + extra if len(extra) == T else np.repeat((base + extra[0])[None], T, axis=0)
+    unary[pinned, 1:] = np.inf
     step = centres[1:] - centres[:-1]
     dot = step[:, 0:1] * offsets[:, 0]
     for d in range(1, D):
@@ -62,7 +65,7 @@ def _route_numpy(centres, offsets, base, extra, choice) -> float:
     return float(W[-1, choice[-1]])
 
 
-def _route_kernel(centres, offsets, base, extra, choice):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _route_kernel(centres, offsets, base, extra, pinned, choice):  # pragma: no cover - compiled by numba
     """:func:`_route_numpy` as explicit loops: the same sums in the same order, first-minimum ties.
 
     The forward pass keeps only the values W (an elementwise running minimum over the previous
@@ -89,7 +92,7 @@ def _route_kernel(centres, offsets, base, extra, choice):  # pragma: no cover - 
             lin[t, j] = 2.0 * dot
     W = np.empty((T, M))
     for j in range(M):
-        u = base[j] + extra[0, j]
+        u = base[j] + extra[0, j] if j == 0 or not pinned[0] else np.inf
         W[0, j] = u - lin[0, j] if T > 1 else u
     nxt = np.empty(M)
     for t in range(T - 1):
@@ -102,7 +105,8 @@ def _route_kernel(centres, offsets, base, extra, choice):  # pragma: no cover - 
                 nxt[j] = v if v < nxt[j] else nxt[j]
         r = t + 1 if per_stamp else 0
         for j in range(M):
-            ct = lin[t, j] + (base[j] + extra[r, j])
+            u = base[j] + extra[r, j] if j == 0 or not pinned[t + 1] else np.inf
+            ct = lin[t, j] + u
             if t + 2 < T:
                 ct = ct - lin[t + 1, j]
             W[t + 1, j] = nxt[j] + ct
@@ -128,7 +132,7 @@ def _compiled_route():
     from ..jit import compiled
 
     return compiled(_route_kernel, np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros((1, 2)),
-                    np.zeros(3, dtype=np.intp))
+                    np.zeros(3, dtype=np.bool_), np.zeros(3, dtype=np.intp))
 
 
 def min_energy_route(
@@ -136,6 +140,8 @@ def min_energy_route(
     offsets: np.ndarray,
     distortion: float = 0.0,
     blocked: np.ndarray | None = None,
+    *,
+    pinned: Any = (),
 ) -> tuple[np.ndarray, float]:
     """Choose one candidate per stamp minimising the route energy.
 
@@ -150,6 +156,8 @@ def min_energy_route(
     blocked : ndarray of bool, shape (T, M), optional
         Candidates that may not be chosen.  A stamp whose candidates are all blocked is treated
         as unblocked (the caller detects and repairs the violation).
+    pinned : sequence of int
+        Stamps where only candidate 0 (the centre, the mapped point itself) may be chosen.
 
     Returns
     -------
@@ -168,9 +176,13 @@ def min_energy_route(
         free = ~blocked
         free[~free.any(1)] = True
         extra = np.where(free, 0.0, np.inf)
+    pin = np.zeros(T, dtype=np.bool_)
+    pin[list(pinned)] = True
+    if len(extra) == T and pin.any():
+        extra[pin, 0] = 0.0  # a pinned stamp keeps its centre, blocked or not
     choice = np.empty(T, dtype=np.intp)
     kernel = _compiled_route()
-    best = (_route_numpy if kernel is None else kernel)(centres, offsets, base, extra, choice)
+    best = (_route_numpy if kernel is None else kernel)(centres, offsets, base, extra, pin, choice)
     step = centres[1:] - centres[:-1]
     return choice, float(best + np.einsum("ij,ij->", step, step))
 

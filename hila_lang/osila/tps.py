@@ -196,7 +196,14 @@ def affine_rank(src: np.ndarray, tol: float = DEGENERATE_TOL) -> int:
     """Number of dimensions the centred points span (singular values above ``tol ×`` the largest)."""
     if len(src) < 2:
         return 0
-    s = np.linalg.svd(src - src.sum(0) / len(src), compute_uv=False)
+    a = src - src.sum(0) / len(src)
+    cov = a.T @ a  # singular values of the centred points = square roots of its eigenvalues
+    if cov.shape == (2, 2):
+        half, gap = 0.5 * (cov[0, 0] + cov[1, 1]), np.hypot(0.5 * (cov[0, 0] - cov[1, 1]), cov[0, 1])
+        eig = np.array([half + gap, half - gap])
+    else:
+        eig = np.linalg.eigvalsh(cov)[::-1]
+    s = np.sqrt(np.maximum(eig, 0.0))
     if s[0] <= 0:
         return 0
     return int((s > tol * s[0]).sum())
