@@ -58,6 +58,8 @@ def backend(request, monkeypatch):
         monkeypatch.setattr(route, "_compiled_route", lambda: None)
     elif route._compiled_route() is None:
         pytest.skip("numba is not available")
+    else:
+        monkeypatch.setattr(route, "MIN_STAMPS", 0)  # the kernel for every length, short ones included
     return request.param
 
 
@@ -146,3 +148,13 @@ def test_jit_without_a_usable_cache_compiles_uncached(monkeypatch):
     kernel = route._compiled_route()
     assert kernel is not None and tried == [True, False]
     jit.reset()
+
+
+def test_short_paths_never_start_numba(monkeypatch):
+    from hila_lang.osila import route
+
+    calls = []
+    monkeypatch.setattr(route, "_compiled_route", lambda: calls.append(1))
+    centres = np.cumsum(np.random.default_rng(2).normal(0, 1, (route.MIN_STAMPS - 1, 2)), axis=0)
+    min_energy_route(centres, ball_offsets(2, 0.3))
+    assert calls == []

@@ -16,10 +16,10 @@ cost-to-here with the outgoing linear term applied) one forward step is
 O(T·M²) work in all.  Two implementations compute exactly the same sums in the same order, so
 they return the same route, ties included:
 
-- a compiled kernel (:func:`_route_kernel`, numba via :mod:`hila_lang.jit`) — the default, about
-  0.2 ms for T = 1000 stamps and M = 17 candidates;
-- numpy (:func:`_route_numpy`): T - 1 short vectorised steps, used when numba is missing or
-  ``HILA_JIT=0`` (about 20× slower on long paths).
+- a compiled kernel (:func:`_route_kernel`, numba via :mod:`hila_lang.jit`) for paths of at least
+  :data:`hila_lang.jit.MIN_STAMPS` stamps: about 0.2 ms for T = 1000 and M = 17 candidates;
+- numpy (:func:`_route_numpy`): T - 1 short vectorised steps, for shorter paths and when numba
+  is missing or ``HILA_JIT=0`` (about 20× slower on long paths).
 
 :func:`min_energy_route_reference` is the slow, obvious version the tests compare both against.
 """
@@ -29,6 +29,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
+from ..jit import MIN_STAMPS
 
 
 def _route_numpy(centres, offsets, base, extra, pinned, choice) -> float:
@@ -181,7 +183,7 @@ def min_energy_route(
     if len(extra) == T and pin.any():
         extra[pin, 0] = 0.0  # a pinned stamp keeps its centre, blocked or not
     choice = np.empty(T, dtype=np.intp)
-    kernel = _compiled_route()
+    kernel = _compiled_route() if T >= MIN_STAMPS else None
     best = (_route_numpy if kernel is None else kernel)(centres, offsets, base, extra, pin, choice)
     step = centres[1:] - centres[:-1]
     return choice, float(best + np.einsum("ij,ij->", step, step))

@@ -54,8 +54,8 @@ located to 1 % of the extent (OSILA's default threshold), and bins the error of 
 the TPS's median error passes the fallback's at Λ = 6 in 2-D and Λ = 8 in 3-D (4000 pairs each).
 
 The small systems behind the choice run in a compiled kernel (:func:`_choice_kernel`, numba via
-:mod:`hila_lang.jit`) or, without numba, in numpy (:func:`_choice_numpy`); the tests hold them
-equal.
+:mod:`hila_lang.jit`) for paths of at least :data:`hila_lang.jit.MIN_STAMPS` stamps, else in
+numpy (:func:`_choice_numpy`); the tests hold them equal to rounding.
 """
 
 from __future__ import annotations
@@ -64,6 +64,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..jit import MIN_STAMPS
 from .fallback import fit_similarity
 
 MERGE_TOL = 1e-6
@@ -463,12 +464,13 @@ def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     return card, lin, w, _similarity_loo_numpy(src, dst, _dist(src, src) / sc)
 
 
-def _choice(src, dst, ridge):
-    """(card, lin, w, similarity LOO) by the compiled kernel, else numpy; None if a system is singular."""
+def _choice(src, dst, ridge, compiled_kernel: bool = True):
+    """(card, lin, w, similarity LOO) by the compiled kernel (if asked and available), else numpy;
+    None if a system is singular."""
     from ..jit import compiled
 
     K, D = src.shape
-    kernel = compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
+    kernel = None if not compiled_kernel else compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
                       np.zeros((4, 2)))
     try:
         if kernel is None:
@@ -540,7 +542,8 @@ def fit_warp(
     elif on is None and K >= D + 1 and rank == D:
         return _tps(src, dst, ridge)  # the bare warp
     else:
-        got = _choice(src, dst, ridge) if K >= D + 2 and rank == D and on is not None else None
+        got = (_choice(src, dst, ridge, len(on) >= MIN_STAMPS)
+               if K >= D + 2 and rank == D and on is not None else None)
         amplification = None
         if got is not None:
             card, lin, w, sim_loo = got
