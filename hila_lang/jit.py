@@ -23,18 +23,37 @@ the first kernel from the cache).  The OSILA kernels are therefore used only for
 least :data:`MIN_STAMPS` stamps: the numpy route takes about 4.6 µs per stamp (2-D, 17
 candidates), so a 200-stamp path costs about 1 ms in numpy and 0.05 ms compiled, while a program
 of a few short sub-templates (``hila exec``: tens of stamps each) never pays the start-up.  Which
-implementation runs is a function of the input alone, so a run is deterministic.
+implementation runs is a function of the input alone, so a run is deterministic.  Batch work that maps thousands of paths (``hila eval``)
+runs inside :func:`batch`, where every path uses the kernels.
 """
 
 from __future__ import annotations
 
 import os
 import warnings
-from typing import Any, Callable
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator
 
 _DONE: dict[Callable, Callable | None] = {}
 #: shortest path (stamps) for which OSILA uses its compiled kernels (module docstring)
 MIN_STAMPS = 200
+_min_stamps = [MIN_STAMPS]
+
+
+def min_stamps() -> int:
+    """The current shortest path for the OSILA kernels: :data:`MIN_STAMPS`, or 0 inside :func:`batch`."""
+    return _min_stamps[0]
+
+
+@contextmanager
+def batch() -> Iterator[None]:
+    """Within the block every OSILA path, however short, uses the compiled kernels (when available)."""
+    old = _min_stamps[0]
+    _min_stamps[0] = 0
+    try:
+        yield
+    finally:
+        _min_stamps[0] = old
 
 
 def enabled() -> bool:

@@ -59,7 +59,7 @@ def backend(request, monkeypatch):
     elif route._compiled_route() is None:
         pytest.skip("numba is not available")
     else:
-        monkeypatch.setattr(route, "MIN_STAMPS", 0)  # the kernel for every length, short ones included
+        monkeypatch.setattr(route, "min_stamps", lambda: 0)  # the kernel for every length, short ones included
     return request.param
 
 
@@ -155,6 +155,11 @@ def test_short_paths_never_start_numba(monkeypatch):
 
     calls = []
     monkeypatch.setattr(route, "_compiled_route", lambda: calls.append(1))
-    centres = np.cumsum(np.random.default_rng(2).normal(0, 1, (route.MIN_STAMPS - 1, 2)), axis=0)
+    from hila_lang import jit
+
+    centres = np.cumsum(np.random.default_rng(2).normal(0, 1, (jit.MIN_STAMPS - 1, 2)), axis=0)
     min_energy_route(centres, ball_offsets(2, 0.3))
     assert calls == []
+    with jit.batch():  # batch work: every length
+        min_energy_route(centres, ball_offsets(2, 0.3))
+    assert calls == [1] and jit.min_stamps() == jit.MIN_STAMPS

@@ -174,6 +174,12 @@ def evaluate_row(
 
 def evaluate_rows(trials, rows, segments=SEGMENTS, methods=("osila",), options=None, protocol="paper",
                   mask=None) -> list[RowResult]:
-    """:func:`evaluate_row` for several rows (one unit of parallel work); ``mask`` (J, J) selects tasks."""
-    return [evaluate_row(trials, i, segments, methods, options, protocol, None if mask is None else mask[i])
-            for i in rows]
+    """:func:`evaluate_row` for several rows (one unit of parallel work); ``mask`` (J, J) selects tasks.
+
+    Runs in :func:`hila_lang.jit.batch`: thousands of paths repay the compiled kernels' start-up.
+    """
+    from ..jit import batch
+
+    with batch():
+        return [evaluate_row(trials, i, segments, methods, options, protocol, None if mask is None else mask[i])
+                for i in rows]

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..jit import MIN_STAMPS
+from ..jit import min_stamps
 
 
 def _route_numpy(centres, offsets, base, extra, pinned, choice) -> float:
@@ -183,7 +183,7 @@ def min_energy_route(
     if len(extra) == T and pin.any():
         extra[pin, 0] = 0.0  # a pinned stamp keeps its centre, blocked or not
     choice = np.empty(T, dtype=np.intp)
-    kernel = _compiled_route() if T >= MIN_STAMPS else None
+    kernel = _compiled_route() if T >= min_stamps() else None
     best = (_route_numpy if kernel is None else kernel)(centres, offsets, base, extra, pin, choice)
     step = centres[1:] - centres[:-1]
     return choice, float(best + np.einsum("ij,ij->", step, step))

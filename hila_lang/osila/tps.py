@@ -64,7 +64,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..jit import MIN_STAMPS
+from ..jit import min_stamps
 from .fallback import fit_similarity
 
 MERGE_TOL = 1e-6
@@ -542,7 +542,7 @@ def fit_warp(
     elif on is None and K >= D + 1 and rank == D:
         return _tps(src, dst, ridge)  # the bare warp
     else:
-        got = (_choice(src, dst, ridge, len(on) >= MIN_STAMPS)
+        got = (_choice(src, dst, ridge, len(on) >= min_stamps())
                if K >= D + 2 and rank == D and on is not None else None)
         amplification = None
         if got is not None:
