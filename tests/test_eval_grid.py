@@ -112,6 +112,18 @@ def test_every_method_gets_the_very_constraints_osila_gets(trials, monkeypatch):
         assert all(c is o for c, o in zip(seen[m], seen["osila"]))  # the same object, not a copy
 
 
+def test_every_control_scores_what_osilas_constraints_give(trials):
+    pytest.importorskip("movement_primitives")
+    row = evaluate_row(trials, 6, segments=(1, 2), methods=ALL, options=OPTIONS, protocol="paper")
+    template = trials[6]
+    for m in ALL:
+        gen = controls.generator(m, template.path, OPTIONS)
+        for s, n in enumerate((1, 2)):
+            for j in (0, 3, 9):
+                c = constraints(template, trials[j], n, "paper")  # built independently, as for OSILA
+                np.testing.assert_allclose(row.scores[m][s, j], score(gen(c), trials[j].path), rtol=1e-12, err_msg=m)
+
+
 @pytest.mark.parametrize("method", ALL)
 def test_no_method_sees_the_task_path_under_held_out(trials, method):
     if method.startswith("dmp"):
