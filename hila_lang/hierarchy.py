@@ -182,10 +182,10 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     ``hila eval --hila`` (through :func:`generate`) all generate a step here, so the same step
     gives the same path everywhere.
 
-    Binding is :func:`bind`.  When ``"start"`` is bound, OSILA pins the first stamp to it
-    (``pin=(0,)`` unless the caller passes ``pin``), and the path is then made to begin exactly
-    there with :func:`start_at` (a sub-template whose start coincides with another template ICP
-    gets the two merged, so the pinned stamp can miss the hand by a fraction of a millimetre).
+    Binding is :func:`bind`.  A bound ``"start"`` pins the first stamp to that exact point and a
+    bound ``"end"`` the last (OSILA's ``pin={0: start, -1: end}``; a pin wins over another
+    template ICP at the same template point, so a sub-template that begins at an object it
+    touched still begins exactly at the hand).  A caller's own ``pin`` replaces these.
 
     Parameters
     ----------
@@ -210,32 +210,12 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     src = np.array([template.icps[k] for k in names], dtype=float)
     dst = np.array([icps[k] for k in names], dtype=float)
     options = dict(options)
-    if start_bound:
-        options.setdefault("pin", (0,))
+    ends = {i: icps[name] for i, name in ((0, START), (-1, END)) if name in icps}
+    if ends:
+        options.setdefault("pin", ends)
     res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
-    path = np.asarray(res.path, dtype=float)
-    if start_bound:
-        # TODO(osila exact pin): when osila.imitate can pin a bound start/end ICP to an exact
-        # point, pass it here and drop this fade.  This line and the pin above are the one place.
-        path = start_at(path, icps[START])
-    return Step(path, icps, start_bound, res)
+    return Step(np.asarray(res.path, dtype=float), icps, start_bound, res)
 
-
-def start_at(path: np.ndarray, start: np.ndarray, fraction: float = 0.25) -> np.ndarray:
-    """Make ``path`` (T, D) begin exactly at ``start`` (D,) without a jump.
-
-    OSILA pins the start stamp to its mapped point, but when the template's start coincides with
-    another template ICP (a sub-template that begins at an object it touched) the two are merged
-    and the mapped start can miss the hand by a fraction of a millimetre.  The offset is removed
-    at the first stamp and faded out smoothly (cosine) over the first ``fraction`` of the path.
-    """
-    offset = np.asarray(start, float) - path[0]
-    if not np.any(offset):
-        return path
-    n = max(int(len(path) * fraction), 1)
-    weights = np.zeros(len(path))
-    weights[:n] = 0.5 * (1 + np.cos(np.pi * np.arange(n) / n))
-    return path + weights[:, None] * offset[None, :]
 
 
 def _extent(path: np.ndarray) -> float:

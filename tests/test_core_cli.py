@@ -138,7 +138,7 @@ def test_cli_subprocess_no_traceback(tmp_path):
     (["--from-sim", "--icps", "ICPS"], r"--icps goes with DEMO.csv; --from-sim finds the ICPs in the images"),
     (["--left", "l/"], r"expected both --left and --right frames"),
     (["DEMO", "--icps", "ICPS", "--keep-recording", "r/"], r"--keep-recording goes with --from-sim"),
-    (["--frames", "rec/", "--method", "equal"], r"learning by perception segments by k-means"),
+    (["--frames", "rec/", "--method", "equal"], r"expected a recording folder"),
 ])
 def test_learn_source_errors(tmp_path, capsys, args, message):
     args = [str(DATA / "demo.csv") if a == "DEMO" else str(DATA / "icps.yaml") if a == "ICPS" else a for a in args]

@@ -53,3 +53,56 @@ def test_metric_errors():
         msd(np.zeros((3, 2)), np.full((3, 2), np.nan))
     with pytest.raises(InputError, match=r"expected n >= 1, got 0"):
         resample(np.zeros((3, 2)), 0)
+
+
+# ------------------------------------------------------------------ beyond the paper
+
+
+@pytest.fixture(params=["kernel", "numpy"])
+def metric_backend(request, monkeypatch):
+    """Run with the compiled Fréchet/DTW kernels and with the numpy anti-diagonal fallback."""
+    from hila_lang import jit
+
+    if request.param == "numpy":
+        monkeypatch.setattr(jit, "compiled", lambda func, *warm: None)
+    return request.param
+
+
+@pytest.mark.parametrize("n,m", [(40, 40), (23, 61), (1, 7), (9, 1)])
+def test_frechet_and_dtw_equal_similaritymeasures(metric_backend, n, m):
+    sm = pytest.importorskip("similaritymeasures")
+    from hila_lang.metrics import dtw, frechet
+
+    rng = np.random.default_rng(n * 100 + m)
+    for dim in (2, 3):
+        a = np.cumsum(rng.normal(size=(n, dim)), axis=0)
+        b = np.cumsum(rng.normal(size=(m, dim)), axis=0)
+        assert frechet(a, b) == pytest.approx(sm.frechet_dist(a, b), rel=1e-12)
+        assert dtw(a, b) * max(n, m) == pytest.approx(sm.dtw(a, b)[0], rel=1e-12)
+
+
+def test_frechet_and_dtw_by_hand():
+    from hila_lang.metrics import dtw, frechet
+
+    a = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    b = a + [0.0, 1.0]
+    assert frechet(a, b) == pytest.approx(1.0)
+    assert dtw(a, b) == pytest.approx(1.0)  # three matched pairs, 1 apart each, / 3
+    # a path that waits is the same path to DTW and Fréchet, not to MSD
+    slow = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    assert frechet(a, slow) == 0.0 and dtw(a, slow) == 0.0
+    assert frechet(a, a[::-1]) == pytest.approx(2.0)  # direction matters
+
+
+def test_axis_correlation_and_endpoint_error():
+    from hila_lang.metrics import axis_correlation, endpoint_error
+
+    t = np.linspace(0, 1, 50)
+    a = np.column_stack([t, np.sin(4 * t)])
+    b = np.column_stack([2 * t + 1, -np.sin(4 * t)])
+    np.testing.assert_allclose(axis_correlation(a, b), [1.0, -1.0])
+    assert correlation(a, b) > -1.0  # pooled R mixes the axes
+    flat = np.column_stack([t, np.zeros(50)])
+    r = axis_correlation(flat, b)
+    assert r[0] == pytest.approx(1.0) and np.isnan(r[1])
+    assert endpoint_error(a, b) == pytest.approx(np.linalg.norm(a[-1] - b[-1]))

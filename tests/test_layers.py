@@ -144,12 +144,5 @@ def test_the_cycle_finder_finds_a_cycle():
     assert _cycles({"a": {"b"}, "b": set()}) == []
 
 
-def test_no_import_cycle_outside_evaluation():
-    graph = {n: {t for t in ts if not _under(t, "evaluation")} for n, ts in GRAPH.items() if not _under(n, "evaluation")}
-    assert _cycles(graph) == []
-
-
-@pytest.mark.xfail(strict=True, reason="evaluation/grid.py <-> evaluation/peers.py: removed by issue 11 "
-                                       "(another branch); drop this marker once it is merged")
 def test_no_import_cycle_in_the_package():
     assert _cycles(GRAPH) == []

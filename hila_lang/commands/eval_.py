@@ -1,4 +1,4 @@
-"""``hila eval``: the paper's Experiment A — every trial's template mapped onto every trial."""
+"""``hila eval``: is one demonstration worth anything?  OSILA against controls on the same constraints."""
 
 from __future__ import annotations
 
@@ -6,21 +6,34 @@ import argparse
 import sys
 from pathlib import Path
 
-HELP = "Experiment A: 75 x 75 cross-mapping, N = 1..4 segments; the paper's Tables I-III side by side"
+HELP = "evaluate OSILA against controls on the same constraints (stand-in, LASA handwriting, your data)"
 DESCRIPTION = """\
-Reproduce the paper's Experiment A: every trial's path (template) is imitated under every trial's
-constraints (task), unsegmented and with N = 2, 3, 4 equal segments (each inner segment boundary
-adds a constraint pair), and compared with the task's own path by R and MSD after cubic-spline
-resampling.  Prints Tables I-III in the paper's layout with the paper's figures beside ours, and
-the paper's summary shares; writes tables.txt, pairs.csv, results.json and heatmap PNGs to --out.
+Every trial's path (the template) is imitated under another trial's constraints (the task) and
+compared with the task's own human path.  OSILA and five controls get exactly the same
+constraints: none (no template: a spline through the anchor points), similarity (the template
+moved rigidly), tps (the bare warp), dmp and dmp-aligned (a DMP, and a DMP in the similarity's
+frame).  Printed: per method and N, mean R, MSD, Frechet, DTW, end-point error and per-axis R;
+then, per control, the share of pairs where OSILA is better and a paired Wilcoxon test.
 
-By default the data is a seeded STAND-IN for the paper's 75 human trials, which are not public
-(5 set-ups x 15 human-like paths following the paper's Fig. 5, in image pixels); it is saved to
-OUT/dataset in the --dataset format.  --dataset FOLDER evaluates your own demonstrations instead:
-FOLDER/<set-up>/<trial>.csv (header t,x,y[,z] or x,y[,z], as for 'hila learn') and
-<trial>.icps.yaml beside it ('name: [x, y]'); trials are paired on shared ICP names.
---peers adds a bare TPS warp and DMPs (pip install 'hila-lang[peers]') on the same grid; --hila adds
-the per-segment generation of the hierarchical generator (sub-templates imitated one by one, stitched)."""
+Protocols (what a method is told about the task):
+  held-out   (default) the task's scene ICPs only (hand start, object corners, waypoint area),
+             nothing from the path that is scored; N = 1
+  paper      the paper's Experiment A: scene ICPs plus, for N = 2..4 equal segments, each inner
+             boundary of the TASK PATH as a constraint; also prints Tables I-III in the paper's
+             layout with the paper's figures beside ours (reference only: their data is not public)
+
+Data:
+  (default)         a seeded STAND-IN for the paper's 75 human trials (5 set-ups x 15 human-like
+                    reaches following its Fig. 5, image pixels), saved to OUT/dataset
+  --dataset lasa    LASA human handwriting (pip install 'hila-lang[lasa]'): every ordered pair of
+                    the 7 demonstrations of a shape, constraints at time fractions k/N of the task
+                    (N = 1..4); --shapes picks the shapes (default: the 14-shape development set)
+  --dataset FOLDER  your trials: FOLDER/<set-up>/<trial>.csv (header t,x,y[,z] or x,y[,z]) and
+                    <trial>.icps.yaml beside it ('name: [x, y]'); paired on shared ICP names
+
+Writes tables.txt, pairs.csv, results.json (summary and tests rows) and heatmaps to --out."""
+
+DEFAULT_METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned")
 
 
 def _integer(text: str) -> int:
@@ -54,6 +67,18 @@ def _threshold(text: str) -> float:
     return value
 
 
+def _methods(text: str) -> tuple[str, ...]:
+    from ..evaluation.grid import METHODS
+
+    names = tuple(m.strip() for m in text.split(",") if m.strip())
+    unknown = [m for m in names if m not in METHODS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"unknown method {unknown[0]!r}; expected a comma list of {', '.join(METHODS)}" if unknown
+            else "expected at least one method")
+    return names
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="eval-results", metavar="DIR",
                         help="folder for tables.txt, pairs.csv, results.json, heatmaps (default: eval-results)")
@@ -62,24 +87,85 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="worker processes (joblib); -1 = all cores (default 1)")
     where.add_argument("--dask", default=None, metavar="ADDRESS",
                        help="run on a Dask distributed scheduler, e.g. tcp://host:8786")
-    parser.add_argument("--dataset", default=None, metavar="FOLDER",
-                        help="evaluate your own trials (format above) instead of the stand-in")
-    parser.add_argument("--peers", action="store_true", help="also run the bare TPS warp and DMPs")
-    parser.add_argument("--hila", action="store_true",
-                        help="also run the segments through the hierarchical generator (one OSILA per "
-                             "segment, stitched) beside the one-OSILA-with-boundary-pairs of the Tables")
+    parser.add_argument("--dataset", default=None, metavar="FOLDER|lasa",
+                        help="'lasa' for the LASA handwriting set, or a folder of your own trials (format "
+                             "above); default: the generated stand-in")
+    parser.add_argument("--protocol", choices=("held-out", "paper"), default=None,
+                        help="what a method is told about the task (default held-out); not for LASA, whose "
+                             "protocol is fixed (time fractions k/N)")
+    parser.add_argument("--shapes", default=None, metavar="LIST",
+                        help="LASA only: 'dev' (the 14-shape development set, default), 'all', or NAME,NAME")
+    parser.add_argument("--methods", type=_methods, default=None, metavar="LIST",
+                        help="comma list of methods (default: " + ",".join(DEFAULT_METHODS) +
+                             "; dmp and dmp-aligned need pip install 'hila-lang[peers]'); 'hila' adds the "
+                             "per-segment hierarchical generator (paper protocol)")
+    parser.add_argument("--hila", action="store_true", help="shorthand: add the method 'hila'")
     parser.add_argument("--trials-per-setup", type=_positive_int, default=None, metavar="N",
                         help="stand-in only: trials per set-up (default 15, as in the paper)")
     parser.add_argument("--seed", type=int, default=0, help="stand-in only: dataset seed (default 0)")
     parser.add_argument("--threshold", type=_threshold, default=None, metavar="D",
                         help="OSILA distortion threshold in path units (default: 2 px for the stand-in as "
-                             "in the paper; OSILA's own default for --dataset)")
+                             "in the paper; OSILA's own default, 1%% of the path's size, otherwise)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+
+
+def _data(args: argparse.Namespace, out: Path):
+    """(trials, source text, protocol, pair mask, threshold) for the chosen data set."""
+    from ..errors import InputError
+    from ..evaluation import dataset as ds
+    from ..evaluation.protocols import pair_mask
+
+    if args.dataset is not None and args.trials_per_setup is not None:
+        raise InputError("--trials-per-setup applies to the generated stand-in, not to --dataset")
+    if args.shapes is not None and args.dataset != "lasa":
+        raise InputError("--shapes applies to --dataset lasa")
+    if args.dataset == "lasa":
+        from ..evaluation import lasa
+
+        if args.protocol is not None:
+            raise InputError(f"--protocol {args.protocol} is for data with scene ICPs; LASA has none, its "
+                             "constraints are the task's points at time fractions k/N")
+        shapes = lasa.resolve_shapes(args.shapes)
+        trials = lasa.load(shapes)
+        label = "the development set" if shapes == lasa.DEVELOPMENT else "all shapes" if len(shapes) == 30 else "shapes"
+        source = (f"LASA handwriting, {label}: {', '.join(shapes)} ({len(trials)} demonstrations at "
+                  f"{lasa.RATE_HZ:g} Hz; pairs of different demonstrations of a shape)")
+        return trials, source, "fractions", pair_mask(trials, within_setup_only=True), args.threshold
+    protocol = args.protocol or "held-out"
+    if args.dataset is not None:
+        trials = ds.load_dataset(args.dataset)
+        source = f"dataset {args.dataset}"
+        threshold = args.threshold
+    else:
+        per = 15 if args.trials_per_setup is None else args.trials_per_setup
+        trials = ds.generate(seed=args.seed, trials_per_setup=per)
+        source = f"stand-in (seed {args.seed}, {per} trials per set-up; the paper's human data is not public)"
+        threshold = 2.0 if args.threshold is None else args.threshold
+        ds.save_dataset(trials, out / "dataset")
+    return trials, source, protocol, pair_mask(trials, within_setup_only=False), threshold
+
+
+def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
+    from ..errors import InputError
+    from ..evaluation.controls import dmp_available
+
+    methods = args.methods
+    if methods is None:
+        methods = DEFAULT_METHODS if dmp_available() else tuple(m for m in DEFAULT_METHODS if not m.startswith("dmp"))
+        if not dmp_available():
+            print("note: the DMP controls need movement_primitives (pip install 'hila-lang[peers]'); "
+                  "running without dmp and dmp-aligned", file=sys.stderr)
+    if args.hila and "hila" not in methods:
+        methods = methods + ("hila",)
+    if "hila" in methods and protocol != "paper":
+        raise InputError("the method 'hila' binds each segment's end to the task path's boundary point, "
+                         "so it needs --protocol paper")
+    return methods
 
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
-    from ..evaluation import dataset as ds
+    from ..evaluation.protocols import segments_for
     from ..evaluation.report import write_report
     from ..evaluation.run import check_scheduler, run_grid
     from ..evaluation.tables import render
@@ -89,26 +175,17 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("expected --out to be a folder, got a file", file=str(out))
     if args.dask is not None:
         check_scheduler(args.dask)  # before any data is made or written
-    if args.dataset is not None:
-        if args.trials_per_setup is not None:
-            raise InputError("--trials-per-setup applies to the generated stand-in, not to --dataset")
-        trials = ds.load_dataset(args.dataset)
-        threshold = args.threshold
-        source = f"dataset {args.dataset}"
-    else:
-        per = 15 if args.trials_per_setup is None else args.trials_per_setup
-        trials = ds.generate(seed=args.seed, trials_per_setup=per)
-        threshold = 2.0 if args.threshold is None else args.threshold
-        source = f"stand-in (seed {args.seed}, {per} trials per set-up; the paper's human data is not public)"
-        ds.save_dataset(trials, out / "dataset")
-    methods = ("osila",) + (("hila",) if args.hila else ()) + (("tps", "dmp") if args.peers else ())
+    trials, source, protocol, mask, threshold = _data(args, out)
+    methods = _chosen_methods(args, protocol)
+    segments = segments_for(protocol)
     options = {} if threshold is None else {"threshold": threshold}
-    print(f"hila eval: {len(trials)} trials from the {source}; {len(trials) ** 2 * 4 * len(methods)} generations",
-          file=sys.stderr)
-    result = run_grid(trials, methods=methods, options=options, jobs=args.jobs, dask=args.dask,
-                      progress=not args.no_progress)
-    text = f"Data: {source}\nGrid: {len(trials)} x {len(trials)} pairs x N = 1..4, {result.backend}, " \
-           f"{result.wall_seconds:.1f} s\n\n" + render(result)
+    print(f"hila eval: {len(trials)} trials from the {source}; {int(mask.sum())} pairs x N = "
+          f"{','.join(map(str, segments))} x {len(methods)} methods", file=sys.stderr)
+    result = run_grid(trials, segments=segments, methods=methods, options=options, protocol=protocol, mask=mask,
+                      jobs=args.jobs, dask=args.dask, progress=not args.no_progress)
+    text = (f"Data: {source}\nProtocol: {protocol}\nGrid: {int(mask.sum())} pairs x N = "
+            f"{', '.join(map(str, segments))}, {result.backend}, {result.wall_seconds:.1f} s\n\n"
+            + render(result, tables=args.dataset != "lasa"))
     sys.stdout.write(text)
     info = {"source": source, "threshold": threshold, "seed": args.seed if args.dataset is None else None}
     written = write_report(result, text, out, info)
@@ -116,5 +193,6 @@ def run(args: argparse.Namespace) -> int:
         if result.failures[m]:
             print(f"warning: {len(result.failures[m])} {m} pairs failed (scored NaN); first: "
                   f"{result.failures[m][0]}", file=sys.stderr)
-    print(f"wrote {len(written)} files to {out}/ (tables.txt, pairs.csv, results.json, heatmaps)", file=sys.stderr)
+    print(f"wrote {len(written)} files to {out}/ (tables.txt, pairs.csv, results.json"
+          f"{', heatmaps' if len(written) > 3 else ''})", file=sys.stderr)
     return 0

@@ -26,8 +26,10 @@ DEMO.csv: a header line, then one row per waypoint.  Header 't,x,y', 't,x,y,z', 
 are skipped.
 ICPS: the demonstration scene's invariant control points, a YAML mapping 'name: [x, y, z]'
 (or a task YAML with an 'icps:' mapping).
-The path is split into k contiguous segments (k-means on position + time, or equal sizes), tagged
-in time order with --tags; --contact names the tags that touch the surface (drawing).
+The path is split into k contiguous segments, tagged in time order with --tags; --contact names
+the tags that touch the surface (drawing).  By default the cuts are the k-1 deepest dips in
+the hand's speed (where one stroke ends and the next begins, e.g. where the pen touches and
+leaves the paper; bench/segmentation.py measures it); --method kmeans is the paper's k-means.
 Example: hila learn demo.csv --icps scene.yaml -k 3 --tags reach,draw,retract --contact draw \\
 -o primitives/circle.yaml"""
 
@@ -49,7 +51,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
     parser.add_argument("--contact", default="", help="comma-separated tags that touch the surface")
-    parser.add_argument("--method", choices=("kmeans", "equal"), default="kmeans", help="segmentation method")
+    parser.add_argument("--method", choices=("speed", "kmeans", "changepoint", "equal"), default="speed",
+                        help="segmentation: speed (default: cut at the deepest dips in speed, where the hand "
+                             "slows between strokes), kmeans (the paper's: k-means on position and time), "
+                             "changepoint (ruptures on the velocity; needs ruptures), equal (equal lengths)")
     parser.add_argument("--seed", type=int, default=0, help="k-means seed (default 0)")
     parser.add_argument("--name", default=None, help="template name (default: the output file's stem)")
     parser.add_argument("--description", default=None, help="provenance text stored in the template")
@@ -92,8 +97,6 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     from ..worlds.tictactoe.recording import learn_from_sim
     from ..worlds.tictactoe.vision import demonstration_icps
 
-    if args.method != "kmeans":
-        raise InputError(f"learning by perception segments by k-means; --method {args.method} is for DEMO.csv")
     if source == "--from-sim":
         print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
         template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name,
@@ -104,9 +107,22 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
             left, right, read_icps=demonstration_icps, calibration_left=args.calibration_left, calibration_right=args.calibration_right,
             cameras=args.cameras, stereo=args.stereo, k=k, tags=tags, contact=contact, name=name,
             seed=args.seed, max_gap=args.max_gap)
+    if args.method != "kmeans":  # perception segments by k-means; cut the same path as asked
+        from ..segmentation import segment_template
+
+        template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
+        template.description = template.description.replace(f"Segmented by k-means (k = {k}).", _segmented(args.method, k))
     if args.description:
         template.description = args.description
     return template
+
+
+def _segmented(method: str, k: int) -> str:
+    """How a template was segmented, for its description."""
+    how = {"speed": "at the deepest dips in speed (hila_lang.segmentation.speed_segments)",
+           "kmeans": "by k-means", "changepoint": "by change points of the velocity (ruptures)",
+           "equal": "into equal lengths"}[method]
+    return f"Segmented {how} (k = {k})."
 
 
 def run(args: argparse.Namespace) -> int:
@@ -130,7 +146,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         demo, times = read_demo_csv(args.demo)
         icps = load_icps(args.icps, demo.shape[1])
-        description = args.description or f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}"
+        description = args.description or (f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}."
+                                           + (f" {_segmented(args.method, k)}" if tags else ""))
         try:
             template = Template(name, demo, icps, times=times, description=description)
         except InputError as exc:

@@ -18,9 +18,45 @@ The human-like model of one trial
 - *Timing*: a minimum-jerk speed profile per stroke (one stroke per via point, overlapping like
   human sub-movements), skewed per trial (peak speed earlier or later); duration 1.6–3.2 s
   sampled at the paper's 20 Hz, so trials have different lengths (32–64 points).
-- *Noise*: a slow tremor (two sinusoids of 0.4–1.8 px, vanishing at both ends) plus marker noise
-  (σ = 0.3–0.8 px, as the paper's 0.5 px uncertainty).  The hand ICP is the first path point seen
-  through the same marker noise.
+- *Noise*: slow corrections (two sinusoids of 0.4–1.8 px, vanishing at both ends) plus marker
+  noise (σ = 0.3–0.8 px, as the paper's 0.5 px uncertainty).  The hand ICP is the first path
+  point seen through the same marker noise.
+
+Why these amounts of variability
+--------------------------------
+Each number below models one source of trial-to-trial difference that is known to exist in
+human reaching; none was tuned to any evaluation outcome (the generator predates the controls
+and has not been changed for them).  Where the literature gives a size, the stand-in follows it;
+where it does not (the paper gives no scale for its image), the value is a stated assumption,
+and the README says what that limits.
+
+- *Timing* — minimum-jerk strokes (Flash & Hogan 1985: bell-shaped speed, smooth starts and
+  stops); strokes through a via point overlap, as human movements blend sub-movements (Morasso
+  & Mussa-Ivaldi 1982; Flash & Hogan's via-point movements); the speed peak shifts earlier or
+  later (time to peak speed 42–57 % of the movement, skew γ in 0.8–1.25: precision at the end
+  lengthens the deceleration, MacKenzie et al. 1987).  Duration 1.6–3.2 s: an assumption for
+  a demonstrator moving deliberately in front of a camera (unconstrained reaches are faster).
+- *Path curvature* — hand paths of planar reaches are nearly straight but gently curved, with
+  a curvature that depends on direction and workspace (Morasso 1981; Abend, Bizzi & Morasso
+  1982; Atkeson & Hollerbach 1985): each set-up has its preferred side (``bulge``) and each
+  trial varies the start heading (σ 18°) and the roundness of the curve (tangent length 0.6–1.7
+  × the chord).  Initial direction errors of several degrees (Gordon, Ghilardi & Ghez 1994) are the part
+  of this that is noise; the rest is style, i.e. different people — an assumption, since the
+  paper's demonstrators are not described.
+- *Scene* — the object is placed by hand between trials (σ 4 px, σ 4°), the resting hand
+  varies more (σ 8 px); the waypoint area (σ 3 px) and the via points (σ 6 px) likewise.  In
+  pixels of an image whose scale the paper does not give: assumptions.
+- *Corrections* — two slow sinusoids (1–3 Hz, 0.4–1.8 px, vanishing at both ends) stand for
+  the small corrective sub-movements of human reaching (Meyer et al. 1988), not physiological
+  tremor (8–12 Hz, below the 20 Hz camera's reach and far smaller than a pixel here).
+- *Measurement* — marker noise σ 0.3–0.8 px, the paper's own 0.5 px localisation uncertainty.
+
+What the stand-in can and cannot show: it has the paper's structure (5 set-ups × 15 trials,
+the same ICPs, 20 Hz, pixels), so it exercises every method on the paper's protocol and says
+whether a reproduction behaves alike.  It cannot show how good OSILA is on human data: its
+variability is a model with assumed sizes, and whatever structure the model lacks (or adds) is
+lacking (or added) in every result.  Human data (``hila eval --dataset lasa``, or your own
+``--dataset FOLDER``) is the test of that.
 
 The five set-ups (:data:`SETUPS`; the paper's Exp 1–5 = Fig. 5 (a)–(e)) start from different
 places and approach from different sides, so mapping one onto another changes the path's shape,

@@ -1,10 +1,16 @@
 """Files ``hila eval`` writes: the text tables, a long CSV of every pair, JSON, heatmap PNGs.
 
-- ``tables.txt``         what was printed (Tables I–III, summary, peers)
-- ``pairs.csv``          one row per method × N × template × task: R, MSD, seconds
-- ``results.json``       the tables (ours and the paper's), the summary shares, peers, run facts
-- ``heatmap_r_<method>.png``, ``heatmap_msd_<method>.png``
-                         the J × J matrices, one panel per N; x = input (template) trial,
+- ``tables.txt``         what was printed (summary, paired tests, Tables I–III)
+- ``pairs.csv``          one row per method × N × evaluated (template, task) pair: every metric
+                         and the generation time
+- ``results.json``       the contract (:func:`results_dict`): ``summary`` rows
+                         ``{"method", "n", "r", "msd", "frechet", "dtw", ...}`` (means over pairs
+                         of different trials), ``tests`` rows ``{"method", "n",
+                         "osila_better_share", "p_value", ...}`` for every control, plus run
+                         facts, per-set-up means, OSILA's Tables I–III (ICP data sets) and the
+                         paper's figures (paper protocol on the stand-in)
+- ``heatmap_r_osila.png``, ``heatmap_msd_osila.png``
+                         OSILA's J × J matrices, one panel per N; x = input (template) trial,
                          y = output (task) trial, grouped by set-up as in Table II
 
 Every file is written atomically (:mod:`hila_lang.fileio`).  The PNGs are drawn with OpenCV
@@ -23,24 +29,25 @@ from typing import Any
 import numpy as np
 
 from ..fileio import atomic_write_text, write_png
-from . import paper, tables
+from . import paper, stats, tables
 from .run import GridResult
 
 PANEL = 300  # target panel size, pixels (cells are PANEL // J pixels, at least 1)
 
 
 def write_csv(result: GridResult, path: Path) -> Path:
-    """Every pair's scores, long format."""
+    """Every evaluated pair's scores, long format."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["method", "segments", "template", "template_setup", "task", "task_setup", "r", "msd", "seconds"])
+    w.writerow(["method", "segments", "template", "template_setup", "task", "task_setup", *result.metrics, "seconds"])
     setups = [label.split("/")[0] for label in result.labels]
+    rows, cols = np.nonzero(result.mask)
     for m in result.methods:
         for s, n in enumerate(result.segments):
-            for i, a in enumerate(result.labels):
-                for j, b in enumerate(result.labels):
-                    w.writerow([m, n, a, setups[i], b, setups[j], repr(float(result.r[m][s, i, j])),
-                                repr(float(result.msd[m][s, i, j])), f"{result.seconds[m][s, i, j]:.6g}"])
+            for i, j in zip(rows.tolist(), cols.tolist()):
+                w.writerow([m, n, result.labels[i], setups[i], result.labels[j], setups[j],
+                            *(repr(float(v)) for v in result.scores[m][s, i, j]),
+                            f"{result.seconds[m][s, i, j]:.6g}"])
     return atomic_write_text(path, buf.getvalue())
 
 
@@ -60,18 +67,24 @@ def _clean(x: Any) -> Any:
 
 
 def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Tables (ours, and the paper's when comparable), summary, peers and run facts."""
+    """The ``results.json`` document (module docstring); NaN becomes null."""
     doc: dict[str, Any] = {
         "run": {"backend": result.backend, "wall_seconds": result.wall_seconds, "trials": len(result.labels),
+                "pairs": int(stats.distinct_pairs(result).sum()), "protocol": result.protocol,
                 "setups": result.setups, "segments": list(result.segments), "methods": list(result.methods),
-                **(info or {})},
-        "layout": "table_ii/table_iii are [N index][output set-up][input set-up]; table_i is [N index][set-up]",
-        "ours": {m: {"table_i": tables.table1(result, m), "table_ii": tables.table2(result, m),
-                     "table_iii": tables.table3(result, m), "summary": tables.summary(result, m)}
-                 for m in result.methods},
-        "peers": tables.peer_rows(result),
+                "metrics": list(result.metrics), **(info or {})},
+        "summary": stats.summary_rows(result),
+        "tests": stats.test_rows(result),
+        "by_setup": stats.by_setup(result),
         "failures": {m: result.failures[m] for m in result.methods},
     }
+    if "osila" in result.methods and result.mask.all():
+        doc["tables"] = {"layout": "table_ii/table_iii are [N index][output set-up][input set-up]; "
+                                   "table_i is [N index][set-up]",
+                         "table_i": tables.table1(result), "table_ii": tables.table2(result),
+                         "table_iii": tables.table3(result)}
+        if result.protocol == "paper":
+            doc["tables"]["claims"] = tables.claims(result)
     if tables._with_paper(result):
         doc["paper"] = {"note": "reference figures of Wu & Demiris (2010) on their human data, not ours",
                         "table_i": paper.TABLE_I, "table_ii": paper.TABLE_II, "table_iii": paper.TABLE_III,
@@ -144,7 +157,7 @@ def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] 
     out = Path(out)
     written = [atomic_write_text(out / "tables.txt", text), write_csv(result, out / "pairs.csv"),
                atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n")]
-    for m in result.methods:
+    if "osila" in result.methods and result.mask.all():
         for metric in ("r", "msd"):
-            written.append(write_png(out / f"heatmap_{metric}_{m}.png", heatmap(result, m, metric), bgr=True))
+            written.append(write_png(out / f"heatmap_{metric}_osila.png", heatmap(result, "osila", metric), bgr=True))
     return written

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from .dataset import Trial, setups_of
-from .grid import SEGMENTS, RowResult, evaluate_rows
+from .grid import SEGMENTS, RowResult, evaluate_rows, metric_names
 
 #: how long ``--dask`` waits for the scheduler before giving up
 CONNECT_TIMEOUT = "10s"
@@ -42,8 +42,17 @@ class GridResult:
         Segment counts N.
     methods : tuple of str
         Methods run (``osila`` first).
-    r, msd, seconds : dict of str to ndarray, shape (S, J, J)
-        Per method: ``[s, i, j]`` is template i mapped onto task j with ``segments[s]`` segments.
+    protocol : str
+        Constraint protocol (:mod:`.protocols`).
+    metrics : tuple of str
+        Score names (:func:`~hila_lang.evaluation.grid.metric_names`), the last axis of ``scores``.
+    mask : ndarray of bool, shape (J, J)
+        The pairs evaluated.
+    scores : dict of str to ndarray, shape (S, J, J, M)
+        Per method: ``[s, i, j, m]`` is metric m of template i mapped onto task j with
+        ``segments[s]`` segments (NaN: not evaluated or failed).
+    seconds : dict of str to ndarray, shape (S, J, J)
+        Per method: generation time per path (s).
     failures : dict of str to list of str
         Failed pairs per method.
     wall_seconds : float
@@ -57,12 +66,28 @@ class GridResult:
     setups: list[str]
     segments: tuple[int, ...]
     methods: tuple[str, ...]
-    r: dict[str, np.ndarray] = field(default_factory=dict)
-    msd: dict[str, np.ndarray] = field(default_factory=dict)
+    protocol: str
+    metrics: tuple[str, ...]
+    mask: np.ndarray
+    scores: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: dict[str, np.ndarray] = field(default_factory=dict)
     failures: dict[str, list[str]] = field(default_factory=dict)
     wall_seconds: float = 0.0
     backend: str = "local"
+
+    def metric(self, method: str, name: str) -> np.ndarray:
+        """One metric of one method, shape (S, J, J)."""
+        return self.scores[method][..., self.metrics.index(name)]
+
+    @property
+    def r(self) -> dict[str, np.ndarray]:
+        """R per method, (S, J, J) (the paper's Tables I and II)."""
+        return {m: self.metric(m, "r") for m in self.methods}
+
+    @property
+    def msd(self) -> dict[str, np.ndarray]:
+        """MSD per method, (S, J, J) (the paper's Table III)."""
+        return {m: self.metric(m, "msd") for m in self.methods}
 
 
 class Progress:
@@ -183,19 +208,23 @@ def run_grid(
     segments: tuple[int, ...] = SEGMENTS,
     methods: tuple[str, ...] = ("osila",),
     options: dict[str, Any] | None = None,
+    protocol: str = "paper",
+    mask: np.ndarray | None = None,
     jobs: int = 1,
     dask: str | None = None,
     progress: bool = True,
     stream=None,
 ) -> GridResult:
-    """Evaluate every template against every task (see :mod:`.grid`) and collect the scores.
+    """Evaluate every template against its tasks (see :mod:`.grid`) and collect the scores.
 
     Parameters
     ----------
     trials : list of Trial
         The dataset, grouped by set-up.
-    segments, methods, options
+    segments, methods, options, protocol
         As :func:`hila_lang.evaluation.grid.evaluate_row`.
+    mask : ndarray of bool, shape (J, J), optional
+        Pairs to evaluate (:func:`~hila_lang.evaluation.protocols.pair_mask`); default all.
     jobs : int
         Worker processes for joblib (1 = in this process; -1 = all cores).
     dask : str, optional
@@ -207,24 +236,29 @@ def run_grid(
     -------
     GridResult
     """
-    if "dmp" in methods:
-        from .peers import require_dmp
+    if "dmp" in methods or "dmp-aligned" in methods:
+        from .controls import require_dmp
 
         require_dmp()
     n = len(trials)
+    mask = np.ones((n, n), bool) if mask is None else np.asarray(mask, bool)
     setups = setups_of(trials)
+    names = metric_names(trials[0].path.shape[1])
     result = GridResult(
         labels=[t.label for t in trials],
         trial_setup=np.array([setups.index(t.setup) for t in trials]),
         setups=setups,
         segments=tuple(segments),
         methods=tuple(methods),
+        protocol=protocol,
+        metrics=names,
+        mask=mask,
     )
     for m in methods:
-        for name in ("r", "msd", "seconds"):
-            getattr(result, name)[m] = np.full((len(segments), n, n), np.nan)
+        result.scores[m] = np.full((len(segments), n, n, len(names)), np.nan)
+        result.seconds[m] = np.full((len(segments), n, n), np.nan)
         result.failures[m] = []
-    args = (tuple(segments), tuple(methods), dict(options or {}))
+    args = (tuple(segments), tuple(methods), dict(options or {}), protocol, mask)
     bar = Progress(n, stream=stream, enabled=progress)
     t0 = time.perf_counter()
     if dask:
@@ -241,8 +275,7 @@ def run_grid(
     result.wall_seconds = time.perf_counter() - t0
     for row in sorted(rows, key=lambda r: r.row):
         for m in methods:
-            result.r[m][:, row.row] = row.r[m]
-            result.msd[m][:, row.row] = row.msd[m]
+            result.scores[m][:, row.row] = row.scores[m]
             result.seconds[m][:, row.row] = row.seconds[m]
             result.failures[m].extend(row.failures[m])
     return result

@@ -1,12 +1,16 @@
-"""Tables I–III of the paper from a :class:`~hila_lang.evaluation.run.GridResult`, as text.
+"""What ``hila eval`` prints: the methods side by side, the paired tests, and the paper's Tables.
 
+- The summary: per method and N, the mean of every metric over pairs of different trials, and
+  the paired tests of OSILA against each control (:mod:`.stats`).
 - Table I: mean R of the self-mapping cases (template i onto its own ICPs), per set-up and N.
 - Table II: mean R over all template/task pairs, grouped by input (template, columns) and output
   (task, rows) set-up; each cell holds N = 1..4 on four lines, as in the paper.
 - Table III: the same for MSD (squared path units: pixels² for the stand-in).
 
-When the dataset has 5 set-ups the paper's figures (:mod:`.paper`) are printed beside ours,
-``ours (paper)``; they are reference values from a different (human) dataset.
+Tables I–III are OSILA's, in the paper's layout.  Under ``--protocol paper`` with the stand-in's
+5 set-ups the paper's figures (:mod:`.paper`) are printed beside ours, ``ours (paper)``: they are
+reference values from a different (human, unpublished) data set, so the comparison says whether
+the reproduction behaves alike, not whether either method is good.
 
 Summary shares follow the paper's §IV.A.  The paper's percentages are shares of Table II cells
 (8 of its 25 cells have R < 0.8 unsegmented = 32 %; 23 of 25 reach R >= 0.8 at N = 2 = 92 %,
@@ -21,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from . import paper
+from . import stats
 from .run import GridResult
 
 #: (key, N, comparison, threshold, label)
@@ -68,7 +73,7 @@ def share(values: np.ndarray, op: str, threshold: float) -> float:
     return float(_OPS[op](v, threshold).mean()) if v.size else float("nan")
 
 
-def summary(result: GridResult, method: str = "osila") -> list[dict[str, Any]]:
+def claims(result: GridResult, method: str = "osila") -> list[dict[str, Any]]:
     """The §IV.A shares: ours over cells and over pairs, and the paper's over its cells."""
     cells = table2(result, method)
     out = []
@@ -102,7 +107,7 @@ def _cell(ours: float, ref: float | None, kind: str) -> str:
 
 
 def _with_paper(result: GridResult) -> bool:
-    return len(result.setups) == 5 and tuple(result.segments) == (1, 2, 3, 4)
+    return result.protocol == "paper" and len(result.setups) == 5 and tuple(result.segments) == (1, 2, 3, 4)
 
 
 def _width(result: GridResult, with_ref: bool, kind: str) -> int:
@@ -157,11 +162,11 @@ def format_table3(result: GridResult, method: str = "osila") -> str:
                          "TABLE III: averaged mean squared difference MSD, mapping one experiment onto another")
 
 
-def format_summary(result: GridResult, method: str = "osila") -> str:
+def format_claims(result: GridResult, method: str = "osila") -> str:
     """The §IV.A summary lines, ours beside the paper's."""
-    lines = [f"Summary ({method}; shares of the {len(result.setups) ** 2} Table II cells and of all "
+    lines = [f"The paper's claims ({method}; shares of the {len(result.setups) ** 2} Table II cells and of all "
              f"{len(result.labels) ** 2} pairs):"]
-    for row in summary(result, method):
+    for row in claims(result, method):
         if "cells" not in row:
             continue
         lines.append(f"  {row['label']:<32} ours: {_pct(row['cells'])} of cells, {_pct(row['pairs'])} of pairs"
@@ -169,35 +174,61 @@ def format_summary(result: GridResult, method: str = "osila") -> str:
     return "\n".join(lines)
 
 
-def peer_rows(result: GridResult) -> list[dict[str, Any]]:
-    """Per method and N: mean and median R, share R >= 0.8, mean MSD, mean time per path."""
-    rows = []
-    for m in result.methods:
-        for s, n in enumerate(result.segments):
-            r, d, t = result.r[m][s], result.msd[m][s], result.seconds[m][s]
-            rows.append({"method": m, "segments": n,
-                         "mean_r": float(np.nanmean(r)), "median_r": float(np.nanmedian(r)),
-                         "share_r_at_least_0.8": share(r, ">=", 0.8), "mean_msd": float(np.nanmean(d)),
-                         "ms_per_path": 1e3 * float(np.nanmean(t)),
-                         "failures": int(np.isnan(r).sum())})
-    return rows
+def _fmt(x: float, name: str) -> str:
+    if not np.isfinite(x):
+        return "n/a"
+    if name.startswith("r"):
+        return f"{x:.3f}"
+    return f"{x:.4g}" if abs(x) < 1000 else f"{x:.0f}"
 
 
-def format_peers(result: GridResult) -> str:
-    """OSILA, its per-segment variant and its peers side by side on the same grid."""
-    lines = ["Methods side by side on the same grid (every template onto every task):",
-             f"{'method':<7}| {'N':>2} | {'mean R':>7} | {'median R':>8} | {'R>=0.8':>6} | {'mean MSD':>9} | "
-             f"{'ms/path':>7} | {'failed':>6}"]
-    for row in peer_rows(result):
-        lines.append(f"{row['method']:<7}| {row['segments']:>2} | {row['mean_r']:7.3f} | {row['median_r']:8.3f} | "
-                     f"{_pct(row['share_r_at_least_0.8']):>6} | {row['mean_msd']:9.1f} | {row['ms_per_path']:7.2f} | "
-                     f"{row['failures']:>6}")
-    return "\n".join(lines)
+def _table(head: list[str], body: list[list[str]]) -> list[str]:
+    """Rows of a text table: first column left-aligned, the others right-aligned, a rule under the head."""
+    width = [max(len(h), *(len(b[k]) for b in body)) for k, h in enumerate(head)]
+
+    def line(cells: list[str]) -> str:
+        return " | ".join(c.rjust(w) if k else c.ljust(w) for k, (c, w) in enumerate(zip(cells, width)))
+
+    return [line(head), "-" * len(line(head)), *(line(b) for b in body)]
 
 
-def render(result: GridResult) -> str:
-    """Everything ``hila eval`` prints: Tables I–III, the summary, and peers when run."""
-    parts = [format_table1(result), format_table2(result), format_table3(result), format_summary(result)]
-    if len(result.methods) > 1:
-        parts.append(format_peers(result))
-    return "\n\n".join(parts) + "\n"
+def format_summary(result: GridResult) -> str:
+    """Per method and N: mean R, MSD, Fréchet, DTW, end-point error, per-axis R; time; failures."""
+    names = list(result.metrics)
+    head = ["method", "N", *names, "pairs", "failed", "ms/path"]
+    body = [[row["method"], str(row["n"]), *(_fmt(row[n], n) for n in names), str(row["pairs"]),
+             str(row["failed"]), f"{row['ms_per_path']:.2f}"] for row in stats.summary_rows(result)]
+    return "\n".join(["Methods side by side (means over pairs of different trials; u = the data's unit: "
+                      "MSD in u², Fréchet, DTW per sample and end-point error in u):", *_table(head, body)])
+
+
+def format_tests(result: GridResult) -> str:
+    """OSILA against each control: share of pairs OSILA is better, Wilcoxon p (MSD and Fréchet)."""
+    rows = stats.test_rows(result)
+    if not rows:
+        return ""
+    head = ["control", "N", "pairs", "OSILA better (MSD)", "p (MSD)", "OSILA better (Fréchet)", "p (Fréchet)"]
+    body = [[r["method"], str(r["n"]), str(r["pairs"]), _pct(r["osila_better_share"]).strip(), _p(r["p_value"]),
+             _pct(r["frechet_better_share"]).strip(), _p(r["frechet_p_value"])] for r in rows]
+    return "\n".join(["Paired tests, OSILA against each control on the same pairs (share of pairs where "
+                      "OSILA's error is lower; two-sided Wilcoxon signed-rank p):", *_table(head, body)])
+
+
+def _p(p: float) -> str:
+    if not np.isfinite(p):
+        return "n/a"
+    return "< 1e-300" if p == 0 else (f"{p:.2g}" if p < 0.001 else f"{p:.3f}")
+
+
+def render(result: GridResult, tables: bool = True) -> str:
+    """Everything ``hila eval`` prints: the summary, the paired tests, then Tables I–III (``tables``)."""
+    parts = [format_summary(result), format_tests(result)]
+    if tables and "osila" in result.methods:
+        label = ("TABLES I-III: OSILA in the paper's layout, the paper's protocol on the stand-in"
+                 if _with_paper(result) else
+                 f"TABLES I-III: OSILA in the paper's layout ({result.protocol} protocol; the paper's figures "
+                 "are shown only with --protocol paper on the stand-in)")
+        parts += [label, format_table1(result), format_table2(result), format_table3(result)]
+        if result.protocol == "paper":
+            parts.append(format_claims(result))
+    return "\n\n".join(p for p in parts if p) + "\n"

@@ -58,15 +58,25 @@ def _obstacles(obstacles: Any, dim: int) -> np.ndarray:
     return arr
 
 
-def _pin(pin: Any, T: int) -> tuple[int, ...]:
-    try:
-        stamps = [int(i) for i in pin]
-    except (TypeError, ValueError):
-        raise InputError(f"expected option 'pin' as a list of stamp indices, got {pin!r}") from None
-    bad = [i for i in stamps if not -T <= i < T]
-    if bad:
-        raise InputError(f"expected 'pin' stamps in [-{T}, {T - 1}] for a path of {T} points, got {bad[0]}")
-    return tuple(i % T for i in stamps)
+def _pin(pin: Any, T: int, D: int) -> tuple[tuple[int, np.ndarray | None], ...]:
+    """Option ``pin`` as ((stamp in [0, T), point (D,) or None), ...), later entries winning."""
+    if isinstance(pin, dict):
+        items = list(pin.items())
+    else:
+        try:
+            items = [(i, None) for i in pin]
+        except TypeError:
+            items = None
+    if items is None:
+        raise InputError(f"expected option 'pin' as a list of stamp indices or a mapping stamp -> point, got {pin!r}")
+    out: dict[int, np.ndarray | None] = {}
+    for i, point in items:
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
+            raise InputError(f"expected 'pin' stamps as integers, got {i!r}")
+        if not -T <= i < T:
+            raise InputError(f"expected 'pin' stamps in [-{T}, {T - 1}] for a path of {T} points, got {i}")
+        out[int(i) % T] = None if point is None else check_points(point, D, f"pin point for stamp {i}")[0]
+    return tuple(out.items())
 
 
 def imitate_detailed(
@@ -98,7 +108,7 @@ def imitate_detailed(
     threshold = None if opts["threshold"] is None else check_positive(opts["threshold"], "threshold", allow_zero=True)
     directions = None if opts["directions"] is None else check_int(opts["directions"], "directions", minimum=1)
     check_int(opts["seed"], "seed")
-    pin = _pin(opts["pin"], path.shape[0])
+    pin = _pin(opts["pin"], path.shape[0], D)
     return adjust(
         path,
         src,
@@ -143,7 +153,9 @@ def imitate(
     **options
         threshold : float, default 1 % of the mapped path's bounding-box diagonal
             Radius of the candidate ball (task units); every waypoint stays within it of its
-            mapped point.  0 returns the warped path itself.
+            mapped point, the first and last waypoints are the mapped start and goal, and an
+            ICP whose template point is a waypoint is met exactly there.  0 returns the warped
+            path itself.
         rounds : int, default 10
             Maximum plan-adjustment rounds.
         smoothing : float, default 0
@@ -154,9 +166,13 @@ def imitate(
             Extra clearance around obstacles (task units).
         shells, directions : int, default 2 and 8 (2-D) / 14 (3-D)
             Candidate set: centre + shells × directions points (:mod:`.candidates`).
-        pin : sequence of int, default ()
-            Stamps (negative = from the end) whose waypoint is exactly the mapped point, e.g.
-            ``(0,)`` to start exactly at a bound "start" ICP.
+        pin : sequence of int, or mapping int -> point, default ()
+            Stamps (negative = from the end) whose waypoint is fixed.  A mapping pins each
+            stamp to a point, met exactly (bit for bit) and smoothly: the pair (template point
+            at the stamp -> point) is interpolated exactly by the warp, after and over any ICP
+            at the same template point, e.g. ``{0: hand, -1: goal}`` to start where the hand
+            is and end on a bound target.  A sequence, e.g. ``(0,)``, fixes each stamp at its
+            mapped point (no candidate ball there).
         seed : int, default 0
             Accepted for a uniform interface; OSILA makes no random choice, so it has no effect.
 

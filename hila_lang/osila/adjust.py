@@ -1,23 +1,35 @@
 """Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (DESIGN.md §1.3).
 
-Each round fits the warp on the ICP pairs plus the pairs added so far, maps the template, picks
-the minimum-energy route through the candidate balls (candidates inside an obstacle are excluded
-up front), and checks the route:
+Each round fits the warp on the ICP pairs plus the pairs added so far (checked for amplification
+on the template path, :mod:`.tps`), maps the template, picks the minimum-energy route through the
+candidate balls (candidates inside an obstacle are excluded up front), and checks the route:
 
 - a *forced waypoint* is violated when no route point lies within ``threshold`` of it; the repair
   pair is (template point whose mapped point is nearest the forced point -> the forced point);
-- a *pinned* stamp (option ``pin``) keeps its mapped point (only the centre candidate), e.g.
-  the start of a sub-template bound to where the hand is;
-- an *obstacle* (sphere) is violated when a route point lies closer than ``radius + margin`` to
-  its centre; for each run of consecutive violating stamps the deepest one gets the repair pair
-  (its template point -> the point pushed radially out to ``radius + margin + threshold``, so
-  that its whole candidate ball is outside).
+- a *pinned* stamp has one candidate only.  The first and the last stamp are always pinned: the
+  route runs between the mapped start and the mapped goal (free ends would let the energy term
+  shorten the movement at both ends, an undershoot of up to the threshold).  Stamps are pinned
+  by the option ``pin``, and
+  automatically where an ICP's template point is a waypoint of the template (a segment
+  boundary, a sub-template's start or end): a bound ICP on the path is met exactly, not within
+  the threshold.  Pinned to a given point, the pair (template point at that stamp -> the point)
+  joins the warp as an exact pair, placed after every other pair so it wins a merge with an ICP
+  at the same template point, and the waypoint IS the point (bit for bit).  Pinned without a
+  point, the waypoint is its mapped point (the ICP's task point, if the stamp is an ICP);
+- an *obstacle* (sphere) is violated when the route — its waypoints AND the straight segments
+  between consecutive waypoints — comes closer than ``radius + margin`` to its centre.  For each
+  run of consecutive violating segments the deepest one is repaired: if its nearest point to
+  the centre is a waypoint, that waypoint's template point is paired with the point pushed
+  radially out to ``radius + margin + threshold`` (so its whole candidate ball is outside); if
+  the segment passes through between its waypoints, both waypoints are paired with themselves
+  moved out in parallel, past the sphere by ``threshold``.
 
-Template points already used by a pair are not reused, so a repair pair never merges with an
-existing one.  After ``rounds`` rounds without conforming, :class:`ConstraintError` names the
-violated constraints and the pairs that failed to fix them.  A forced waypoint whose whole
+A repaired stamp is pinned from then on (its waypoint is the pair's point), and template points
+already used by a pair (or pinned) are not reused, so a repair pair never merges with an
+existing one.  After ``rounds`` rounds without conforming, :class:`ConstraintError` names
+the violated constraints and the pairs that failed to fix them.  A forced waypoint whose whole
 threshold ball lies inside an obstacle is contradictory from the start and is reported before
-any round.  Only waypoints are checked, not the straight segments between them.
+any round.
 """
 
 from __future__ import annotations
@@ -87,9 +99,42 @@ def _contradictions(forced: np.ndarray, obstacles: np.ndarray, threshold: float,
     return out
 
 
+def span(points: np.ndarray) -> np.ndarray:
+    """Bounding-box side lengths (D,) of points (N, D) (``np.ptp`` along axis 0, reduced along rows)."""
+    rows = np.ascontiguousarray(points.T)
+    return rows.max(1) - rows.min(1)
+
+
 def default_threshold(mapped: np.ndarray, fraction: float = 0.01) -> float:
     """``fraction`` of the bounding-box diagonal of the mapped path (0 for a single point)."""
-    return float(fraction * np.linalg.norm(np.ptp(mapped, axis=0)))
+    return float(fraction * np.linalg.norm(span(mapped)))
+
+
+def _segment_depths(route: np.ndarray, centre: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """How deep each straight segment between consecutive waypoints enters a sphere.
+
+    Returns ``depth`` (T-1,) = radius - distance from ``centre`` to the segment (> 0: inside) and
+    ``foot`` (T-1, D), the segment's point nearest the centre.  A one-point route has one
+    "segment": the point itself.
+    """
+    if len(route) == 1:
+        return radius - np.sqrt(((route - centre) ** 2).sum(1)), route.copy()
+    a, b = route[:-1], route[1:]
+    ab = b - a
+    den = (ab * ab).sum(1)
+    u = np.where(den > 0, ((centre - a) * ab).sum(1) / np.where(den > 0, den, 1.0), 0.0)
+    foot = a + np.clip(u, 0.0, 1.0)[:, None] * ab
+    return radius - np.sqrt(((foot - centre) ** 2).sum(1)), foot
+
+
+def _away(point: np.ndarray, centre: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """Unit vector from ``centre`` towards ``point`` (or ``fallback``, or the first axis)."""
+    for p in (point, fallback):
+        v = p - centre
+        n = float(np.linalg.norm(v))
+        if n > 1e-12:
+            return v / n
+    return np.eye(len(centre))[0]
 
 
 def adjust(
@@ -106,7 +151,7 @@ def adjust(
     margin: float,
     shells: int,
     directions: int | None,
-    pin: tuple[int, ...] = (),
+    pin: tuple[tuple[int, np.ndarray | None], ...] = (),
 ) -> OsilaResult:
     """Run OSILA with plan adjustment on validated arrays (see the module docstring).
 
@@ -122,19 +167,35 @@ def adjust(
         Distortion threshold; None = :func:`default_threshold` of the first mapped path.
     rounds : int
         Maximum number of rounds (>= 1).
-    pin : tuple of int
-        Stamps (valid indices, negative allowed) whose waypoint is the mapped point itself.
+    pin : tuple of (int, ndarray or None)
+        Stamps in ``[0, T)`` whose waypoint is fixed: to the given point (D,) exactly, or, with
+        None, to the stamp's mapped point.
     """
     T, D = path.shape
-    extent = float(np.ptp(np.vstack([path, src]), axis=0).max())
-    eps = MERGE_TOL * extent
+    given = dict(pin)
+    exact_pins = [(t, q) for t, q in pin if q is not None]
+    pin_src = path[[t for t, _ in exact_pins]].reshape(-1, D)
+    pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []
     offsets = None
     violations: list[str] = []
     for rnd in range(1, rounds + 1):
-        warp = fit_warp(pairs_src, pairs_dst, smoothing)
-        mapped = warp(path)
+        # pins last: they win a merge with an ICP at the same template point
+        if len(pin_src):
+            all_src, all_dst = np.vstack([pairs_src, pin_src]), np.vstack([pairs_dst, pin_dst])
+            exact = np.arange(len(all_src)) >= len(pairs_src)
+        else:
+            all_src, all_dst, exact = pairs_src, pairs_dst, None
+        warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
+        mapped = warp.mapped
+        if rnd == 1:
+            # an ICP whose template point IS a waypoint (a boundary, a sub-template's start or end)
+            # is met exactly at that stamp; explicit pins win
+            met = {t: warp.dst[k] for t, k in warp.at.items()}
+            met.update((t, q) for t, q in given.items() if q is not None)
+            exact_pins = list(met.items())
+            pinned = sorted({0, T - 1, *met, *given})  # the ends: the mapped start and goal
         if offsets is None:
             if threshold is None:
                 threshold = default_threshold(mapped)
@@ -143,19 +204,21 @@ def adjust(
                 raise ConstraintError("contradictory constraints: " + "; ".join(bad))
             offsets = ball_offsets(D, threshold, shells, directions)
         blocked = None
-        if pin:
-            blocked = np.zeros((T, len(offsets)), bool)
-            blocked[list(pin), 1:] = True
         if len(obstacles):
             cand = mapped[:, None, :] + offsets[None, :, :]  # (T, M, D)
-            if blocked is None:
-                blocked = np.zeros(cand.shape[:2], bool)
+            blocked = np.zeros(cand.shape[:2], bool)
             for ob in obstacles:
                 blocked |= ((cand - ob[:-1]) ** 2).sum(-1) < (ob[-1] + margin) ** 2
-        choice, energy = min_energy_route(mapped, offsets, distortion, blocked)
+        choice, energy = min_energy_route(mapped, offsets, distortion, blocked, pinned=pinned)
         route = mapped + offsets[choice]
+        for t, q in exact_pins:
+            route[t] = q  # the warp meets it up to rounding; make it exact
+        if not len(forced) and not len(obstacles):
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added)
         # template indices already pinned by a pair (never reuse them)
+        eps = MERGE_TOL * float(span(np.vstack([path, src])).max())
         used = np.zeros(T, bool)
+        used[pinned] = True
         for s in pairs_src:
             used |= ((path - s) ** 2).sum(1) <= eps * eps
         violations, new = [], []
@@ -172,31 +235,42 @@ def adjust(
                     new.append((t, f.copy(), label))
         for o, ob in enumerate(obstacles):
             c, r = ob[:-1], ob[-1] + margin
-            depth = r - np.sqrt(((route - c) ** 2).sum(1))
-            inside = depth > 0
+            depth, foot = _segment_depths(route, c, r)
+            inside = depth > 1e-12 * max(r, 1.0)
             if not inside.any():
                 continue
             label = f"obstacle {o} (centre {_fmt(c)}, radius {ob[-1]:.4g})"
             runs = _runs(inside)
-            violations.append(f"{label} entered at stamps " + ", ".join(f"{a}-{b - 1}" for a, b in runs))
+            last = len(route) - 1
+            violations.append(f"{label} entered between stamps " + ", ".join(
+                f"{a}-{min(b, last)}" for a, b in runs))
             for a, b in runs:
-                sub = depth[a:b].copy()
-                sub[used[a:b]] = -np.inf
-                if not np.isfinite(sub).any():
-                    continue
-                t = a + int(sub.argmax())
-                away = route[t] - c
-                n = float(np.linalg.norm(away))
-                if n < 1e-12:
-                    away, n = mapped[t] - c, float(np.linalg.norm(mapped[t] - c))
-                direction = away / n if n > 1e-12 else np.eye(D)[0]
-                used[t] = True
-                new.append((t, c + direction * (r + threshold), label))
+                # the deepest segment [k, k+1] of the run that still has a waypoint free to move
+                for k in a + np.argsort(-depth[a:b], kind="stable"):
+                    ends = [int(k)] if len(route) == 1 else [int(k), int(k) + 1]
+                    near = [t for t in ends if np.allclose(route[t], foot[k])]
+                    if near:  # a waypoint is the nearest point: push it radially out
+                        t = near[0]
+                        if used[t]:
+                            continue
+                        used[t] = True
+                        new.append((t, c + _away(route[t], c, mapped[t]) * (r + threshold), label))
+                        break
+                    free = [t for t in ends if not used[t]]
+                    if not free:
+                        continue
+                    # the segment passes through: move its ends out, parallel, past the sphere
+                    shift = _away(foot[k], c, mapped[k]) * (depth[k] + threshold)
+                    for t in free:
+                        used[t] = True
+                        new.append((t, route[t] + shift, label))
+                    break
         if not violations:
             return OsilaResult(route, mapped, warp, threshold, rnd, energy, added)
         if not new:
             break
         added.extend(new)
+        pinned = sorted({*pinned, *(t for t, _, _ in new)})  # a repaired waypoint stays where the pair puts it
         pairs_src = np.vstack([pairs_src, path[[t for t, _, _ in new]]])
         pairs_dst = np.vstack([pairs_dst, np.array([q for _, q, _ in new])])
     shown = 5  # a hopeless constraint can add a pair per stamp: name the first few only

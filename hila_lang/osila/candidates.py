@@ -14,6 +14,8 @@ the closed ball, so any chosen waypoint is within ``threshold`` of its mapped po
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 DEFAULT_SHELLS = 2
@@ -39,11 +41,13 @@ def unit_directions(dim: int, count: int, turn: float = 0.0) -> np.ndarray:
     return np.column_stack([rho * np.cos(phi), rho * np.sin(phi), z])
 
 
+@lru_cache(maxsize=64)
 def ball_offsets(dim: int, threshold: float, shells: int = DEFAULT_SHELLS, directions: int | None = None) -> np.ndarray:
     """Candidate offsets in the ball of radius ``threshold``, shape (1 + shells·directions, dim).
 
     Row 0 is the centre (zero offset), so ties in the route search resolve to the mapped point.
-    ``threshold`` = 0 or ``shells`` = 0 gives the centre alone.
+    ``threshold`` = 0 or ``shells`` = 0 gives the centre alone.  The result is cached and
+    read-only.
     """
     if directions is None:
         directions = DEFAULT_DIRECTIONS[dim]
@@ -51,4 +55,6 @@ def ball_offsets(dim: int, threshold: float, shells: int = DEFAULT_SHELLS, direc
     if threshold > 0 and directions > 0:
         for s in range(1, shells + 1):
             rows.append(threshold * s / shells * unit_directions(dim, directions, turn=0.5 * (s % 2 == 0)))
-    return np.vstack(rows)
+    out = np.vstack(rows)
+    out.flags.writeable = False
+    return out

@@ -49,10 +49,16 @@ def fit_similarity(src: np.ndarray, dst: np.ndarray, rank: int) -> tuple[float, 
     R : ndarray, shape (D, D)
     shift : ndarray, shape (D,)
     """
-    mu_s, mu_d = src.mean(0), dst.mean(0)
+    K, D = src.shape
+    mu_s, mu_d = src.sum(0) / K, dst.sum(0) / K
     a, b = src - mu_s, dst - mu_d
     var_s = float((a**2).sum())
-    if rank <= 1:
+    if rank >= 2 and D == 2:  # as complex numbers: z -> c z, c = Σ b conj(a) / Σ |a|² (= Umeyama in 2-D)
+        re = float((b[:, 0] * a[:, 0] + b[:, 1] * a[:, 1]).sum()) / var_s
+        im = float((b[:, 1] * a[:, 0] - b[:, 0] * a[:, 1]).sum()) / var_s
+        scale = float(np.hypot(re, im))
+        R = np.eye(2) if scale == 0.0 else np.array([[re, -im], [im, re]]) / scale
+    elif rank <= 1:
         # direction of the line through src, and the matching direction of dst
         _, _, vt = np.linalg.svd(a, full_matrices=False)
         u = vt[0]

@@ -1,0 +1,134 @@
+"""What a method is told about the task: the constraint pairs of one (template, task, N) pair.
+
+Every method of the evaluation — OSILA and every control (:mod:`.controls`) — gets the same
+:class:`Constraints`, built once per pair by :func:`constraints`, and nothing else about the
+task: the task's human path is used only to score the result.  Three protocols:
+
+``held-out`` (the headline)
+    The scene ICPs the template and the task share by name (the hand's start, the object's
+    corners, the waypoint area), nothing taken from the path being scored.  One segment: with
+    nothing from the scored path there is no segment boundary to add (N = 1 only).
+
+``paper`` (the paper's Experiment A, as a reproduction)
+    The shared scene ICPs plus, for N >= 2, the N − 1 inner boundaries of an equal-N split of
+    both paths: template boundary point → the TASK PATH's boundary point.  These boundary points
+    are points of the very path that is then scored, so a method is handed part of the answer;
+    the more segments, the more of it.  That is the paper's protocol; it shows how well a method
+    passes through given points, not how well it predicts a movement.
+
+``fractions`` (LASA, whose demonstrations have no scene)
+    The points at time fractions k/N, k = 0..N, of both paths: template point → task point.  N = 1
+    gives the start and the end (two pairs); every N adds one inner point.  Like ``paper``, these
+    are points of the scored path.
+
+Pairs of trials: for an ICP data set every template with every task (J × J, a trial with itself
+included for the paper's Table I); for LASA every ordered pair of different demonstrations of
+the same shape (:func:`pair_mask`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .dataset import Trial
+
+PROTOCOLS = ("held-out", "paper", "fractions")
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """The constraint pairs of one template/task pair, template point → task point.
+
+    Attributes
+    ----------
+    src, dst : ndarray, shape (K, D)
+        Template points and task points, paired by row, in a fixed order (scene ICPs in the
+        template's order, then path points in time order).
+    labels : tuple of str
+        What each pair is: a scene ICP's name, ``"boundary k/N"`` or ``"t = k/N"``.
+    at : tuple of int or None
+        For a pair taken from the template PATH (a boundary or time-fraction point), its index
+        in the template path; None for a scene ICP.
+    n : int
+        Segment count N the pairs were built for.
+    """
+
+    src: np.ndarray
+    dst: np.ndarray
+    labels: tuple[str, ...]
+    at: tuple[int | None, ...]
+    n: int
+
+
+def fraction_index(length: int, k: int, n: int) -> int:
+    """Index of time fraction k/N in a path of ``length`` equally spaced samples."""
+    return int(round(k * (length - 1) / n))
+
+
+def boundaries(length: int, n: int) -> list[int]:
+    """Indices of the N − 1 inner boundaries of an equal-N split of ``length`` points."""
+    from ..segmentation import equal_segments
+
+    return [start for start, _ in equal_segments(length, n)[1:]]
+
+
+def shared_names(template: Trial, task: Trial) -> list[str]:
+    """ICP names both trials have, in the template's order."""
+    return [name for name in template.icp_names if name in task.icp_names]
+
+
+def constraints(template: Trial, task: Trial, n: int, protocol: str) -> Constraints:
+    """The :class:`Constraints` of mapping ``template`` onto ``task`` with N = ``n`` segments."""
+    if protocol not in PROTOCOLS:
+        raise InputError(f"unknown protocol {protocol!r}; expected one of {', '.join(PROTOCOLS)}")
+    D = template.path.shape[1]
+    src: list[np.ndarray] = []
+    dst: list[np.ndarray] = []
+    labels: list[str] = []
+    at: list[int | None] = []
+    if protocol in ("held-out", "paper"):
+        if protocol == "held-out" and n != 1:
+            raise InputError(f"the held-out protocol has one segment only (nothing from the scored path "
+                             f"can bound a segment), got N = {n}")
+        for name in shared_names(template, task):
+            src.append(template.icps[template.icp_names.index(name)])
+            dst.append(task.icps[task.icp_names.index(name)])
+            labels.append(name)
+            at.append(None)
+        if protocol == "paper" and n > 1:
+            for k, (a, b) in enumerate(zip(boundaries(len(template.path), n), boundaries(len(task.path), n)), 1):
+                src.append(template.path[a])
+                dst.append(task.path[b])
+                labels.append(f"boundary {k}/{n}")
+                at.append(a)
+    else:
+        for k in range(n + 1):
+            a, b = fraction_index(len(template.path), k, n), fraction_index(len(task.path), k, n)
+            src.append(template.path[a])
+            dst.append(task.path[b])
+            labels.append(f"t = {k}/{n}")
+            at.append(a)
+    if not src:
+        raise InputError(f"{template.label} and {task.label} share no ICP name; nothing to map with")
+    return Constraints(np.array(src).reshape(-1, D), np.array(dst).reshape(-1, D), tuple(labels), tuple(at), n)
+
+
+def segments_for(protocol: str) -> tuple[int, ...]:
+    """Segment counts N evaluated under ``protocol``."""
+    return (1,) if protocol == "held-out" else (1, 2, 3, 4)
+
+
+def pair_mask(trials: list[Trial], within_setup_only: bool) -> np.ndarray:
+    """Which (template, task) pairs are evaluated, shape (J, J) of bool.
+
+    ``within_setup_only``: ordered pairs of DIFFERENT trials of the same set-up (LASA: the same
+    shape); otherwise every pair, a trial with itself included.
+    """
+    J = len(trials)
+    if not within_setup_only:
+        return np.ones((J, J), bool)
+    setup = np.array([t.setup for t in trials])
+    return (setup[:, None] == setup[None, :]) & ~np.eye(J, dtype=bool)

@@ -1,0 +1,110 @@
+"""Optional compilation of a few hot loops with numba, never required for a run.
+
+Three loops cannot be vectorised with numpy because every step depends on the previous one: the
+minimum-energy route (a Viterbi pass over time stamps, :mod:`hila_lang.osila.route`) and the
+dynamic programmes of the discrete Fréchet distance and DTW (:mod:`hila_lang.metrics`).  Each has
+a numpy version; :func:`compiled` returns a numba-compiled twin when it can, or ``None``, and the
+caller then uses the numpy version.  The results are the same (tests compare both with a slow,
+obvious reference).
+
+What can go wrong, and what happens:
+
+- numba is not installed, or ``HILA_JIT=0`` is set: ``None`` (numpy).
+- The on-disk cache cannot be used (read-only install, no writable cache folder, a stale or broken
+  cache file): numba is asked to compile without a cache; if compiling fails as well, ``None``.
+- Compilation happens once per process (about a second); with a usable cache (numba's own: the
+  package's ``__pycache__`` or ``NUMBA_CACHE_DIR``) a later process loads it in milliseconds.
+
+Every kernel is compiled and run once on a tiny example (``warm``) before it is handed out, so a
+failure shows up here, not in the middle of a run.
+
+Starting numba costs about 0.7 s and 100 MB in a fresh process here (importing it and loading
+the first kernel from the cache).  The OSILA kernels are therefore used only for paths of at
+least :data:`MIN_STAMPS` stamps: the numpy route takes about 4.6 µs per stamp (2-D, 17
+candidates), so a 200-stamp path costs about 1 ms in numpy and 0.05 ms compiled, while a program
+of a few short sub-templates (``hila exec``: tens of stamps each) never pays the start-up.  Which
+implementation runs is a function of the input alone, so a run is deterministic.  Batch work that maps thousands of paths (``hila eval``)
+runs inside :func:`batch`, where every path uses the kernels.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator
+
+_DONE: dict[Callable, Callable | None] = {}
+#: shortest path (stamps) for which OSILA uses its compiled kernels (module docstring)
+MIN_STAMPS = 200
+_min_stamps = [MIN_STAMPS]
+
+
+def min_stamps() -> int:
+    """The current shortest path for the OSILA kernels: :data:`MIN_STAMPS`, or 0 inside :func:`batch`."""
+    return _min_stamps[0]
+
+
+@contextmanager
+def batch() -> Iterator[None]:
+    """Within the block every OSILA path, however short, uses the compiled kernels (when available)."""
+    old = _min_stamps[0]
+    _min_stamps[0] = 0
+    try:
+        yield
+    finally:
+        _min_stamps[0] = old
+
+
+def enabled() -> bool:
+    """False when the environment variable ``HILA_JIT`` is ``0`` (or ``false``/``no``/``off``)."""
+    return os.environ.get("HILA_JIT", "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+def _compile(func: Callable, warm: tuple[Any, ...], cache: bool) -> Callable:
+    import numba
+
+    kernel = numba.njit(cache=cache, nogil=True)(func)
+    kernel(*warm)  # compiles (or loads the cache) for the argument types used at run time
+    return kernel
+
+
+def compiled(func: Callable, *warm: Any) -> Callable | None:
+    """``func`` compiled by numba (cached on disk when possible), or ``None`` if that cannot be done.
+
+    Parameters
+    ----------
+    func : callable
+        A function in numba's nopython subset.
+    *warm
+        Example arguments with the types of the real calls; the kernel is run on them once.
+
+    Returns
+    -------
+    callable or None
+        Memoised per ``func`` for the life of the process.
+    """
+    if func in _DONE:
+        return _DONE[func]
+    kernel = None
+    if enabled():
+        try:
+            import numba  # noqa: F401
+        except ImportError:
+            pass
+        else:
+            for cache in (True, False):
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")  # e.g. NumbaWarning: cannot cache
+                        kernel = _compile(func, warm, cache)
+                    break
+                except Exception:  # noqa: BLE001 -- any numba failure means: use numpy
+                    kernel = None
+    _DONE[func] = kernel
+    return kernel
+
+
+def reset() -> None:
+    """Forget compiled kernels (tests use it with ``HILA_JIT`` to exercise both paths)."""
+    _DONE.clear()
