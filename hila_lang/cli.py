@@ -29,6 +29,7 @@ COMMANDS = {
     "repl": "repl",
     "check": "check",
     "compile": "compile_",
+    "explain": "explain",
     "learn": "learn",
     "imitate": "imitate",
     "eval": "eval_",

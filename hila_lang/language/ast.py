@@ -147,8 +147,33 @@ class Binding:
 
 
 @dataclass(frozen=True)
+class Constraint:
+    """``via POINT`` (a forced waypoint) or ``avoid POINT radius R`` (an obstacle, a sphere), after a
+    ``run`` or a task call (where it applies to every run inside the task).
+
+    ``value`` is a point or a point group (each of its points is one waypoint or one sphere);
+    ``radius`` (metres) only for ``avoid``.  OSILA's plan adjustment meets them.
+    """
+
+    kind: str  # "via" or "avoid"
+    value: "Expr"
+    radius: "Expr | None" = None
+    pos: Pos = _pos()
+
+    def text(self) -> str:
+        """As the user wrote it (variables by name): ``avoid cup radius 0.04``."""
+        radius = "" if self.radius is None else f" radius {source_text(self.radius)}"
+        return f"{self.kind} {source_text(self.value)}{radius}"
+
+
+def _constraints():
+    """The ``constraints`` field of a run or a call: omitted from :func:`dump` when empty."""
+    return field(default=(), metadata={"omit_empty": True})
+
+
+@dataclass(frozen=True)
 class RunStmt:
-    """``run TEMPLATE[.TAG](bindings) [pen up|down]``."""
+    """``run TEMPLATE[.TAG](bindings) [pen up|down] [via P] [avoid P radius R] ...``."""
 
     template: str
     tag: str | None
@@ -156,6 +181,7 @@ class RunStmt:
     pen: str | None = None
     pos: Pos = _pos()
     ref_pos: Pos = _pos()  # where ``TEMPLATE.TAG`` is written
+    constraints: tuple[Constraint, ...] = _constraints()
 
     @property
     def ref(self) -> str:
@@ -167,6 +193,7 @@ class CallStmt:
     task: str
     args: tuple[Expr, ...]
     pos: Pos = _pos()
+    constraints: tuple[Constraint, ...] = _constraints()
 
 
 @dataclass(frozen=True)
@@ -408,6 +435,13 @@ def expr_text(e, prec: int = 0) -> str:
     return _TEXT.visit(e, prec)
 
 
+def source_text(e) -> str:
+    """An expression as the user wrote it: :func:`expr_text` with variables by name, not by slot."""
+    import re
+
+    return re.sub(r"\{[^{}]*:([^{}]*)\}", r"\1", expr_text(e))
+
+
 def dump(node, indent: int = 0) -> str:
     """Indented text of an AST (one node per line, with its ``line:column``)."""
     pad = "  " * indent
@@ -422,6 +456,8 @@ def dump(node, indent: int = 0) -> str:
         if not f.compare:  # positions, file name, source text
             continue
         value = getattr(node, f.name)
+        if f.metadata.get("omit_empty") and not value:
+            continue
         if is_dataclass(value) or (isinstance(value, tuple) and value and not all(isinstance(v, str) for v in value)):
             children.append((f.name, value))
         elif isinstance(value, float):

@@ -21,7 +21,6 @@ Any other exception raised by a world, a back end or OSILA is a bug and propagat
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -50,6 +49,8 @@ class TraceEntry:
     icps: dict[str, np.ndarray] = field(default_factory=dict)
     pen_down: bool | None = None
     value: Any = None
+    #: the HILA step of a run state (:class:`hila_lang.hierarchy.Step`: OSILA's result, constraints)
+    step_result: Any = None
 
     def __str__(self) -> str:
         where = f"line {self.line}" if self.line else "-"
@@ -237,7 +238,8 @@ class Interpreter:
         from ..hierarchy import hila_step
 
         t = self.template(st)
-        step = hila_step(t, self.scene_binding(st), self.hand(), **self.osila_options)
+        step = hila_step(t, self.scene_binding(st), self.hand(), constraints=self.constraints(st),
+                         **self.osila_options)
         path, icps = step.path, step.icps
         executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         executed = None if executed is None else np.asarray(executed, dtype=float)
@@ -246,9 +248,61 @@ class Interpreter:
                           pen_down=bool(st.pen_down), icps=dict(icps), template=t)
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
-                + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()))
+                + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step))
         return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
-                          icps=icps, pen_down=bool(st.pen_down))
+                          icps=icps, pen_down=bool(st.pen_down), step_result=step)
+
+    def explain(self) -> list[str]:
+        """What OSILA does in the current run state (before it runs), or did in the last run:
+        lines of :func:`hila_lang.explain.explain_run` (ICP pairs, fallbacks, rounds and why)."""
+        from ..explain import explain_run, explain_step
+
+        if not self.done and self.state.kind == "run":
+            st = self.state
+            where = f"{st.name} (line {st.line}), about to run"
+            return self._guard(st, lambda: explain_run(
+                self.template(st), self.scene_binding(st), self.hand(), self.constraints(st), self.osila_options,
+                title=where))
+        done = [t for t in self.trace if t.step_result is not None]
+        if not done:
+            raise HilaRuntimeError("nothing to explain yet: no run state is current or has run")
+        last = done[-1]
+        return explain_step(self.template(self.fsm.states[last.state]), last.step_result,
+                            title=f"{last.state} (line {last.line}), step {last.step}")
+
+    # ------------------------------------------------------------------ constraints
+    def constraints(self, st) -> list:
+        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.Constraint` s, now:
+        a point group gives one per point; a radius must be a number > 0 (metres)."""
+        from ..hierarchy import Constraint
+
+        out = []
+        for c in st.constraints:
+            where = f"{c.text()} at {c.pos.line}:{c.pos.column}" if c.pos.line else c.text()
+            radius = None
+            if c.radius is not None:
+                radius = self.eval(c.radius)
+                if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not radius > 0:
+                    raise HilaRuntimeError(f"an obstacle's radius must be a number of metres > 0, got "
+                                           f"{fmt_value(radius)} from '{_src(c.radius)}' in '{where}'")
+            for member, point in self.points_of(c.value):
+                name = where if member is None else f"{where} ({member})"
+                out.append(Constraint(point, None if radius is None else float(radius), name))
+        return out
+
+    def points_of(self, expr) -> list[tuple[str | None, np.ndarray]]:
+        """A point (``[(None, p)]``) or every point of a group (``[(name, p), ...]``, scene order)."""
+        value = self.eval(expr)
+        if isinstance(value, str):
+            value = self.lookup(value)
+        if isinstance(value, np.ndarray) and value.shape in ((2,), (3,)):
+            return [(None, value)]
+        if isinstance(value, str):  # a group prefix: its points, the world's then the program's
+            scene = self.scene_points()
+            members = [(k, np.asarray(p, dtype=float)) for k, p in scene.items() if k.startswith(value + ".")]
+            if members:
+                return members
+        raise HilaRuntimeError(f"expected a point or a point group, got {fmt_value(value)} from '{_src(expr)}'")
 
     # ------------------------------------------------------------------ expressions
     def scene_points(self) -> dict[str, np.ndarray]:
@@ -396,9 +450,18 @@ class _Eval(A.Visitor):
         return {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b, "/": lambda: a / b}[e.op]()
 
 
-def _src(expr) -> str:
-    """An expression as the user wrote it (variables by name, not by slot)."""
-    return re.sub(r"\{[^{}]*:([^{}]*)\}", r"\1", A.expr_text(expr))
+_src = A.source_text  # an expression as the user wrote it (variables by name, not by slot)
+
+
+def met_text(step) -> str:
+    """How a run's route met its constraints, for the trace: ``; via w at 5:9 met at 0.4 mm``."""
+    parts = []
+    for c, value in step.met():
+        if c.radius is None:
+            parts.append(f"{c.name} met at {value * 1000:.1f} mm")
+        else:
+            parts.append(f"{c.name} cleared by {value * 1000:.1f} mm")
+    return "".join(f"; {p}" for p in parts)
 
 
 def _plain(value):

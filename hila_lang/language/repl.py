@@ -195,6 +195,12 @@ class Repl(cmd.Cmd):
         for k, v in icps.items():
             self.say(f"  {k:<12} = {fmt_point(v)}")
 
+    def do_explain(self, arg: str) -> None:
+        """explain: what OSILA does in the current run state (or did in the last run): the ICP
+        pairs, the map and its fallback, the rounds of plan adjustment and why each was needed."""
+        for line in self.interp.explain():
+            self.say(line)
+
     def do_vars(self, arg: str) -> None:
         """vars: the program's variables and their values."""
         if not self.interp.env:
