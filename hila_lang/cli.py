@@ -27,6 +27,7 @@ from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_RUN_FAILED, HilaError
 COMMANDS = {
     "exec": "exec_",
     "repl": "repl",
+    "replay": "replay",
     "check": "check",
     "compile": "compile_",
     "explain": "explain",

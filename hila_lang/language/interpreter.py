@@ -137,6 +137,8 @@ class Interpreter:
         self._subs: dict[tuple[str, str | None], Any] = {}
         self._eval = _Eval(self)
         self.history: list[Snapshot] | None = None  # see keep_history
+        #: called with each step's TraceEntry once it has run (a recorder, the GUI's state text)
+        self.observers: list = []
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -219,6 +221,8 @@ class Interpreter:
             raise
         if saved is not None:
             self._remember(saved)
+        for observer in self.observers:
+            observer(entry)
         return entry
 
     def exec_set(self, st, n: int) -> TraceEntry:
