@@ -35,6 +35,7 @@ COMMANDS = {
     "imitate": "imitate",
     "eval": "eval_",
     "snapshot": "snapshot",
+    "lsp": "lsp",
 }
 
 

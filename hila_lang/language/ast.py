@@ -11,7 +11,8 @@ way passes walk the tree (:func:`children` lists a node's parts generically).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, is_dataclass
+import functools
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Union, get_args
 
 
@@ -307,6 +308,12 @@ class Program:
 # --------------------------------------------------------------------------- visiting
 
 
+@functools.lru_cache(maxsize=None)
+def _part_fields(cls: type) -> tuple[str, ...]:
+    """Names of the fields of AST class ``cls`` that take part in equality (not positions)."""
+    return tuple(f.name for f in fields(cls) if f.compare)
+
+
 def children(node) -> list:
     """The AST nodes directly inside ``node``, in field order (bodies flattened, if-branches as
     condition then body).  Every pass walks the tree through this one function, so a new node
@@ -314,15 +321,14 @@ def children(node) -> list:
     out: list = []
 
     def add(value) -> None:
-        if is_dataclass(value) and not isinstance(value, Pos):
-            out.append(value)
-        elif isinstance(value, tuple):
+        if isinstance(value, tuple):
             for v in value:
                 add(v)
+        elif hasattr(type(value), "__dataclass_fields__") and not isinstance(value, Pos):
+            out.append(value)
 
-    for f in fields(node):
-        if f.compare:
-            add(getattr(node, f.name))
+    for name in _part_fields(type(node)):
+        add(getattr(node, name))
     return out
 
 
@@ -340,6 +346,29 @@ class Visitor:
     def generic_visit(self, node, *args):
         for child in children(node):
             self.visit(child, *args)
+
+
+@functools.lru_cache(maxsize=None)
+def _all_fields(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in fields(cls))
+
+
+def shift_lines(node, lines: int):
+    """A copy of ``node`` (a node, or a tuple of them) written ``lines`` lines further down: every
+    position moved, nothing else changed (the language server reuses a top-level item that moved)."""
+    if isinstance(node, tuple):
+        return tuple(shift_lines(n, lines) for n in node)
+    if isinstance(node, Pos):
+        return Pos(node.line + lines, node.column, node.end_line + lines, node.end_column) if node.line else node
+    if not hasattr(type(node), "__dataclass_fields__"):
+        return node
+    changes = {}
+    for name in _all_fields(type(node)):
+        value = getattr(node, name)
+        moved = shift_lines(value, lines)
+        if moved is not value:
+            changes[name] = moved
+    return replace(node, **changes) if changes else node
 
 
 def walk(body):

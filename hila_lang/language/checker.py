@@ -67,9 +67,10 @@ def did_you_mean(name: str, choices) -> str | None:
 
 
 class _Checker(A.Visitor):
-    def __init__(self, program: A.Program) -> None:
+    def __init__(self, program: A.Program, load_template=None) -> None:
         self.p = program
         self.warnings: list[str] = []
+        self.load_template = load_template  # path -> Template; None: hila_lang.template.load_template
 
     def error(self, message: str, pos: A.Pos, hint: str | None = None) -> CheckError:
         line = pos.line or None
@@ -137,6 +138,7 @@ class _Checker(A.Visitor):
     def load(self, imp: A.ImportDecl):
         from ..template import load_template
 
+        load_template = self.load_template or load_template
         if imp.is_path:
             base = Path(self.p.file).parent if not self.p.file.startswith("<") else Path.cwd()
             candidates = [base / imp.source]
@@ -338,6 +340,15 @@ class _Names(A.Visitor):
         self.generic_visit(e)
 
 
-def check(program: A.Program) -> CheckedProgram:
-    """Check ``program``; raise :class:`CheckError` at the first mistake."""
-    return _Checker(program).run()
+def check(program: A.Program, load_template=None) -> CheckedProgram:
+    """Check ``program``; raise :class:`CheckError` at the first mistake.
+
+    ``load_template(path) -> Template`` reads an imported template (default
+    :func:`hila_lang.template.load_template`; the language server passes one that caches)."""
+    return _Checker(program, load_template).run()
+
+
+def resolve_import(program: A.Program, imp: A.ImportDecl, load_template=None):
+    """``(path, Template)`` of one import of ``program``, found as :func:`check` finds it
+    (CheckError when it is not found or does not load)."""
+    return _Checker(program, load_template).load(imp)
