@@ -11,6 +11,7 @@ that implements a small protocol, or None.  ``backend.eyes`` (:class:`Eyes`: the
 cameras), ``backend.ink`` (:class:`Ink`: a drawing surface that keeps the ink) and
 ``backend.overview`` (:class:`Overview`: a camera outside the robot, for reports and never for
 decisions).  A world asks ``if backend.eyes is not None`` -- it never probes for methods.
+``backend.view`` (:class:`View`) is a window a person watches (``--gui``).
 Worlds and back ends both declare ``snapshots`` (:class:`Snapshots`: save what they are now and
 restore it later, for the REPL's ``back``; :class:`hila_lang.plugins.snapshots.AttributeSnapshots`
 does it for state held in a few attributes), or None when they cannot go back.
@@ -107,6 +108,15 @@ class Snapshots(Protocol):
 
 
 @runtime_checkable
+class View(Protocol):
+    """A window showing the run to a person (PyBullet's with ``--gui``): the runner tells it which
+    FSM state is running, and where it is written in the program."""
+
+    def show_state(self, name: str, where: str) -> None:
+        ...
+
+
+@runtime_checkable
 class Backend(Protocol):
     """Executes Cartesian paths and reports where the hand (pen tip) is."""
 
@@ -116,6 +126,7 @@ class Backend(Protocol):
     ink: "Ink | None"
     overview: "Overview | None"
     snapshots: "Snapshots | None"
+    view: "View | None"
 
     def hand_position(self) -> "np.ndarray":
         """Current pen-tip position, shape (3,), metres, world frame."""
@@ -178,7 +189,7 @@ class World(Protocol):
 
 
 #: the capability attributes of a back end and the protocol each must implement when not None
-CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview, "snapshots": Snapshots}
+CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview, "snapshots": Snapshots, "view": View}
 #: the same for a world
 WORLD_CAPABILITIES = {"snapshots": Snapshots}
 

@@ -29,6 +29,7 @@ from ..sim.scene import SimScene, _check_point
 from ..sim.surface import Surface
 from ..validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
+from . import model
 from .body import Body
 from .eyes import Eyes
 from .paper import Paper, TopView
@@ -75,6 +76,9 @@ class PyBulletBackend:
     eyes : Eyes
     ink : Paper
     overview : TopView
+    snapshots : SimSnapshots
+    view : Window or None
+        The window (``gui``): framed, paths drawn, the state written, the left eye's image.
     traces : list of Trace
         Every executed move.
     stats : dict
@@ -106,9 +110,20 @@ class PyBulletBackend:
             self.body.set_arm(self.arm.rest_posture if rest else self.arm.ready_posture)
             self.eyes = Eyes(self.body, centre, self._render)
             self.snapshots = SimSnapshots(self)
+            self.view = self._open_window() if gui else None
         except BaseException:
             self.close()
             raise
+
+    def _open_window(self):
+        """The ``view``: PyBullet's window framed on the robot and the paper (:mod:`.window`)."""
+        from .window import Window
+
+        head = self.body.link_position(model.EYE_LINKS["left"])
+        robot = np.array([[0.0, 0.0, 0.45], head + [0.0, 0.0, 0.08], self.hand_position()])
+        window = Window(self.sim, self.surface, robot)
+        self.arm.observer = window.executed_point
+        return window
 
     def _render(self, camera, *, shadow: bool = False) -> np.ndarray:
         """An image of ``camera`` in the scene, counted in :attr:`stats`."""
@@ -153,9 +168,13 @@ class PyBulletBackend:
         planned = check_path(path, "path")
         if planned.shape[1] != 3:
             raise InputError(f"expected a path of shape (T, 3) with T >= 1, got {planned.shape}")
+        if self.view is not None:
+            self.view.planned(planned)
         trace = self.arm.move(planned, pen_down=pen_down, label=label)
         trace.inked = self.ink.ink_trace(trace.executed) if pen_down else 0
         self.traces.append(trace)
+        if self.view is not None:
+            self.view.show_eye(self.eyes.camera_image("left").rgb)
         return trace.executed
 
     # -- lifetime ---------------------------------------------------------------------------------
