@@ -191,7 +191,20 @@ def test_hila_lsp_without_pygls_says_how_to_install_it(tmp_path):
     assert "pip install 'hila-lang[lsp]'" in proc.stderr
 
 
-def _whole(path: Path, text: str):
+def _whole(path: Path, text: str, templates):
+    """What hila check's front end (load_program: parse the whole text, check, compile) says."""
+    from hila_lang.language.checker import check
+    from hila_lang.language.compiler import compile_program
+    from hila_lang.language.transformer import parse_program
+
+    try:
+        compile_program(check(parse_program(text, str(path)), templates))  # load_program, templates cached
+    except HilaError as exc:
+        return exc.message + (f"\nhint: {exc.hint}" if exc.hint else ""), exc.line, exc.column
+    return None
+
+
+def _loaded(path: Path, text: str):
     try:
         load_program(str(path), text)
     except HilaError as exc:
@@ -224,10 +237,12 @@ def test_diagnostics_are_hila_checks_errors_for_random_edits(program, monkeypatc
     text = program.read_text()
     doc = Document(str(program))
     rng = random.Random(program.stem)
+    for sample in (text, text + "}"):  # the reference is what load_program (hila check) says
+        assert _whole(program, sample, doc.templates) == _loaded(program, sample)
     compared = broken = 0
     for edited in [text, *_edits(text, rng, 40)]:
         problems = [p for p in doc.analyse(edited) if p.severity == "error"]
-        expected = _whole(program, edited)
+        expected = _whole(program, edited, doc.templates)
         if expected is None:
             assert problems == []
         else:
