@@ -23,7 +23,8 @@ import pytest
 
 from hila_lang.errors import HilaRuntimeError
 from hila_lang.language import load_program
-from hila_lang.language.interpreter import Interpreter, resume_at
+from hila_lang.language.history import resume_at
+from hila_lang.language.interpreter import Interpreter
 from hila_lang.language.repl import Repl
 from hila_lang.plugins.options import RunOptions
 from hila_lang.robot.dry import DryBackend
@@ -221,7 +222,7 @@ def test_back_without_snapshots_says_which_plugin_cannot(tmp_path):
     interp = session(str(tmp_path / "p.hila"), PROGRAM, world=world)
     out = io.StringIO()
     Repl(interp, stdin=io.StringIO("step\nback\nquit\n"), stdout=out).cmdloop()
-    assert "error: the world 'ScriptedWorld' cannot go back (no snapshots capability)" in out.getvalue()
+    assert "error: the world 'scripted' cannot go back (no snapshots capability)" in out.getvalue()
 
 
 def test_back_limits_and_reset(tmp_path):
