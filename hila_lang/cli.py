@@ -27,12 +27,15 @@ from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_RUN_FAILED, HilaError
 COMMANDS = {
     "exec": "exec_",
     "repl": "repl",
+    "replay": "replay",
     "check": "check",
     "compile": "compile_",
+    "explain": "explain",
     "learn": "learn",
     "imitate": "imitate",
     "eval": "eval_",
     "snapshot": "snapshot",
+    "lsp": "lsp",
 }
 
 

@@ -26,6 +26,7 @@ The paper's example: demonstrate A-B-C once, segment it, then
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -119,6 +120,79 @@ def resolve(library: Mapping[str, Template], names: Sequence[str]) -> list[Templ
     return out
 
 
+@dataclass(frozen=True)
+class Constraint:
+    """A forced waypoint (``radius`` None: the route passes within OSILA's threshold of ``point``)
+    or an obstacle (a sphere of ``radius`` around ``point``: the route keeps out), named as the
+    user wrote it, e.g. ``"via waypoint [line 5:42]"``.
+
+    Attributes
+    ----------
+    point : ndarray, shape (D,)
+    radius : float or None
+        Metres (task units).
+    name : str
+    """
+
+    point: np.ndarray
+    radius: float | None = None
+    name: str = ""
+
+    @property
+    def kind(self) -> str:
+        return "via" if self.radius is None else "avoid"
+
+    def achieved(self, path: np.ndarray) -> float:
+        """How the route ``path`` (T, D) meets it: for a waypoint, its distance to the route's
+        nearest waypoint; for an obstacle, the clearance (distance of the route's polyline from the
+        centre minus the radius; negative: it enters)."""
+        p = np.asarray(path, dtype=float)
+        if self.radius is None:
+            return float(np.sqrt(((p - self.point) ** 2).sum(1)).min())
+        return float(_polyline_distance(p, self.point)) - self.radius
+
+
+def _polyline_distance(path: np.ndarray, point: np.ndarray) -> float:
+    """Distance from ``point`` (D,) to the polyline through ``path`` (T, D)."""
+    if len(path) == 1:
+        return float(np.linalg.norm(path[0] - point))
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    den = (ab * ab).sum(1)
+    u = np.clip(np.where(den > 0, ((point - a) * ab).sum(1) / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
+    return float(np.sqrt((((a + u[:, None] * ab) - point) ** 2).sum(1)).min())
+
+
+_FORCED_LABEL = re.compile(r"forced waypoint (\d+) at \([^)]*\)")
+_OBSTACLE_LABEL = re.compile(r"obstacle (\d+) \(centre \([^)]*\), radius [^,)]*(?:, margin ([^)]*))?\)")
+
+
+def violations(message: str) -> str:
+    """The violated constraints of OSILA's "could not conform" ``message`` (the whole message
+    when it is worded otherwise)."""
+    m = re.search(r"could not conform after \d+ round\(s\): (.*?)(?:\. Constraint pairs tried:|$)", message, re.S)
+    return m.group(1) if m else message
+
+
+def name_constraints(message: str, forced: Sequence[Constraint], obstacles: Sequence[Constraint]) -> str:
+    """OSILA's ``message`` with its labels ``forced waypoint i at (...)`` and ``obstacle o (centre
+    ..., radius r)`` replaced by the names of ``forced[i]`` and ``obstacles[o]`` (labels beyond
+    them are left as they are).  The one place that reads OSILA's wording."""
+    def forced_name(m):
+        i = int(m.group(1))
+        return forced[i].name if i < len(forced) and forced[i].name else m.group(0)
+
+    def obstacle_name(m):
+        o = int(m.group(1))
+        if o >= len(obstacles) or not obstacles[o].name:
+            return m.group(0)
+        margin = m.group(2)
+        extra = f" (with margin {margin})" if margin is not None and float(margin) != 0 else ""
+        return obstacles[o].name + extra
+
+    return _OBSTACLE_LABEL.sub(obstacle_name, _FORCED_LABEL.sub(forced_name, message))
+
+
 @dataclass
 class Step:
     """One HILA step: a (sub-)template imitated against bound scene points.
@@ -133,12 +207,20 @@ class Step:
         Whether the template's ``"start"`` ICP was bound (to the hand, or by the caller).
     result : OsilaResult
         What OSILA did (warp kind, threshold, rounds, added constraint pairs).
+    constraints : tuple of Constraint
+        The named constraints it met (forced waypoints, obstacles).
     """
 
     path: np.ndarray
     icps: dict[str, np.ndarray]
     start_bound: bool
     result: Any
+    constraints: tuple = ()
+    options: dict = field(default_factory=dict)
+
+    def met(self) -> list[tuple[Constraint, float]]:
+        """Each named constraint with :meth:`Constraint.achieved` on the path."""
+        return [(c, c.achieved(self.path)) for c in self.constraints]
 
 
 def _fmt(p) -> str:
@@ -175,7 +257,7 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
 
 
 def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None, *, forced: Any = None,
-              obstacles: Any = None, **options: Any) -> Step:
+              obstacles: Any = None, constraints: Sequence[Constraint] = (), **options: Any) -> Step:
     """THE HILA step: bind a (sub-)template to scene points and the hand, run OSILA.
 
     The interpreter (every ``run`` state of ``hila exec``/``hila repl``), ``hila imitate`` and
@@ -197,13 +279,24 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
         Where the hand is: binds ``"start"`` unless ``task_icps`` names it.
     forced, obstacles, **options
         As :func:`hila_lang.osila.imitate`.
+    constraints : sequence of Constraint
+        Named forced waypoints and obstacles (a program's ``via`` and ``avoid``), given to OSILA's
+        plan adjustment before ``forced`` and ``obstacles``.  When they cannot be met, the
+        :class:`~hila_lang.errors.ConstraintError` names them as the user wrote them.
 
     Returns
     -------
     Step
     """
+    from .errors import ConstraintError
     from .osila import imitate_detailed
 
+    named_forced = [c for c in constraints if c.radius is None]
+    named_obstacles = [c for c in constraints if c.radius is not None]
+    if named_forced:
+        forced = _named(named_forced, forced, "forced", template)
+    if named_obstacles:
+        obstacles = _named(named_obstacles, obstacles, "obstacles", template)
     icps = bind(template, task_icps, hand)
     names = list(icps)
     start_bound = START in icps
@@ -213,8 +306,29 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     ends = {i: icps[name] for i, name in ((0, START), (-1, END)) if name in icps}
     if ends:
         options.setdefault("pin", ends)
-    res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
-    return Step(np.asarray(res.path, dtype=float), icps, start_bound, res)
+    try:
+        res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
+    except ConstraintError as exc:
+        if constraints:
+            exc.message = name_constraints(exc.message, named_forced, named_obstacles)
+            exc.args = (exc.message,)
+        raise
+    given = {k: v for k, v in options.items() if k != "pin"}
+    return Step(np.asarray(res.path, dtype=float), icps, start_bound, res, tuple(constraints), given)
+
+
+def _named(constraints: list, given: Any, what: str, template: Template) -> np.ndarray:
+    """Named constraints as OSILA's array: points (N, D), or spheres (N, D + 1) for obstacles."""
+    if given is not None:
+        raise InputError(f"expected {what} either as named constraints or as the '{what}' argument, got both")
+    rows = []
+    for c in constraints:
+        point = np.asarray(c.point, dtype=float).reshape(-1)
+        if point.shape != (template.dim,):
+            raise InputError(f"template '{template.name}' is {template.dim}-D but {c.name or c.kind} is the "
+                             f"{point.size}-D point {_fmt(point)}")
+        rows.append(point if c.radius is None else np.append(point, c.radius))
+    return np.array(rows, dtype=float)
 
 
 

@@ -42,7 +42,7 @@ def test_help_is_instant_and_imports_nothing_heavy():
     code = (
         "import sys, hila_lang.cli as c\n"
         "c.build_parser()\n"
-        "heavy = [m for m in ('numpy', 'pybullet', 'sklearn', 'cv2', 'scipy', 'lark') if m in sys.modules]\n"
+        "heavy = [m for m in ('numpy', 'pybullet', 'sklearn', 'cv2', 'scipy', 'lark', 'pygls', 'lsprotocol') if m in sys.modules]\n"
         "print(','.join(heavy))\n"
     )
     start = time.perf_counter()

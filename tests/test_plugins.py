@@ -29,7 +29,7 @@ from hila_lang.errors import InputError, UnknownNameError, internal_error_messag
 from hila_lang.language.runner import finish, prepare, split_settings
 from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions
-from hila_lang.plugins.protocols import CAPABILITIES, Backend, World, conformance
+from hila_lang.plugins.protocols import CAPABILITIES, WORLD_CAPABILITIES, Backend, World, conformance
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -50,13 +50,17 @@ def test_every_registered_plugin_implements_its_protocol(tmp_path, world_name, b
     options = RunOptions(out=tmp_path, stdin=io.StringIO(), stdout=io.StringIO())
     world = winfo.build(options, winfo.parse({s.name: "no" for s in winfo.settings if s.name == "report"}))
     assert conformance(world, World) == [] and isinstance(world, World)
+    for name, protocol in WORLD_CAPABILITIES.items():  # hila's own worlds can all go back
+        assert isinstance(getattr(world, name), protocol) and conformance(getattr(world, name), protocol) == []
     backend = binfo.build(world.scene, options, binfo.parse({}))
     try:
         assert conformance(backend, Backend) == [] and backend.name == backend_name
         for name, protocol in CAPABILITIES.items():
             part = getattr(backend, name)
-            if backend_name in ("dry", "pybullet"):
-                assert (part is None) == (backend_name == "dry"), name
+            if backend_name in ("dry", "pybullet") and name in ("eyes", "ink", "overview"):
+                assert (part is None) == (backend_name == "dry"), name  # the dry one has no camera, no ink
+            if backend_name in ("dry", "pybullet") and name == "view":
+                assert part is None  # no window without --gui
             if part is not None:
                 assert isinstance(part, protocol) and conformance(part, protocol) == []
         world.attach(backend)
@@ -68,7 +72,7 @@ def test_every_registered_plugin_implements_its_protocol(tmp_path, world_name, b
 def test_conformance_names_what_is_missing_or_wrongly_shaped():
     class Half:
         name = "half"
-        eyes = ink = overview = None
+        eyes = ink = overview = snapshots = view = None
 
         def hand_position(self):
             return np.zeros(3)
@@ -88,6 +92,20 @@ def test_conformance_names_what_is_missing_or_wrongly_shaped():
         eyes = object()
 
     assert any(p.startswith("eyes has no 'camera_image'") for p in conformance(BadEyes(), Backend))
+
+    class HalfSnapshots:  # a world's capability is checked as a back end's is
+        def save(self):
+            return 0
+
+        def restore(self, token):  # wrong parameter name
+            pass
+
+    from hila_lang.worlds.scripted.world import ScriptedWorld
+
+    world = ScriptedWorld()
+    world.snapshots = HalfSnapshots()
+    assert conformance(world, World) == ["snapshots has no 'discard'",
+                                         "snapshots restore() names its parameter 1 'token', expected 'saved'"]
 
 
 def test_declarations_are_documented_and_import_nothing_heavy():
@@ -136,6 +154,7 @@ from . import BUILT, WORLD
 
 class ToyWorld:
     scene = None
+    snapshots = None  # it cannot go back
 
     def __init__(self, height):
         self.height = height

@@ -15,14 +15,23 @@ def add_arguments(parser) -> None:
     add_run_arguments(parser)
     parser.add_argument("--trace", default=None, metavar="FILE", help="write the state trace to FILE")
     parser.add_argument("--quiet", action="store_true", help="do not print the state trace")
+    parser.add_argument("--record", default=None, metavar="FILE.hilarec",
+                        help="record the run in one file (program, templates, settings, every step with its "
+                             "paths): 'hila replay FILE' steps through it, 'hila replay --verify FILE' re-runs it")
+    parser.add_argument("--record-eyes", action="store_true",
+                        help="with --record: keep the left eye's image after each run state (PyBullet)")
 
 
 def run(args) -> int:
     from ..fileio import atomic_write_text
     from ..language.runner import finish, prepare
 
+    from ..language.recording import start_recording
+
     options = run_options(args)
+    record = start_recording(args, options)  # before the world takes stdin: a person's moves are kept
     interp = prepare(args.program, options, args.backend)
+    recorder = record(interp) if record else None
     lines: list[str] = []
     try:
         while not interp.done:
@@ -33,5 +42,9 @@ def run(args) -> int:
     finally:
         if args.trace:
             atomic_write_text(args.trace, "\n".join(lines) + "\n")
+        if recorder is not None:
+            import sys
+
+            recorder.close(sys.exc_info()[1])
     finish(interp)
     return 0

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from ..language.runopts import add_run_arguments, run_options
 
-HELP = "step a .hila program state by state (step, run, break, where, icps, path, fsm, ...)"
+HELP = "step a .hila program state by state (step, run, break, where, icps, explain, back, reload, ...)"
 DESCRIPTION = (
     "An interactive stepper over the program's FSM. Commands: step [n], run, break STATE, "
-    "continue, where, icps, path [--plot FILE.png], fsm, reset, help, quit. Reads piped stdin too."
+    "continue, where, icps, explain, vars, path [--plot FILE.png], fsm, back [n] (undo steps: the "
+    "world and the simulator are restored), reload (the edited program and templates, from the "
+    "same state), reset, help, quit. Reads piped stdin too."
 )
 
 

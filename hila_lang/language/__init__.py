@@ -9,7 +9,9 @@ Every stage is callable on its own (STYLE.md habit 2)::
     machine = compiler.compile_program(checked)       # fsm.FSM, plain data
 
 ``load_program(path)`` runs the whole front end; ``hila_lang.language.interpreter`` steps the
-FSM over a world and a back end (found through :mod:`hila_lang.plugins`; :mod:`.runner` wires them).
+FSM over a world and a back end (found through :mod:`hila_lang.plugins`; :mod:`.runner` wires them);
+:mod:`.repl` is the interactive stepper, :mod:`.recording` writes a run to one file and
+:mod:`.replay` steps through it or verifies it.
 """
 
 

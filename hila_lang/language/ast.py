@@ -11,7 +11,8 @@ way passes walk the tree (:func:`children` lists a node's parts generically).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, is_dataclass
+import functools
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Union, get_args
 
 
@@ -147,8 +148,33 @@ class Binding:
 
 
 @dataclass(frozen=True)
+class Constraint:
+    """``via POINT`` (a forced waypoint) or ``avoid POINT radius R`` (an obstacle, a sphere), after a
+    ``run`` or a task call (where it applies to every run inside the task).
+
+    ``value`` is a point or a point group (each of its points is one waypoint or one sphere);
+    ``radius`` (metres) only for ``avoid``.  OSILA's plan adjustment meets them.
+    """
+
+    kind: str  # "via" or "avoid"
+    value: "Expr"
+    radius: "Expr | None" = None
+    pos: Pos = _pos()
+
+    def text(self) -> str:
+        """As the user wrote it (variables by name): ``avoid cup radius 0.04``."""
+        radius = "" if self.radius is None else f" radius {source_text(self.radius)}"
+        return f"{self.kind} {source_text(self.value)}{radius}"
+
+
+def _constraints():
+    """The ``constraints`` field of a run or a call: omitted from :func:`dump` when empty."""
+    return field(default=(), metadata={"omit_empty": True})
+
+
+@dataclass(frozen=True)
 class RunStmt:
-    """``run TEMPLATE[.TAG](bindings) [pen up|down]``."""
+    """``run TEMPLATE[.TAG](bindings) [pen up|down] [via P] [avoid P radius R] ...``."""
 
     template: str
     tag: str | None
@@ -156,6 +182,7 @@ class RunStmt:
     pen: str | None = None
     pos: Pos = _pos()
     ref_pos: Pos = _pos()  # where ``TEMPLATE.TAG`` is written
+    constraints: tuple[Constraint, ...] = _constraints()
 
     @property
     def ref(self) -> str:
@@ -167,6 +194,7 @@ class CallStmt:
     task: str
     args: tuple[Expr, ...]
     pos: Pos = _pos()
+    constraints: tuple[Constraint, ...] = _constraints()
 
 
 @dataclass(frozen=True)
@@ -280,6 +308,12 @@ class Program:
 # --------------------------------------------------------------------------- visiting
 
 
+@functools.lru_cache(maxsize=None)
+def _part_fields(cls: type) -> tuple[str, ...]:
+    """Names of the fields of AST class ``cls`` that take part in equality (not positions)."""
+    return tuple(f.name for f in fields(cls) if f.compare)
+
+
 def children(node) -> list:
     """The AST nodes directly inside ``node``, in field order (bodies flattened, if-branches as
     condition then body).  Every pass walks the tree through this one function, so a new node
@@ -287,15 +321,14 @@ def children(node) -> list:
     out: list = []
 
     def add(value) -> None:
-        if is_dataclass(value) and not isinstance(value, Pos):
-            out.append(value)
-        elif isinstance(value, tuple):
+        if isinstance(value, tuple):
             for v in value:
                 add(v)
+        elif hasattr(type(value), "__dataclass_fields__") and not isinstance(value, Pos):
+            out.append(value)
 
-    for f in fields(node):
-        if f.compare:
-            add(getattr(node, f.name))
+    for name in _part_fields(type(node)):
+        add(getattr(node, name))
     return out
 
 
@@ -313,6 +346,29 @@ class Visitor:
     def generic_visit(self, node, *args):
         for child in children(node):
             self.visit(child, *args)
+
+
+@functools.lru_cache(maxsize=None)
+def _all_fields(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in fields(cls))
+
+
+def shift_lines(node, lines: int):
+    """A copy of ``node`` (a node, or a tuple of them) written ``lines`` lines further down: every
+    position moved, nothing else changed (the language server reuses a top-level item that moved)."""
+    if isinstance(node, tuple):
+        return tuple(shift_lines(n, lines) for n in node)
+    if isinstance(node, Pos):
+        return Pos(node.line + lines, node.column, node.end_line + lines, node.end_column) if node.line else node
+    if not hasattr(type(node), "__dataclass_fields__"):
+        return node
+    changes = {}
+    for name in _all_fields(type(node)):
+        value = getattr(node, name)
+        moved = shift_lines(value, lines)
+        if moved is not value:
+            changes[name] = moved
+    return replace(node, **changes) if changes else node
 
 
 def walk(body):
@@ -408,6 +464,13 @@ def expr_text(e, prec: int = 0) -> str:
     return _TEXT.visit(e, prec)
 
 
+def source_text(e) -> str:
+    """An expression as the user wrote it: :func:`expr_text` with variables by name, not by slot."""
+    import re
+
+    return re.sub(r"\{[^{}]*:([^{}]*)\}", r"\1", expr_text(e))
+
+
 def dump(node, indent: int = 0) -> str:
     """Indented text of an AST (one node per line, with its ``line:column``)."""
     pad = "  " * indent
@@ -422,6 +485,8 @@ def dump(node, indent: int = 0) -> str:
         if not f.compare:  # positions, file name, source text
             continue
         value = getattr(node, f.name)
+        if f.metadata.get("omit_empty") and not value:
+            continue
         if is_dataclass(value) or (isinstance(value, tuple) and value and not all(isinstance(v, str) for v in value)):
             children.append((f.name, value))
         elif isinstance(value, float):

@@ -67,9 +67,10 @@ def did_you_mean(name: str, choices) -> str | None:
 
 
 class _Checker(A.Visitor):
-    def __init__(self, program: A.Program) -> None:
+    def __init__(self, program: A.Program, load_template=None) -> None:
         self.p = program
         self.warnings: list[str] = []
+        self.load_template = load_template  # path -> Template; None: hila_lang.template.load_template
 
     def error(self, message: str, pos: A.Pos, hint: str | None = None) -> CheckError:
         line = pos.line or None
@@ -137,6 +138,7 @@ class _Checker(A.Visitor):
     def load(self, imp: A.ImportDecl):
         from ..template import load_template
 
+        load_template = self.load_template or load_template
         if imp.is_path:
             base = Path(self.p.file).parent if not self.p.file.startswith("<") else Path.cwd()
             candidates = [base / imp.source]
@@ -178,6 +180,7 @@ class _Checker(A.Visitor):
                 f"task '{s.task}' takes {len(task.params)} argument(s) ({', '.join(task.params) or 'none'}), "
                 f"got {len(s.args)}", s.pos, f"defined at line {task.pos.line}")
         self.expr(s.args, defined, s.pos)
+        self.constraints(s.constraints, defined)
 
     def visit_LetStmt(self, s: A.LetStmt, defined: set[str]) -> None:
         if s.name in RESERVED:
@@ -251,12 +254,34 @@ class _Checker(A.Visitor):
                     raise self.error(f"ICP '{m}' is bound twice", b.pos, f"first bound at column {covered[m].pos.column}")
                 covered[m] = b
             self.expr(b.value, defined, b.pos)
+        self.constraints(s.constraints, defined)
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
         if unbound:
             raise self.error(
                 f"unbound ICP{'s' if len(unbound) > 1 else ''} {', '.join(repr(u) for u in unbound)} of '{s.ref}'",
                 s.pos, f"bind {'them' if len(unbound) > 1 else 'it'}, e.g. {unbound[0]} = POINT, "
                 f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
+
+    def constraints(self, constraints, defined: set[str]) -> None:
+        """``via P`` takes no radius, ``avoid P`` needs one (> 0 when written as a number); P is a
+        point or a point group, so a number, a truth value or ``none`` is refused."""
+        for c in constraints:
+            if c.kind == "via" and c.radius is not None:
+                raise self.error("a 'via' waypoint takes no radius", c.radius.pos if c.radius.pos.line else c.pos,
+                                 "the route passes within OSILA's threshold of it; to keep away from a "
+                                 "point write 'avoid POINT radius R'")
+            if c.kind == "avoid" and c.radius is None:
+                raise self.error("'avoid' needs a radius: avoid POINT radius R (metres)", c.pos)
+            if isinstance(c.value, (A.Number, A.Bool, A.NoneLit)):
+                raise self.error(f"'{c.kind}' needs a point or a point group, got {A.expr_text(c.value)}",
+                                 c.value.pos if c.value.pos.line else c.pos,
+                                 "e.g. (0.3, -0.1, 0.6), a point's name, or a group such as board.cell5")
+            self.expr(c.value, defined, c.pos)
+            if c.radius is not None:
+                self.expr(c.radius, defined, c.pos)
+                if isinstance(c.radius, A.Number) and c.radius.value <= 0:
+                    raise self.error(f"an obstacle's radius must be more than 0 metres, got {A.expr_text(c.radius)}",
+                                     c.radius.pos if c.radius.pos.line else c.pos)
 
     # ------------------------------------------------------------------ expressions
     def expr(self, e, defined: set[str], where: A.Pos) -> None:
@@ -315,6 +340,15 @@ class _Names(A.Visitor):
         self.generic_visit(e)
 
 
-def check(program: A.Program) -> CheckedProgram:
-    """Check ``program``; raise :class:`CheckError` at the first mistake."""
-    return _Checker(program).run()
+def check(program: A.Program, load_template=None) -> CheckedProgram:
+    """Check ``program``; raise :class:`CheckError` at the first mistake.
+
+    ``load_template(path) -> Template`` reads an imported template (default
+    :func:`hila_lang.template.load_template`; the language server passes one that caches)."""
+    return _Checker(program, load_template).run()
+
+
+def resolve_import(program: A.Program, imp: A.ImportDecl, load_template=None):
+    """``(path, Template)`` of one import of ``program``, found as :func:`check` finds it
+    (CheckError when it is not found or does not load)."""
+    return _Checker(program, load_template).load(imp)

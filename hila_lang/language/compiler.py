@@ -37,9 +37,10 @@ def _base(s) -> str | None:
 class _Scope:
     """Names and counters of one task instance."""
 
-    def __init__(self, prefix: str, body, params: dict[str, str]) -> None:
+    def __init__(self, prefix: str, body, params: dict[str, str], inherited: tuple = ()) -> None:
         self.prefix = prefix
         self.vars = dict(params)  # name -> slot
+        self.inherited = inherited  # constraints of the task calls around this body, resolved
         self.totals = Counter(b for b in map(_base, A.walk(body)) if b is not None)
         self.used: Counter = Counter()
 
@@ -52,6 +53,12 @@ class _Scope:
     def resolve(self, e):
         """Replace variable names by :class:`~hila_lang.language.ast.Var` slots."""
         return A.map_names(e, lambda n: A.Var(self.vars[n.parts[0]], n.parts[1:], n.pos) if n.parts[0] in self.vars else n)
+
+    def constraints(self, constraints) -> tuple:
+        """The constraints around this body, then ``constraints`` resolved here."""
+        return self.inherited + tuple(
+            A.Constraint(c.kind, self.resolve(c.value), None if c.radius is None else self.resolve(c.radius), c.pos)
+            for c in constraints)
 
 
 class _Compiler(A.Visitor):
@@ -93,7 +100,7 @@ class _Compiler(A.Visitor):
             pen = any(seg.contact for seg in template.segments)
         st = self.add(RunState(scope.name(s.tag or s.template), template=s.template, tag=s.tag,
                                bindings=tuple((b.icp, scope.resolve(b.value)) for b in s.bindings),
-                               pen_down=pen), s.pos)
+                               pen_down=pen, constraints=scope.constraints(s.constraints)), s.pos)
         return st.name, [(st, "next")]
 
     def visit_CallStmt(self, s: A.CallStmt, scope: _Scope):
@@ -102,7 +109,7 @@ class _Compiler(A.Visitor):
         slots = {p: f"{name}:{p}" for p in task.params}
         st = self.add(CallState(name, task=s.task,
                                 assign=tuple((slots[p], scope.resolve(a)) for p, a in zip(task.params, s.args))), s.pos)
-        entry, dangling = self.block(task.body, _Scope(name, task.body, slots))
+        entry, dangling = self.block(task.body, _Scope(name, task.body, slots, scope.constraints(s.constraints)))
         if entry is None:
             return st.name, [(st, "next")]
         st.next = entry

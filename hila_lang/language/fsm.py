@@ -5,7 +5,8 @@ One class per kind of state (its ``kind`` string names it in JSON):
 - :class:`RunState` (``run``): warp one (sub-)template onto the scene with OSILA and move the
   hand along it.  ``template``/``tag`` name it, ``bindings`` map ICP names (or group prefixes)
   to expressions, ``pen_down`` says whether it touches the paper (the template's ``contact``
-  unless overridden).
+  unless overridden), ``constraints`` are its ``via``/``avoid`` constraints (those of the task
+  calls around it first), each with the line and column it was written at.
 - :class:`CallState` (``call``): enter a task; ``assign`` binds its parameters (slots
   ``PREFIX:NAME``).
 - :class:`SetState` (``set``): ``let`` and loop counters; ``assign`` maps slots to expressions.
@@ -110,12 +111,33 @@ class State:
                    next=d.get("next"), **cls._fields_from_dict(d))
 
 
+def _constraint_text(c) -> str:
+    """A resolved constraint in FSM dumps: variables as ``{slot}`` (like the bindings)."""
+    return f"{c.kind} {expr_text(c.value)}" + ("" if c.radius is None else f" radius {expr_text(c.radius)}")
+
+
+def _constraint_to_dict(c) -> dict:
+    return {"kind": c.kind, "value": expr_text(c.value),
+            **({} if c.radius is None else {"radius": expr_text(c.radius)}),
+            "line": c.pos.line, "column": c.pos.column}
+
+
+def _constraint_from_dict(d: dict):
+    from .ast import Constraint, Pos
+    from .transformer import parse_expr
+
+    radius = d.get("radius")
+    return Constraint(d["kind"], parse_expr(d["value"]), None if radius is None else parse_expr(radius),
+                      Pos(int(d.get("line", 0)), int(d.get("column", 0))))
+
+
 @dataclass(eq=True)
 class RunState(State):
     template: str | None = None
     tag: str | None = None
     bindings: tuple = ()  # ((icp, Expr), ...)
     pen_down: bool | None = None
+    constraints: tuple = ()  # (ast.Constraint with slots resolved, ...)
 
     kind: ClassVar[str] = "run"
     shape: ClassVar[str] = "box"
@@ -130,16 +152,21 @@ class RunState(State):
 
     def describe(self) -> str:
         binds = ", ".join(f"{expr_text(v)}.*" if k == "*" else f"{k} = {expr_text(v)}" for k, v in self.bindings)
-        return f"run {self.ref}({binds}) pen {'down' if self.pen_down else 'up'}"
+        limits = "".join(" " + _constraint_text(c) for c in self.constraints)
+        return f"run {self.ref}({binds}) pen {'down' if self.pen_down else 'up'}{limits}"
 
     def _fields_to_dict(self) -> dict:
-        return {"template": self.template, "tag": self.tag, "pen_down": self.pen_down,
-                "bindings": _exprs_to_dict(self.bindings)}
+        d = {"template": self.template, "tag": self.tag, "pen_down": self.pen_down,
+             "bindings": _exprs_to_dict(self.bindings)}
+        if self.constraints:  # only when there are some: older dumps stay as they were
+            d["constraints"] = [_constraint_to_dict(c) for c in self.constraints]
+        return d
 
     @classmethod
     def _fields_from_dict(cls, d: dict) -> dict:
         return {"template": d["template"], "tag": d.get("tag"), "pen_down": d.get("pen_down"),
-                "bindings": _exprs_from_dict(d.get("bindings"))}
+                "bindings": _exprs_from_dict(d.get("bindings")),
+                "constraints": tuple(_constraint_from_dict(c) for c in d.get("constraints") or ())}
 
 
 @dataclass(eq=True)

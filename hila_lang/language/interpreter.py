@@ -10,7 +10,13 @@ end says the hand is, the program's ``point`` s, then the world's ``points()``),
 ``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
 binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
-(``template`` is the sub-template that ran).
+(``template`` is the sub-template that ran).  Its ``via``/``avoid`` constraints (and those of the
+task calls around it) are evaluated now (:meth:`Interpreter.constraints`: a point group gives one
+per point) and go to OSILA's plan adjustment through the same step; the trace says how each was
+met.
+
+After each step the ``observers`` are called with its :class:`TraceEntry` (a recorder, a window's
+state text).  Going back and reloading are :class:`~hila_lang.language.history.History`'s.
 
 Any hila error while a state runs (an unknown scene point, a question the world does not have
 -- :class:`~hila_lang.errors.UnknownNameError` --, contradicted constraints, an unreachable
@@ -21,7 +27,6 @@ Any other exception raised by a world, a back end or OSILA is a bug and propagat
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,6 +35,7 @@ import numpy as np
 from . import ast as A
 from ..errors import HilaError, HilaRuntimeError
 from .fsm import FSM, SetState, State
+from .history import History, Snapshot
 from .parser import source_line
 
 START, END = "start", "end"
@@ -50,6 +56,8 @@ class TraceEntry:
     icps: dict[str, np.ndarray] = field(default_factory=dict)
     pen_down: bool | None = None
     value: Any = None
+    #: the HILA step of a run state (:class:`hila_lang.hierarchy.Step`: OSILA's result, constraints)
+    step_result: Any = None
 
     def __str__(self) -> str:
         where = f"line {self.line}" if self.line else "-"
@@ -72,7 +80,7 @@ def fmt_value(v) -> str:
     return repr(v)
 
 
-class Interpreter:
+class Interpreter(History):
     """Steps ``fsm`` (compiled from ``checked``) with ``world`` and ``backend``.
 
     Parameters
@@ -91,11 +99,17 @@ class Interpreter:
         self.osila_options = dict(osila_options or {})
         self._subs: dict[tuple[str, str | None], Any] = {}
         self._eval = _Eval(self)
+        self.history: list[Snapshot] | None = None  # see keep_history
+        #: called with each step's TraceEntry once it has run (a recorder, the GUI's state text)
+        self.observers: list = []
         self.reset()
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:
         """Back to the start state with no variables; the hand back to ``hand at`` if given."""
+        if self.history:  # the steps before a reset cannot be gone back to
+            self._discard(self.history)
+            self.history = []
         self.current: str = self.fsm.start
         self.env: dict[str, Any] = {}
         self.trace: list[TraceEntry] = []
@@ -159,8 +173,20 @@ class Interpreter:
         return exc
 
     def _execute(self, st: State) -> TraceEntry:
-        """Run one state: ``exec_<kind>(state, step number)``."""
-        return getattr(self, "exec_" + st.kind)(st, len(self.trace) + 1)
+        """Run one state: ``exec_<kind>(state, step number)``; remembered for :meth:`back` when
+        :meth:`keep_history` is on."""
+        saved = self.snapshot() if self.history is not None else None
+        try:
+            entry = getattr(self, "exec_" + st.kind)(st, len(self.trace) + 1)
+        except BaseException:
+            if saved is not None:
+                self._discard([saved])
+            raise
+        if saved is not None:
+            self._remember(saved)
+        for observer in self.observers:
+            observer(entry)
+        return entry
 
     def exec_set(self, st, n: int) -> TraceEntry:
         values = [(slot, self.eval(e)) for slot, e in st.assign]
@@ -237,7 +263,8 @@ class Interpreter:
         from ..hierarchy import hila_step
 
         t = self.template(st)
-        step = hila_step(t, self.scene_binding(st), self.hand(), **self.osila_options)
+        step = hila_step(t, self.scene_binding(st), self.hand(), constraints=self.constraints(st),
+                         **self.osila_options)
         path, icps = step.path, step.icps
         executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         executed = None if executed is None else np.asarray(executed, dtype=float)
@@ -246,9 +273,61 @@ class Interpreter:
                           pen_down=bool(st.pen_down), icps=dict(icps), template=t)
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
-                + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()))
+                + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step))
         return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
-                          icps=icps, pen_down=bool(st.pen_down))
+                          icps=icps, pen_down=bool(st.pen_down), step_result=step)
+
+    def explain(self) -> list[str]:
+        """What OSILA does in the current run state (before it runs), or did in the last run:
+        lines of :func:`hila_lang.explain.explain_run` (ICP pairs, fallbacks, rounds and why)."""
+        from ..explain import explain_run, explain_step
+
+        if not self.done and self.state.kind == "run":
+            st = self.state
+            where = f"{st.name} (line {st.line}), about to run"
+            return self._guard(st, lambda: explain_run(
+                self.template(st), self.scene_binding(st), self.hand(), self.constraints(st), self.osila_options,
+                title=where))
+        done = [t for t in self.trace if t.step_result is not None]
+        if not done:
+            raise HilaRuntimeError("nothing to explain yet: no run state is current or has run")
+        last = done[-1]
+        return explain_step(self.template(self.fsm.states[last.state]), last.step_result,
+                            title=f"{last.state} (line {last.line}), step {last.step}")
+
+    # ------------------------------------------------------------------ constraints
+    def constraints(self, st) -> list:
+        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.Constraint` s, now:
+        a point group gives one per point; a radius must be a number > 0 (metres)."""
+        from ..hierarchy import Constraint
+
+        out = []
+        for c in st.constraints:
+            where = f"{c.text()} at {c.pos.line}:{c.pos.column}" if c.pos.line else c.text()
+            radius = None
+            if c.radius is not None:
+                radius = self.eval(c.radius)
+                if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not radius > 0:
+                    raise HilaRuntimeError(f"an obstacle's radius must be a number of metres > 0, got "
+                                           f"{fmt_value(radius)} from '{_src(c.radius)}' in '{where}'")
+            for member, point in self.points_of(c.value):
+                name = where if member is None else f"{where} ({member})"
+                out.append(Constraint(point, None if radius is None else float(radius), name))
+        return out
+
+    def points_of(self, expr) -> list[tuple[str | None, np.ndarray]]:
+        """A point (``[(None, p)]``) or every point of a group (``[(name, p), ...]``, scene order)."""
+        value = self.eval(expr)
+        if isinstance(value, str):
+            value = self.lookup(value)
+        if isinstance(value, np.ndarray) and value.shape in ((2,), (3,)):
+            return [(None, value)]
+        if isinstance(value, str):  # a group prefix: its points, the world's then the program's
+            scene = self.scene_points()
+            members = [(k, np.asarray(p, dtype=float)) for k, p in scene.items() if k.startswith(value + ".")]
+            if members:
+                return members
+        raise HilaRuntimeError(f"expected a point or a point group, got {fmt_value(value)} from '{_src(expr)}'")
 
     # ------------------------------------------------------------------ expressions
     def scene_points(self) -> dict[str, np.ndarray]:
@@ -396,9 +475,18 @@ class _Eval(A.Visitor):
         return {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b, "/": lambda: a / b}[e.op]()
 
 
-def _src(expr) -> str:
-    """An expression as the user wrote it (variables by name, not by slot)."""
-    return re.sub(r"\{[^{}]*:([^{}]*)\}", r"\1", A.expr_text(expr))
+_src = A.source_text  # an expression as the user wrote it (variables by name, not by slot)
+
+
+def met_text(step) -> str:
+    """How a run's route met its constraints, for the trace: ``; via w at 5:9 met at 0.4 mm``."""
+    parts = []
+    for c, value in step.met():
+        if c.radius is None:
+            parts.append(f"{c.name} met at {value * 1000:.1f} mm")
+        else:
+            parts.append(f"{c.name} cleared by {value * 1000:.1f} mm")
+    return "".join(f"; {p}" for p in parts)
 
 
 def _plain(value):

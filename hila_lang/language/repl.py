@@ -2,9 +2,11 @@
 
 Commands: ``step [n]``, ``run`` / ``continue`` (until a breakpoint or the end), ``break
 [STATE]`` (glob patterns allowed: ``break main/*/draw``; no argument lists them), ``clear
-[STATE]``, ``where``, ``icps``, ``vars``, ``path [--plot FILE.png]``, ``fsm``, ``reset``,
-``help``, ``quit``.  An error in a command is reported and the session goes on.  Reading a pipe,
-each command is echoed after the prompt, so a transcript reads like a session; on a terminal,
+[STATE]``, ``where``, ``icps``, ``explain``, ``vars``, ``path [--plot FILE.png]``, ``fsm``,
+``back [n]`` (undo steps: world and simulator restored), ``reload`` (the edited program and
+templates, from the same state), ``reset``, ``help``, ``quit``.  An error in a command is
+reported and the session goes on.  Reading a pipe, each command is echoed after the prompt, so
+a transcript reads like a session; on a terminal,
 readline gives history (``~/.hila_history``) and tab completion of commands and state names.
 """
 
@@ -35,6 +37,7 @@ class Repl(cmd.Cmd):
         super().__init__(stdin=stdin, stdout=stdout)
         self.interp = interp
         self.breakpoints: list[str] = []
+        self.no_back = interp.keep_history()  # None, or why 'back' cannot work here
         self.interactive = bool(getattr(stdin, "isatty", lambda: False)())
         self.use_rawinput = self.interactive and stdin is sys.stdin
         if not self.interactive:  # cmd would print the prompt with no newline; precmd echoes instead
@@ -195,6 +198,12 @@ class Repl(cmd.Cmd):
         for k, v in icps.items():
             self.say(f"  {k:<12} = {fmt_point(v)}")
 
+    def do_explain(self, arg: str) -> None:
+        """explain: what OSILA does in the current run state (or did in the last run): the ICP
+        pairs, the map and its fallback, the rounds of plan adjustment and why each was needed."""
+        for line in self.interp.explain():
+            self.say(line)
+
     def do_vars(self, arg: str) -> None:
         """vars: the program's variables and their values."""
         if not self.interp.env:
@@ -227,6 +236,35 @@ class Repl(cmd.Cmd):
             name = line.strip().split(" ")[0] if line.startswith("  ") else None
             mark = ">" if name == self.interp.current and not self.interp.done else " "
             self.say(mark + line[1:] if line.startswith("  ") else line)
+
+    def do_back(self, arg: str) -> None:
+        """back [N]: undo the last N steps (default 1): the world, the simulator and the program's
+        variables are as they were, so the same step can run again (after a 'reload', say)."""
+        try:
+            n = int(arg) if arg.strip() else 1
+        except ValueError:
+            raise ValueError(f"expected 'back' or 'back N' with a whole number N, got {arg.strip()!r}") from None
+        self.say(f"{self.interp.back(n)}; hand at {fmt_point(self.interp.hand())}")
+
+    def do_reload(self, arg: str) -> None:
+        """reload: re-read the program and the templates it imports and go on from the same state
+        (the world and the back end keep theirs).  A program that does not load is reported and the
+        old one keeps running."""
+        from . import load_program
+
+        file = self.interp.fsm.file
+        try:
+            checked, fsm = load_program(file)
+        except HilaError as exc:
+            self.say(str(exc))
+            self.say(f"reload failed: the program as it was keeps running (at {self.interp.current})")
+            return
+        where = self.interp.reload(checked, fsm)
+        files = ", ".join(str(p) for p in checked.template_files.values())
+        self.say(f"reloaded {file} ({len(fsm.states)} states; templates {files or 'none'}); {where}")
+        for b in self.breakpoints:
+            if not any(fnmatch.fnmatchcase(s, b) for s in fsm.states):
+                self.say(f"note: breakpoint {b} matches no state of the new program")
 
     def do_reset(self, arg: str) -> None:
         """reset: back to the start state, variables cleared, hand back to its start."""

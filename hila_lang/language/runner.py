@@ -73,10 +73,29 @@ def prepare(path, options: RunOptions, backend: str | None = None) -> Interprete
     be = backend_info.build(world.scene, options, backend_settings)
     try:
         world.attach(be)
-        return Interpreter(checked, fsm, world, be, osila)
+        interp = Interpreter(checked, fsm, world, be, osila)
+        if be.view is not None:
+            show_states(interp)
+        return interp
     except BaseException:
         be.close()
         raise
+
+
+def show_states(interp: Interpreter) -> None:
+    """Tell the back end's view (a window) each state as it starts: its name and program line."""
+    from .parser import source_line
+
+    def show(name: str | None) -> None:
+        if name is None:
+            interp.backend.view.show_state("finished", "")
+            return
+        st = interp.fsm.states[name]
+        text = (source_line(interp.checked.program.source, st.line) or "").split("#")[0].strip() if st.line else ""
+        interp.backend.view.show_state(name, f"{interp.fsm.file}:{st.line}  {text}" if st.line else "")
+
+    show(interp.current)
+    interp.observers.append(lambda entry: show(entry.next))
 
 
 def finish(interp: Interpreter):

@@ -111,13 +111,18 @@ class ToAst(Transformer):
     def pen(self, meta, ch):
         return str(ch[0])
 
+    def constraint(self, meta, ch):
+        kind, value, radius = ch
+        return A.Constraint(str(kind), value, radius, _pos(meta))
+
     def run_stmt(self, meta, ch):
-        ref, bindings, pen = ch
+        ref, bindings, pen, *constraints = ch
         template, tag = ref.parts[0], (".".join(ref.parts[1:]) or None)
-        return A.RunStmt(template, tag, bindings or (), pen, _pos(meta), ref.pos)
+        return A.RunStmt(template, tag, bindings or (), pen, _pos(meta), ref.pos, tuple(constraints))
 
     def call_stmt(self, meta, ch):
-        return A.CallStmt(str(ch[0]), ch[1] or (), _pos(meta))
+        name, args, *constraints = ch
+        return A.CallStmt(str(name), args or (), _pos(meta), tuple(constraints))
 
     def let_stmt(self, meta, ch):
         return A.LetStmt(str(ch[0]), ch[1], _pos(meta))

@@ -11,6 +11,10 @@ that implements a small protocol, or None.  ``backend.eyes`` (:class:`Eyes`: the
 cameras), ``backend.ink`` (:class:`Ink`: a drawing surface that keeps the ink) and
 ``backend.overview`` (:class:`Overview`: a camera outside the robot, for reports and never for
 decisions).  A world asks ``if backend.eyes is not None`` -- it never probes for methods.
+``backend.view`` (:class:`View`) is a window a person watches (``--gui``).
+Worlds and back ends both declare ``snapshots`` (:class:`Snapshots`: save what they are now and
+restore it later, for the REPL's ``back``; :class:`hila_lang.plugins.snapshots.AttributeSnapshots`
+does it for state held in a few attributes), or None when they cannot go back.
 
 Lifecycle of a run (:mod:`hila_lang.language.runner`)::
 
@@ -84,6 +88,35 @@ class Overview(Protocol):
 
 
 @runtime_checkable
+class Snapshots(Protocol):
+    """Saving and restoring the whole state of a world or a back end (the REPL's ``back``).
+
+    ``save()`` returns an opaque token; ``restore(token)`` makes the owner what it was when the
+    token was saved; ``discard(token)`` frees what the token holds (a simulator's saved state)
+    once it will not be restored again.  The REPL goes back, never forward: before it restores a
+    token it discards every token saved after it, and a token may be restored more than once.
+    """
+
+    def save(self) -> Any:
+        ...
+
+    def restore(self, saved: Any) -> None:
+        ...
+
+    def discard(self, saved: Any) -> None:
+        ...
+
+
+@runtime_checkable
+class View(Protocol):
+    """A window showing the run to a person (PyBullet's with ``--gui``): the runner tells it which
+    FSM state is running, and where it is written in the program."""
+
+    def show_state(self, name: str, where: str) -> None:
+        ...
+
+
+@runtime_checkable
 class Backend(Protocol):
     """Executes Cartesian paths and reports where the hand (pen tip) is."""
 
@@ -92,6 +125,8 @@ class Backend(Protocol):
     eyes: "Eyes | None"
     ink: "Ink | None"
     overview: "Overview | None"
+    snapshots: "Snapshots | None"
+    view: "View | None"
 
     def hand_position(self) -> "np.ndarray":
         """Current pen-tip position, shape (3,), metres, world frame."""
@@ -123,6 +158,8 @@ class World(Protocol):
     #: what a simulating back end builds (the drawing surface, where the hand starts); None:
     #: the back end's default
     scene: "Scene | None"
+    #: capability: saving and restoring the world's state (the REPL's ``back``), or None
+    snapshots: "Snapshots | None"
 
     def attach(self, backend: Backend) -> None:
         """Called once the back end exists (park the arm, keep the back end for ink and eyes)."""
@@ -152,7 +189,9 @@ class World(Protocol):
 
 
 #: the capability attributes of a back end and the protocol each must implement when not None
-CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview}
+CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview, "snapshots": Snapshots, "view": View}
+#: the same for a world
+WORLD_CAPABILITIES = {"snapshots": Snapshots}
 
 
 def _members(protocol: type) -> list[str]:
@@ -206,7 +245,8 @@ def _compatible(wanted, given) -> str | None:
 
 def conformance(obj: Any, protocol: type) -> list[str]:
     """What keeps ``obj`` from implementing ``protocol``: missing members and methods whose
-    signature cannot be called as the protocol's; for a :class:`Backend`, its capabilities too.
+    signature cannot be called as the protocol's; for a :class:`Backend` or a :class:`World`, its
+    capabilities too.
     An empty list means it conforms."""
     import inspect
 
@@ -224,9 +264,9 @@ def conformance(obj: Any, protocol: type) -> list[str]:
             why = _compatible(inspect.signature(wanted), inspect.signature(given))
             if why:
                 problems.append(f"{name}() {why}")
-    if protocol is Backend:
-        for name, cap in CAPABILITIES.items():
-            part = getattr(obj, name, None)
-            if part is not None:
-                problems += [f"{name} {p}" for p in conformance(part, cap)]
+    capabilities = {Backend: CAPABILITIES, World: WORLD_CAPABILITIES}.get(protocol, {})
+    for name, cap in capabilities.items():
+        part = getattr(obj, name, None)
+        if part is not None:
+            problems += [f"{name} {p}" for p in conformance(part, cap)]
     return problems

@@ -108,6 +108,8 @@ class Arm:
         lo[:3] = np.maximum(lo[:3], TORSO_COMFORT[0])
         hi[:3] = np.minimum(hi[:3], TORSO_COMFORT[1])
         self.ik_lower, self.ik_upper = lo, hi
+        #: called with the pen tip (3,) after every simulation step of a move (a window draws it)
+        self.observer = None
         self.weights = np.array([TORSO_WEIGHT] * 3 + [1.0] * 7)
         self.rest_posture = np.clip(REST_POSTURE, lo, hi)
         self.ready_posture = self.rest_posture
@@ -233,6 +235,8 @@ class Arm:
                 )
             joints.append(q)
             executed.append(self.body.link_position(model.PEN_TIP_LINK))
+            if self.observer is not None:
+                self.observer(executed[-1])
 
         def along(s):
             i = min(int(np.searchsorted(arc, s, side="right")) - 1, len(arc) - 2)

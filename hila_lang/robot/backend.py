@@ -7,7 +7,10 @@ owns one :class:`~hila_lang.sim.scene.SimScene` (a PyBullet client, ``DIRECT`` b
 - a table and the paper the world asks for (:class:`~hila_lang.robot.paper.Paper`, the ``ink``
   capability), with a camera above it (``overview``),
 - the arm controller (:class:`~hila_lang.robot.arm.Arm`: IK along a path, the 240 Hz loop),
-- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability).
+- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability),
+- snapshots for the REPL's ``back`` (:class:`SimSnapshots`: PyBullet's ``saveState`` /
+  ``restoreState`` plus what PyBullet does not save: the ink, the paper's pose, the held head
+  joints, the gaze target, the list of executed moves).
 
 :meth:`PyBulletBackend.move` asks the arm to follow a path and inks where the pen touched.
 
@@ -26,6 +29,7 @@ from ..sim.scene import SimScene, _check_point
 from ..sim.surface import Surface
 from ..validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
+from . import model
 from .body import Body
 from .eyes import Eyes
 from .paper import Paper, TopView
@@ -72,6 +76,9 @@ class PyBulletBackend:
     eyes : Eyes
     ink : Paper
     overview : TopView
+    snapshots : SimSnapshots
+    view : Window or None
+        The window (``gui``): framed, paths drawn, the state written, the left eye's image.
     traces : list of Trace
         Every executed move.
     stats : dict
@@ -102,9 +109,21 @@ class PyBulletBackend:
             rest = arm == "rest" or (arm == "auto" and (low_table or not reachable))
             self.body.set_arm(self.arm.rest_posture if rest else self.arm.ready_posture)
             self.eyes = Eyes(self.body, centre, self._render)
+            self.snapshots = SimSnapshots(self)
+            self.view = self._open_window() if gui else None
         except BaseException:
             self.close()
             raise
+
+    def _open_window(self):
+        """The ``view``: PyBullet's window framed on the robot and the paper (:mod:`.window`)."""
+        from .window import Window
+
+        head = self.body.link_position(model.EYE_LINKS["left"])
+        robot = np.array([[0.0, 0.0, 0.45], head + [0.0, 0.0, 0.08], self.hand_position()])
+        window = Window(self.sim, self.surface, robot)
+        self.arm.observer = window.executed_point
+        return window
 
     def _render(self, camera, *, shadow: bool = False) -> np.ndarray:
         """An image of ``camera`` in the scene, counted in :attr:`stats`."""
@@ -149,9 +168,13 @@ class PyBulletBackend:
         planned = check_path(path, "path")
         if planned.shape[1] != 3:
             raise InputError(f"expected a path of shape (T, 3) with T >= 1, got {planned.shape}")
+        if self.view is not None:
+            self.view.planned(planned)
         trace = self.arm.move(planned, pen_down=pen_down, label=label)
         trace.inked = self.ink.ink_trace(trace.executed) if pen_down else 0
         self.traces.append(trace)
+        if self.view is not None:
+            self.view.show_eye(self.eyes.camera_image("left").rgb)
         return trace.executed
 
     # -- lifetime ---------------------------------------------------------------------------------
@@ -166,3 +189,44 @@ class PyBulletBackend:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class SimSnapshots:
+    """The ``snapshots`` capability of :class:`PyBulletBackend`.
+
+    PyBullet's ``saveState`` keeps the bodies' poses and joint states in memory (no file); the
+    ink texture, the paper's pose, the head's held angles, the gaze target and the executed
+    moves are copied beside it.  On restore the motors are told to hold the restored posture,
+    and the ink is uploaded again.
+    """
+
+    def __init__(self, backend: PyBulletBackend) -> None:
+        self.b = backend
+
+    def save(self) -> dict:
+        b = self.b
+        pb, c = b.sim.pb, b.sim.client
+        return {"state": pb.saveState(physicsClientId=c), "ink": b.ink.canvas.image.copy(),
+                "strokes": b.ink.canvas.strokes, "surface": b.ink.surface, "held": dict(b.body.held), "gaze": b.eyes.target.copy(),
+                "traces": len(b.traces)}
+
+    def restore(self, saved: dict) -> None:
+        b = self.b
+        pb, c = b.sim.pb, b.sim.client
+        pb.restoreState(stateId=saved["state"], physicsClientId=c)
+        b.body.held.clear()
+        b.body.held.update(saved["held"])
+        b.body.hold_head()
+        b.body.command(b.body.arm_angles(), np.zeros(len(b.body.arm_joints)))
+        b.eyes.target = saved["gaze"].copy()
+        if saved["surface"] is not b.ink.surface:
+            b.ink.move_to(saved["surface"])
+        b.ink.canvas.image[...] = saved["ink"]
+        b.ink.canvas.strokes = saved["strokes"]
+        b.sim.set_texture(b.ink.body, b.ink.canvas.image)
+        del b.traces[saved["traces"]:]
+
+    def discard(self, saved: dict) -> None:
+        sim = self.b.sim
+        if sim.client >= 0:
+            sim.pb.removeState(saved["state"], physicsClientId=sim.client)

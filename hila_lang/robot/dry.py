@@ -3,7 +3,8 @@
 Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
 ``--set hand=X,Y,Z`` (a setting of this back end), else the origin; a program's
 ``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
-It has no eyes, no ink and no overview camera (those capabilities are None).
+It has no eyes, no ink, no overview camera and no window (those capabilities are None); its ``snapshots``
+copy where the hand is and cut the list of moves back.
 """
 
 from __future__ import annotations
@@ -21,10 +22,14 @@ class DryBackend:
     eyes = None
     ink = None
     overview = None
+    view = None
 
     def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
+        from ..plugins.snapshots import AttributeSnapshots
+
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
         self.moves: list[tuple[str, np.ndarray, bool]] = []
+        self.snapshots = AttributeSnapshots(self, ("_hand",), append_only=("moves",))
 
     def hand_position(self) -> np.ndarray:
         return self._hand.copy()

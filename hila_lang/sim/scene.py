@@ -27,6 +27,8 @@ from .client import import_pybullet, quiet_c_output
 
 #: where hidden bodies wait, metres
 HIDDEN = (0.0, 0.0, -10.0)
+#: the window's size in pixels (``gui``)
+WINDOW = (1280, 800)
 
 
 def _pb_pose(world_T_body) -> tuple[list[float], list[float]]:
@@ -89,7 +91,8 @@ class SimScene:
             raise InputError("--gui needs a display, and none is available (DISPLAY is not set)",
                              hint="run without --gui (headless), or with a display or xvfb-run")
         with quiet_c_output():
-            self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+            self.client = pb.connect(pb.GUI, options=f"--width={WINDOW[0]} --height={WINDOW[1]}") if gui \
+                else pb.connect(pb.DIRECT)
         if self.client < 0:
             raise HilaRuntimeError("cannot start the PyBullet simulation" + (" window" if gui else ""))
 

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from .layout import PAPER, layout
 
@@ -51,6 +52,7 @@ class LettersWorld:
         self.written: list[dict[str, Any]] = []
         self.backend = None
         self._asks = 0
+        self.snapshots = AttributeSnapshots(self, ("_asks",), append_only=("written",))
 
     # -- plug-in hooks -----------------------------------------------------------------------
     def attach(self, backend) -> None:

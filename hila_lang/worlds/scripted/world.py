@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 
 
@@ -34,6 +35,7 @@ class ScriptedWorld:
         self.home = None if home is None else _point(home, "home")
         self.scene = None if self.home is None else Scene(home=self.home)
         self.log: list[tuple[str, dict]] = []
+        self.snapshots = AttributeSnapshots(self, ("answers", "events"), append_only=("log",))
 
     def attach(self, backend) -> None:
         pass

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from .board import Grid, cell_at, cell_corners
 from . import rules as ttt
@@ -113,6 +114,10 @@ class TicTacToeWorld:
         #: then), ``board`` (marks read), ``corners`` (cell -> name -> (3,)), ``views``, ``arm``,
         #: ``corner_error_m`` (against the true geometry) and ``seconds``
         self.sightings: list[dict[str, Any]] = []
+        #: the REPL's ``back``: the game as it was (the board, whose turn, the opponent's and the
+        #: scene's random generators); the lists only grow
+        self.snapshots = AttributeSnapshots(self, ("board", "rng", "opponent._rng"),
+                                            append_only=("moves", "marks", "crosses", "states", "sightings"))
 
     def _print(self, text: str = "") -> None:
         print(text, file=self.stdout, flush=True)

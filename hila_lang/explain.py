@@ -1,0 +1,128 @@
+"""What one HILA step did, in words: ``hila explain`` and the REPL's ``explain``.
+
+For a run state (a :class:`hila_lang.hierarchy.Step`) :func:`explain_step` lists
+
+- the ICP pairs the warp was fitted on (template point -> task point, by name), saying which
+  pairs merged because their template points coincide (the later binding wins);
+- the map used: a thin plate spline, or a fallback (similarity, translation) and why;
+- OSILA's plan adjustment: how many rounds, and for each round after the first, which
+  constraints the previous round's route violated (found by running the same step again with
+  ``rounds`` = 1, 2, ...: the step is deterministic, so those runs are the rounds themselves);
+- the constraint pairs it added (template point -> task point, for which constraint);
+- how the final route meets each ``via`` and ``avoid``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+
+def _fmt(p) -> str:
+    return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
+
+
+def _coincide(template, names: list[str]) -> list[list[str]]:
+    """Groups (>= 2) of bound ICP names whose template points coincide (OSILA merges them)."""
+    from .osila.tps import MERGE_TOL
+
+    pts = np.array([template.icps[k] for k in names], dtype=float)
+    extent = float(np.ptp(pts, axis=0).max()) if len(pts) > 1 else 0.0
+    groups: list[list[str]] = []
+    for name, p in zip(names, pts):
+        for g in groups:
+            if np.linalg.norm(template.icps[g[0]] - p) <= MERGE_TOL * max(extent, 1e-300):
+                g.append(name)
+                break
+        else:
+            groups.append([name])
+    return [g for g in groups if len(g) > 1]
+
+
+def warp_reason(warp, dim: int) -> str:
+    """Why OSILA's map is what it is (``warp.kind``), from the pairs it kept."""
+    from .osila.tps import affine_rank
+
+    kept = len(warp.src)
+    if warp.kind == "tps":
+        return f"a thin plate spline through {kept} pairs (ICPs and any constraint pairs)"
+    if warp.kind == "translation":
+        return "a translation (fallback): only one distinct ICP pair, which fixes nothing but a shift"
+    rank = affine_rank(warp.src)
+    if kept < dim + 1:
+        why = f"{kept} distinct pair(s); a thin plate spline in {dim}-D needs at least {dim + 1}"
+    elif rank < dim:
+        why = (f"the {kept} pairs (ICPs and constraint pairs) span only {rank} of {dim} dimensions "
+               f"({'collinear' if rank == 1 else 'coplanar'}), so a spline would be unconstrained across them")
+    else:
+        amp = getattr(warp, "amplification", None)
+        why = "the spline did not earn its place over the rigid fit" + (
+            f" (amplification {amp:.1f} on the path)" if amp is not None else "")
+    return f"a similarity transform (fallback): {why}"
+
+
+def explain_run(template, binding, hand=None, constraints=(), options=None, *, title: str = "") -> list[str]:
+    """Lines explaining the HILA step of ``template`` with ``binding`` (ICP name -> point or None),
+    ``hand``, ``constraints`` and OSILA ``options``, as :func:`hila_lang.hierarchy.hila_step` runs
+    it (deterministic: the same as the run it explains).  A step whose constraints cannot be met
+    is explained up to its last round, then OSILA's error."""
+    from .errors import ConstraintError
+    from .hierarchy import bind, hila_step, name_constraints, violations
+
+    options = dict(options or {})
+    forced = [c for c in constraints if c.radius is None]
+    obstacles = [c for c in constraints if c.radius is not None]
+
+    def rounds_violated(k: int) -> str | None:
+        try:
+            hila_step(template, binding, hand, constraints=constraints, **{**options, "rounds": k})
+        except ConstraintError as exc:
+            return violations(name_constraints(exc.message, forced, obstacles))
+        return None
+
+    icps = bind(template, binding, hand)
+    lines = [f"{title}: {template.name}" if title else template.name]
+    lines.append(f"  ICP pairs (template -> task), {len(icps)}:")
+    for k, q in icps.items():
+        lines.append(f"    {k:<12} {_fmt(template.icps[k])} -> {_fmt(q)}")
+    for group in _coincide(template, list(icps)):
+        lines.append(f"    {', '.join(group)} coincide in the template: one pair, {group[-1]}'s, is kept")
+    try:
+        step = hila_step(template, binding, hand, constraints=constraints, **options)
+    except ConstraintError as exc:
+        rounds = int(options.get("rounds", 10))
+        lines.append(f"  plan adjustment: failed")
+        for k in range(1, rounds + 1):
+            why = rounds_violated(k)
+            if why is None:
+                break
+            lines.append(f"    round {k}: {why}")
+        lines.append(f"  OSILA: {exc.message}")
+        return lines
+    res = step.result
+    lines[0] += f", {len(step.path)} points"
+    lines.append(f"  map: {warp_reason(res.warp, template.dim)}")
+    lines.append(f"  threshold: {res.threshold * 1000:.2f} mm" +
+                 ("" if options.get("threshold") is not None else " (default: 1% of the mapped path's size)"))
+    if not constraints and res.rounds == 1:
+        lines.append("  plan adjustment: none needed (no via/avoid, 1 round)")
+        return lines
+    lines.append(f"  plan adjustment: {res.rounds} round(s)")
+    for k in range(1, res.rounds):
+        lines.append(f"    round {k}: {rounds_violated(k) or 'conformed'} -> round {k + 1}")
+    lines.append(f"    round {res.rounds}: the route conforms")
+    if res.added:
+        lines.append(f"  constraint pairs added (template -> task), {len(res.added)}:")
+        for t, q, label in res.added:
+            lines.append(f"    template[{t}] {_fmt(template.path[t])} -> {_fmt(q)} for "
+                         f"{name_constraints(label, forced, obstacles)}")
+    for c, value in step.met():
+        verb = f"met at {value * 1000:.1f} mm" if c.radius is None else f"cleared by {value * 1000:.1f} mm"
+        lines.append(f"  {c.name}: {verb}")
+    return lines
+
+
+def explain_step(template, step, *, title: str = "") -> list[str]:
+    """:func:`explain_run` of a step that ran (a :class:`~hila_lang.hierarchy.Step`)."""
+    binding = {k: step.icps.get(k) for k in template.icps}
+    return explain_run(template, binding, None, step.constraints, step.options, title=title)

@@ -1,0 +1,6 @@
+"""``hila lsp``: a language server for ``.hila`` programs (pygls, over stdio).
+
+:mod:`.analysis` knows the program (diagnostics as ``hila check`` gives them, hover, go to
+definition, completion) without any protocol types; :mod:`.server` speaks the Language Server
+Protocol with pygls, imported only when the server starts.
+"""

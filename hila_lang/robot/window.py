@@ -1,0 +1,114 @@
+"""The PyBullet window of a run with ``--gui``: framed on the robot and the paper, the paths drawn
+as they happen, the current FSM state written in the view, and the left eye's image beside it.
+
+:class:`Window` implements :class:`hila_lang.plugins.protocols.View` (the back end's ``view``
+capability; None without a window):
+
+- on start PyBullet's side panels and camera previews are turned off and the camera looks at the
+  robot and the paper from the front right, close enough that they fill most of the window;
+- :meth:`planned` draws a path the arm is about to follow (blue), :meth:`executed_point` extends
+  the pen's trace as the simulation steps (red, a segment every few steps);
+- :meth:`show_state` writes the state's name and its program line above the scene;
+- :meth:`show_eye` puts the left eye's latest image on a screen that stands behind the robot, in
+  the window's top right, facing the window -- out of the eyes' own view (they look down at the
+  paper in front of them).
+
+Only the window draws: debug lines and text are not seen by any camera image, and the screen is
+outside every camera the robot or a report uses, so a run with ``--gui`` decides and records
+exactly what the same run headless does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: the camera: (distance, yaw, pitch) in PyBullet's convention (metres, degrees), looking at the
+#: middle of the robot and the paper from the front left, above the table
+CAMERA = (0.5, 45.0, -28.0)
+#: where things sit in the window, as (right, up) in -1..1 across the view (0, 0: its middle)
+STATE_AT = (-0.96, 0.90)
+SCREEN_AT = (0.62, 0.52)
+#: the eye screen stands this much further from the camera than the target (behind the robot)
+SCREEN_DEPTH = 0.45
+#: its size, metres (320 x 240 pixels)
+SCREEN_SIZE = (0.44, 0.33)
+#: a segment of the executed trace every so many simulation steps (240 Hz)
+TRACE_EVERY = 8
+PLANNED_RGB = (0.15, 0.35, 0.95)
+EXECUTED_RGB = (0.9, 0.1, 0.1)
+
+
+class Window:
+    """The ``view`` of a :class:`~hila_lang.robot.backend.PyBulletBackend` opened with ``gui``."""
+
+    def __init__(self, sim, surface, robot_points: np.ndarray) -> None:
+        self.sim = sim
+        pb, c = sim.pb, sim.client
+        for flag in (pb.COV_ENABLE_GUI, pb.COV_ENABLE_RGB_BUFFER_PREVIEW, pb.COV_ENABLE_DEPTH_BUFFER_PREVIEW,
+                     pb.COV_ENABLE_SEGMENTATION_MARK_PREVIEW):
+            pb.configureDebugVisualizer(flag, 0, physicsClientId=c)
+        points = np.vstack([robot_points, surface.corners()])
+        self.target = (points.min(0) + points.max(0)) / 2
+        distance, yaw, pitch = CAMERA
+        pb.resetDebugVisualizerCamera(distance, yaw, pitch, self.target.tolist(), physicsClientId=c)
+        # the window applies the camera later: the view matrix from the same yaw/pitch convention,
+        # the projection (fixed by the window's size) from the window
+        view = pb.computeViewMatrixFromYawPitchRoll(self.target.tolist(), distance, yaw, pitch, 0.0, 2,
+                                                    physicsClientId=c)
+        self._camera(view, pb.getDebugVisualizerCamera(physicsClientId=c)[3])
+        pose = np.eye(4)
+        pose[:3, :3] = np.column_stack([self.right, self.up, -self.forward])  # facing the camera
+        pose[:3, 3] = self.at(*SCREEN_AT, distance + SCREEN_DEPTH)
+        self.screen = sim.add_quad(np.full((240, 320, 3), 60, np.uint8), pose, SCREEN_SIZE)
+        label = pose[:3, 3] + self.up * (SCREEN_SIZE[1] / 2 + 0.02) - self.right * SCREEN_SIZE[0] / 2
+        pb.addUserDebugText("left eye", label.tolist(), [0.1, 0.1, 0.1], 1.1, physicsClientId=c)
+        self._text = -1
+        self._last = None
+        self._steps = 0
+
+    def _camera(self, view, projection) -> None:
+        """The window camera's position and axes (world), and its view's half-extents per metre
+        of depth, from OpenGL's view and projection matrices (column-major, 16 numbers)."""
+        view = np.array(view, dtype=float).reshape(4, 4).T  # world -> camera
+        proj = np.array(projection, dtype=float).reshape(4, 4).T
+        rot = view[:3, :3]
+        self.right, self.up, self.forward = rot[0], rot[1], -rot[2]
+        self.position = -rot.T @ view[:3, 3]
+        self.half = (1.0 / proj[0, 0], 1.0 / proj[1, 1])
+
+    def at(self, right: float, up: float, depth: float) -> np.ndarray:
+        """The world point seen at (``right``, ``up``) in -1..1 across the view, ``depth`` metres
+        in front of the camera."""
+        return (self.position + self.forward * depth + self.right * (right * self.half[0] * depth)
+                + self.up * (up * self.half[1] * depth))
+
+    def show_state(self, name: str, where: str) -> None:
+        """Write the current state (``name``) and its program line (``where``) in the view."""
+        pb, c = self.sim.pb, self.sim.client
+        text = f"{name}   {where}" if where else name
+        spot = self.at(*STATE_AT, 0.3).tolist()
+        size = 1.3
+        self._text = pb.addUserDebugText(text, spot, [0.0, 0.0, 0.0], size, replaceItemUniqueId=self._text,
+                                         physicsClientId=c) if self._text >= 0 else \
+            pb.addUserDebugText(text, spot, [0.0, 0.0, 0.0], size, physicsClientId=c)
+
+    def planned(self, path: np.ndarray) -> None:
+        """Draw a planned path (T, 3), starting a new executed trace."""
+        pb, c = self.sim.pb, self.sim.client
+        for a, b in zip(path[:-1], path[1:]):
+            pb.addUserDebugLine(a.tolist(), b.tolist(), PLANNED_RGB, 1.5, physicsClientId=c)
+        self._last, self._steps = None, 0
+
+    def executed_point(self, point: np.ndarray) -> None:
+        """The pen tip now (3,): extend the executed trace (every :data:`TRACE_EVERY` steps)."""
+        self._steps += 1
+        if self._last is not None and self._steps % TRACE_EVERY:
+            return
+        if self._last is not None:
+            self.sim.pb.addUserDebugLine(self._last.tolist(), list(point), EXECUTED_RGB, 2.5,
+                                         physicsClientId=self.sim.client)
+        self._last = np.array(point, dtype=float)
+
+    def show_eye(self, rgb: np.ndarray) -> None:
+        """Show the left eye's image (240, 320, 3) on the screen behind the robot."""
+        self.sim.set_texture(self.screen, np.ascontiguousarray(rgb))
