@@ -7,7 +7,10 @@ owns one :class:`~hila_lang.sim.scene.SimScene` (a PyBullet client, ``DIRECT`` b
 - a table and the paper the world asks for (:class:`~hila_lang.robot.paper.Paper`, the ``ink``
   capability), with a camera above it (``overview``),
 - the arm controller (:class:`~hila_lang.robot.arm.Arm`: IK along a path, the 240 Hz loop),
-- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability).
+- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability: fish-eye
+  lenses, the robot's own calibration, poses from the joint angles, optional sensor noise),
+- the scene's light (:class:`~hila_lang.sim.scene.Lights`, the ``lighting`` capability: a
+  world may change it during a run).
 
 :meth:`PyBulletBackend.move` asks the arm to follow a path and inks where the pen touched.
 
@@ -22,7 +25,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..sim.camera import RenderStyle
-from ..sim.scene import SimScene, _check_point
+from ..sim.scene import Lights, SimScene, _check_point
 from ..sim.surface import Surface
 from ..validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
@@ -40,10 +43,11 @@ __all__ = ["PyBulletBackend", "Trace", "make_backend"]
 
 
 def make_backend(scene, options, settings) -> "PyBulletBackend":
-    """Plug-in factory: the world's ``scene.surface`` (default :func:`.workspace.default_surface`)
-    and ``options.gui``."""
+    """Plug-in factory: the world's ``scene.surface`` (default :func:`.workspace.default_surface`),
+    ``options.gui``, and the eyes' sensor noise (``--set eyes.noise=SIGMA``, seeded by ``options.seed``)."""
     surface = None if scene is None else scene.surface
-    return PyBulletBackend(surface, gui=options.gui)
+    return PyBulletBackend(surface, gui=options.gui, eye_noise=float(settings.get("eyes.noise") or 0.0),
+                           seed=int(options.seed))
 
 
 class PyBulletBackend:
@@ -63,6 +67,10 @@ class PyBulletBackend:
         the hand by the robot's side, out of the cameras' view (for watching a demonstration);
         "auto" is "rest" for a paper on a table lower than the robot's (the demonstrator's) or
         out of reach, else "ready".
+    eye_noise : float
+        Standard deviation of the eye cameras' sensor noise, grey levels (0: none).
+    seed : int
+        Seed of the sensor noise.
 
     Attributes
     ----------
@@ -72,6 +80,7 @@ class PyBulletBackend:
     eyes : Eyes
     ink : Paper
     overview : TopView
+    lighting : Lights
     traces : list of Trace
         Every executed move.
     stats : dict
@@ -81,7 +90,8 @@ class PyBulletBackend:
 
     name = "pybullet"
 
-    def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto") -> None:
+    def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto",
+                 eye_noise: float = 0.0, seed: int = 0) -> None:
         self.surface = surface if surface is not None else default_surface()
         if not isinstance(self.surface, Surface):
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
@@ -101,7 +111,8 @@ class PyBulletBackend:
             low_table = self.surface.z < TABLE_TOP_Z - 0.05
             rest = arm == "rest" or (arm == "auto" and (low_table or not reachable))
             self.body.set_arm(self.arm.rest_posture if rest else self.arm.ready_posture)
-            self.eyes = Eyes(self.body, centre, self._render)
+            self.eyes = Eyes(self.body, centre, self._render, noise=eye_noise, seed=seed)
+            self.lighting = Lights(self.sim)
         except BaseException:
             self.close()
             raise

@@ -3,7 +3,7 @@
 Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
 ``--set hand=X,Y,Z`` (a setting of this back end), else the origin; a program's
 ``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
-It has no eyes, no ink and no overview camera (those capabilities are None).
+It has no eyes, no ink, no overview camera and no lights (those capabilities are None).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ class DryBackend:
     eyes = None
     ink = None
     overview = None
+    lighting = None
 
     def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
