@@ -60,6 +60,12 @@ class Eyes(Protocol):
         """The kinematic chain from the world to ``eye`` (:class:`hila_lang.robot.ik.KinematicChain`)."""
         ...
 
+    def body_outline(self) -> Any:
+        """The robot's own body parts that may come into view, as it knows them: a list of
+        capsules ``(points (2, 3), radius)``, world frame, metres (an image reader treats what
+        they cover as hidden)."""
+        ...
+
     def stereo(self) -> Any:
         """The robot's calibration of the eye pair: an object with ``right_T_left`` (4, 4), the
         left camera's coordinates to the right one's (e.g.

@@ -33,6 +33,13 @@ __all__ = ["EYE_HEIGHT", "EYE_WIDTH", "Eyes", "ICUB_EYE_K", "eye_pose"]
 
 #: how much each head joint takes of a gaze change (neck first, then the eyes' tilt)
 GAZE_WEIGHTS = {"neck_pitch": 1.0, "neck_yaw": 1.0, model.EYES_TILT_JOINT: 0.3}
+#: the right arm as the robot's eyes allow for it, capsules between the chain's joints (indices
+#: into ``model.ARM_CHAIN``; "palm" is the pen's base, "tip" its tip, "fingers" and "thumb" 6
+#: and 7.5 cm from the palm along the hand frame's +x and -y, as the hand's mesh reaches) with
+#: radii in metres: the iCub's upper arm, forearm and hand are about 0.035, 0.03 and 0.04 m
+#: thick (radius), taken 1 cm wider so that nothing of the arm is read as ink
+ARM_OUTLINE = (((3, 6), 0.045), ((6, 8), 0.04), ((8, "palm"), 0.05), (("palm", "fingers"), 0.05),
+               (("palm", "thumb"), 0.035), (("palm", "tip"), 0.01))
 #: the simulated lens renders at this many times the resolution, then averages down; measured:
 #: 1x reads the game board's corners within 0.08 mm of 2x at 40 % of the time (96 vs 234 ms)
 LENS_SUPERSAMPLE = 1
@@ -113,6 +120,18 @@ class Eyes:
     def calibration(self, eye: str = "left"):
         """The robot's own calibration of ``eye`` (:func:`.lens.eye_calibration`)."""
         return eye_calibration(_check_eye(eye))
+
+    def body_outline(self) -> list[tuple[np.ndarray, float]]:
+        """Where the robot's right arm is, as it knows it (its joint angles through its model):
+        capsules ``(points (2, 3) world frame, radius metres)`` from the shoulder to the pen's
+        tip (:data:`ARM_OUTLINE`).  A reader of the eyes' images treats what they cover as
+        hidden rather than as what is behind it."""
+        chain = self.body.arm_chain
+        tip, joints, _ = chain.forward(self.body.arm_angles())
+        palm = tip[:3, 3] - model.PEN_LENGTH * tip[:3, 2]
+        points = {**dict(enumerate(joints)), "tip": tip[:3, 3], "palm": palm,
+                  "fingers": palm + 0.06 * tip[:3, 0], "thumb": palm - 0.075 * tip[:3, 1]}
+        return [(np.array([points[a], points[b]]), float(r)) for (a, b), r in ARM_OUTLINE]
 
     def stereo(self):
         """The robot's own calibration of the eye pair (:func:`.lens.eyes_calibration`:

@@ -149,7 +149,31 @@ def _ink_masks(rgb: np.ndarray, paper_level: float, resolution: float) -> tuple[
     return stroke & (sat < 0.22 * paper_level) & not_marker, (stroke | (sat > 0.3 * paper_level)) & not_marker
 
 
-def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent: float = 0.8):
+def own_body_mask(image, body, shape=None) -> np.ndarray:
+    """Pixels (bool, ``shape`` = (H, W), default the image's) of a pinhole ``image`` covered by
+    the camera's own robot: ``body`` is a list of capsules ``(points (2, 3), radius)``, world
+    frame, metres (:meth:`hila_lang.robot.eyes.Eyes.body_outline`)."""
+    import cv2
+
+    from ...sim.camera import world_to_camera
+
+    h, w = shape or np.asarray(image.rgb).shape[:2]
+    mask = np.zeros((h, w), np.uint8)
+    K, T = np.asarray(image.K, float), np.asarray(image.world_T_camera, float)
+    for ends, radius in body or ():
+        a, b = np.asarray(ends, float)
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / (radius / 2))) + 1)
+        pts = world_to_camera(a + np.linspace(0, 1, n)[:, None] * (b - a), T)
+        for x, y, z in pts:
+            if z > 0.01:
+                u, v = K[0, 0] * x / z + K[0, 2], K[1, 1] * y / z + K[1, 2]
+                r = K[0, 0] * radius / z
+                if -r < u < w + r and -r < v < h + r:
+                    cv2.circle(mask, (int(round(u * 4)), int(round(v * 4))), int(round(r * 4)), 1, -1, cv2.LINE_8, 2)
+    return mask.astype(bool)
+
+
+def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent: float = 0.8, body=None):
     """Top-down view of the sheet on the plane z = ``surface_z`` (``image`` undistorted first).
 
     Returns
@@ -162,6 +186,8 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
         Paper-like regions in the top view, closed over what is drawn on them (holes up to
         ~9 mm); a white hand may be among them: :func:`read_board` keeps the region holding
         the most grid ink.
+    own : ndarray (h, w) bool
+        What the camera's own robot hides in the top view (``body``, see :func:`own_body_mask`).
     """
     import cv2
 
@@ -194,10 +220,14 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     top = cv2.warpPerspective(rgb, H, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
     level = float(np.median(rgb[labels == best].max(axis=1)))
-    paper = _paper_mask(top, level).astype(np.uint8)
+    own = np.zeros((h, w), bool)
+    if body:
+        own = cv2.warpPerspective(own_body_mask(image, body).astype(np.uint8), H, (w, h),
+                                  flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP).astype(bool)
+    paper = (_paper_mask(top, level) & ~own).astype(np.uint8)
     k = max(3, int(round(0.009 / resolution)) | 1)
     sheet = cv2.morphologyEx(paper, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
-    return top, np.array([lo[0], hi[1]]), sheet.astype(bool)
+    return top, np.array([lo[0], hi[1]]), sheet.astype(bool), own
 
 
 def _fill_holes(mask: np.ndarray) -> np.ndarray:
@@ -269,7 +299,7 @@ def _intersect(l1, l2) -> np.ndarray:
 
 
 def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_cell: float = 0.02,
-               max_cell: float = 0.15) -> BoardReading:
+               max_cell: float = 0.15, body=None) -> BoardReading:
     """Find the grid and the marks in one camera image.
 
     Parameters
@@ -283,6 +313,9 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
         Top-down pixel size, metres.
     min_cell, max_cell : float
         Plausible grid spacing, metres.
+    body : list of (ndarray (2, 3), float), optional
+        The camera's own robot as capsules (points, radius), world frame, metres: what they
+        cover is hidden, neither paper nor ink (:meth:`hila_lang.robot.eyes.Eyes.body_outline`).
 
     Returns
     -------
@@ -295,15 +328,15 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     """
     import cv2
 
-    top, origin, regions = rectify(image, float(surface_z), resolution)
+    top, origin, regions, own = rectify(image, float(surface_z), resolution, body=body)
     paper_level = float(np.median(top[regions].mean(axis=1))) if regions.any() else 240.0
     grid_ink, ink = _ink_masks(top, paper_level, resolution)
     n, labels = cv2.connectedComponents(regions.astype(np.uint8), connectivity=8)
     counts = np.bincount(labels[grid_ink & regions], minlength=n)
     counts[0] = 0
     sheet = _fill_holes(labels == int(np.argmax(counts)))  # marks of any size are on the sheet
-    grid_ink &= sheet
-    ink &= sheet
+    grid_ink &= sheet & ~own
+    ink &= sheet & ~own
     ys, xs = np.nonzero(grid_ink)
     if len(xs) < 50:
         raise InputError("no grid found on the sheet: no dark grid lines seen",
@@ -367,7 +400,7 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
                             for name, (dr, df) in _CORNER_STEPS.items()}
     lo, hi, gray = _channels(top)
     paperlike = (np.abs(gray - paper_level) < 0.175 * paper_level) & ((hi - lo) < 0.2 * paper_level)
-    seen = paperlike | ink | grid_ink
+    seen = (paperlike | ink | grid_ink) & ~own
     contrast = float((paper_level - np.median(gray[grid_ink])) / paper_level) if grid_ink.sum() > 20 else 0.0
     frame = (origin, resolution, c3, right_u, far_u, cell)
     marks, fractions, occluded, confidence = _read_marks(ink & ~grid_ink, seen, frame, lines)

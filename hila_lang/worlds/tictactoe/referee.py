@@ -196,11 +196,11 @@ class Referee:
             mark["tracking_median_m"] = float(np.median(err))
             mark["tracking_max_m"] = float(err.max())
         self.marks.append(mark)
-        if self.to_move() != ROBOT:
-            self.fouls.append({"cell": cell, "foul": "drawn out of turn", "moves_before": len(self.record.moves)})
-        elif self.record.board[cell - 1] != ttt.EMPTY:
+        if self.record.board[cell - 1] != ttt.EMPTY:
             self.fouls.append({"cell": cell, "foul": f"drawn over {self.record.board[cell - 1]}",
                                "moves_before": len(self.record.moves)})
+        elif self.to_move() != ROBOT:
+            self.fouls.append({"cell": cell, "foul": "drawn out of turn", "moves_before": len(self.record.moves)})
         else:
             self._record(ROBOT, cell, t)
         return mark

@@ -11,17 +11,20 @@ which cells hold a cross or a circle (the board minimax plays on).
 Looking again.  After every image the robot asks itself whether it is sure, from its own
 measures only:
 
-- a cell is *hidden* (more than 20 % neither paper nor ink: the arm in front of it);
+- a cell is *hidden*: more than 20 % of it neither paper nor ink, or covered by the robot's own
+  arm where its joint angles say the arm is (:meth:`~hila_lang.robot.eyes.Eyes.body_outline`:
+  its pen is never read as a mark);
 - a cell's reading is *weak*: its confidence (how far the measure that decided it is from the
   decision's threshold, times the grid's contrast) is below :data:`SURE`;
 - two images disagree about a cell, each sure of itself (the two eyes, or two looks);
 - the board disagrees with its memory: a mark it saw before is gone or changed, or the number
   of new marks is not the number of moves made since it last looked.
 
-While in doubt it takes the next view of :data:`VIEWS`: the other eye; the pen lifted straight
-up to ``lift`` (where the next reach starts anyway, so the arm makes no extra journey); the pen
-taken ``aside``, beyond the board on the arm's side (both eyes); and last the gaze moved onto
-the doubtful cells (both eyes).  Marks are decided by the images taken since the arm last
+It looks with its pen up: a pen low over the board (after a circle) first goes straight up to
+``lift``, where the next reach starts anyway, so the arm makes no extra journey.  While in
+doubt it takes the next view of :data:`VIEWS`: the other eye; the pen lifted (when it was not
+yet); the pen taken ``aside``, beyond the board on the arm's side (both eyes); and last the gaze
+moved onto the doubtful cells (both eyes).  Marks are decided by the images taken since the arm last
 moved, each cell by the confidence-weighted vote of the images that saw it; corners are the
 mean of those images' corners.  After going aside the pen comes back to ``lift``, so the
 program's next reach starts where it would have.  When the last view still leaves a doubt the
@@ -33,8 +36,9 @@ The table.  The paper's plane is not given: the robot starts from a rough prior 
 little below its waist, :data:`TABLE_PRIOR_BELOW_ROOT`), reads both eyes' images on it, and
 triangulates the four inner crossings of the grid (cell 5's corners) from the two eyes
 (:func:`hila_lang.perception.triangulation.triangulate`, the left eye placed by its joint
-angles, the right one by the robot's calibration of the pair); the plane's height is the median of
-every crossing triangulated so far (:class:`Table`), and the images are read again on it.  The
+angles, the right one by the robot's calibration of the pair) -- only from two images that each
+see the whole grid, and only when the four crossings come out level; the plane's height is the
+median of every crossing triangulated so far (:class:`Table`), and the images are read again on it.  The
 first look always uses both eyes for that; later looks refine it whenever both eyes look.
 """
 
@@ -71,7 +75,10 @@ LIFT_TOLERANCE = 0.005
 #: (only a start for reading the first images; the plane is then triangulated)
 TABLE_PRIOR_BELOW_ROOT = 0.15
 #: rounds of (read on the plane, triangulate, move the plane) at the first look
-PLANE_ROUNDS = 2
+PLANE_ROUNDS = 1
+#: a pair of images whose four crossings are not level within this (the table is flat) does not
+#: place the table, metres (measured: 0.2-0.9 mm when both eyes see the whole grid)
+TABLE_SPREAD = 0.002
 #: images are read again when the table estimate moves by more than this, metres (0.2 mm of
 #: height moves a corner seen 35 degrees off the vertical by 0.14 mm)
 REREAD_DZ = 0.0002
@@ -150,6 +157,7 @@ class _Image:
     eye: str
     arm: str
     image: Any
+    body: Any = None
     reading: Any = None
     error: str | None = None
     paired: bool = False
@@ -174,7 +182,7 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
     aside : ndarray, shape (3,), optional
         A pen position with the arm out of the eyes' view of the board; None: not used.
     read : callable, optional
-        ``read(image, surface_z) -> BoardReading``; default
+        ``read(image, surface_z, body=OUTLINE) -> BoardReading``; default
         :func:`hila_lang.worlds.tictactoe.reading.read_board`.
 
     Raises
@@ -190,23 +198,29 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
     images: list[_Image] = []
     doubts: list[str] = []
     arm = "still"
+    skipped: set[str] = set()
     gaze = np.asarray(eyes.target, dtype=float).copy()
     unsure: list[int] = []
     result = None
     try:
+        if lift is not None and _move_arm(hand, np.asarray(lift, dtype=float), straight_up=True):
+            arm = "lifted"  # a pen low over the board (after a circle) goes up first: the next reach starts there
+            skipped.add("still")
         for name, eye, where, look in VIEWS:
+            if where in skipped:
+                continue
             if where != arm:
                 if lift is None or (where == "aside" and aside is None):
                     break
-                moved = _move_arm(hand, np.asarray(lift if where == "lifted" else aside, dtype=float),
-                                  straight_up=where == "lifted")
-                arm = where
-                if not moved:  # the pen was already that high: the same view again would not help
+                if not _move_arm(hand, np.asarray(lift if where == "lifted" else aside, dtype=float),
+                                 straight_up=where == "lifted"):
+                    skipped.add(where)  # the pen was already that high: the same views again would not help
                     continue
+                arm = where
             if look == "doubt" and result is not None:
                 targets = unsure or list(range(1, 10))
                 eyes.look_at(np.mean([np.mean(list(result[1][c].values()), axis=0) for c in targets], axis=0))
-            shot = _Image(name, eye, arm, eyes.camera_image(eye))
+            shot = _Image(name, eye, arm, eyes.camera_image(eye), eyes.body_outline())
             images.append(shot)
             z_read = table.z
             _read(shot, read, z_read)
@@ -246,7 +260,7 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
 
 def _read(shot: _Image, read: Callable, z: float) -> None:
     try:
-        shot.reading, shot.error = read(shot.image, z), None
+        shot.reading, shot.error = read(shot.image, z, body=shot.body), None
     except InputError as exc:
         shot.reading, shot.error = None, str(exc).splitlines()[0]
 
@@ -258,7 +272,7 @@ def _update_table(images: list[_Image], table: Table, read: Callable, right_T_le
     crossings give (:data:`PLANE_ROUNDS` times): the prior may be centimetres off."""
     last = images[-1]
     pair = next((im for im in reversed(images[:-1]) if im.arm == last.arm and im.eye != last.eye), None)
-    if pair is None or last.reading is None or pair.reading is None or last.paired or pair.paired:
+    if pair is None or last.paired or pair.paired or not all(_whole(im) for im in (last, pair)):
         return False
     left, right = (last, pair) if last.eye == "left" else (pair, last)
     if not table.known:
@@ -271,11 +285,16 @@ def _update_table(images: list[_Image], table: Table, read: Callable, right_T_le
             if left.reading is None or right.reading is None:
                 return False
     heights = _crossing_heights(left, right, right_T_left)
-    if heights is None:
+    if heights is None or np.ptp(heights) > TABLE_SPREAD:
         return False
     left.paired = right.paired = True
     table.add(heights)
     return True
+
+
+def _whole(shot: _Image) -> bool:
+    """Whether an image saw the whole grid (no cell hidden): only those place the table."""
+    return shot.reading is not None and not shot.reading.occluded
 
 
 def _crossing_heights(left: _Image, right: _Image, right_T_left: np.ndarray) -> np.ndarray | None:
