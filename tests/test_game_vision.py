@@ -3,8 +3,9 @@
 The robot reads the board through its own eyes (fish-eye lenses it calibrated itself, poses from
 its joint angles, the table's height triangulated from both eyes) before every decision that
 follows a move (``hila_lang.worlds.tictactoe.vision``).  The game's record belongs to the
-referee, which only scores: every game here runs with the record sealed, so that reading it
-while the world answers the robot's questions or names its points fails the test.
+referee, which only scores; the world seals it while it answers the robot's questions and names
+its points, so a decision that read it would stop these games (``SealedRecordError``;
+``tests/test_game_world.py`` checks that the seal bites).
 
 After the game the robot's own eye camera reads the final board (``read_board``, OpenCV): which
 cells hold a circle and which a cross must equal the real board.  The paper's ink (the texture
@@ -17,7 +18,6 @@ from __future__ import annotations
 
 import io
 import json
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +33,6 @@ from hila_lang.sim.canvas import PIXELS_PER_METRE  # noqa: E402
 from hila_lang.worlds.tictactoe import rules as ttt  # noqa: E402
 from hila_lang.worlds.tictactoe.board import cell_at, cell_corners  # noqa: E402
 from hila_lang.worlds.tictactoe.reading import read_board  # noqa: E402
-from hila_lang.worlds.tictactoe.referee import Record  # noqa: E402
 
 PROGRAM = Path(__file__).resolve().parents[1] / "programs" / "game.hila"
 
@@ -56,41 +55,6 @@ def robot_ink_cells(ink_rgb: np.ndarray, scene) -> list[set]:
     return blobs
 
 
-@contextmanager
-def sealed_record(world):
-    """The referee's record raises if anything reads it while the world answers the robot's
-    questions (``query``) or names the points it binds (``points``): the robot's decisions."""
-    deciding = [0]
-
-    class Sealed(Record):
-        def __getattribute__(self, name):
-            if deciding[0] and not name.startswith("__"):
-                raise AssertionError(f"a decision of the robot read the game's record ({name})")
-            return object.__getattribute__(self, name)
-
-    record = world.referee.record
-    record.__class__ = Sealed
-    hooks = {name: getattr(world, name) for name in ("query", "points")}
-
-    def seal(hook):
-        def sealed(*args, **kwargs):
-            deciding[0] += 1
-            try:
-                return hook(*args, **kwargs)
-            finally:
-                deciding[0] -= 1
-        return sealed
-
-    for name, hook in hooks.items():
-        setattr(world, name, seal(hook))
-    try:
-        yield
-    finally:
-        for name in hooks:
-            delattr(world, name)
-        record.__class__ = Record
-
-
 def start(tmp_path, seed, **settings):
     options = RunOptions(seed=seed, out=tmp_path / "out", settings=settings, stdin=io.StringIO(),
                          stdout=io.StringIO())
@@ -106,8 +70,7 @@ def test_whole_game_played_from_what_the_robot_sees(tmp_path, seed, settings):
     interp = start(tmp_path, seed, **settings)
     world, backend = interp.world, interp.backend
     try:
-        with sealed_record(world):
-            interp.run()
+        interp.run()
         eye = backend.eyes.camera_image("left")
         arm = backend.eyes.body_outline()
         ink = backend.ink.ink_image()
@@ -161,9 +124,8 @@ def test_a_wrong_record_changes_nothing_the_robot_does(tmp_path):
     world = interp.world
     world.referee.record.board = ("", "", "", "", "X", "", "", "", "")
     try:
-        with sealed_record(world):
-            while not world.marks:
-                interp.step()
+        while not world.marks:
+            interp.step()
     finally:
         report = finish(interp)
     assert world.player.choice == 5 and world.marks[0]["cell"] == 5 and world.player.own == [5]
@@ -179,9 +141,8 @@ def test_an_eye_covered_by_the_arm_makes_the_robot_look_again(tmp_path):
     cover = np.array([0.226, 0.016, 0.717])  # on the left eye's view of the board, 22 cm from the eye
     try:
         backend.reset_hand(cover)
-        with sealed_record(world):
-            assert world.query("robot_to_move") is True
-            assert world.query("best_move") == "board.cell5"
+        assert world.query("robot_to_move") is True
+        assert world.query("best_move") == "board.cell5"
         sight = world.sightings[0]
         first = sight["views"][0]
         assert "error" in first or first["occluded"], first  # the left eye could not see the board

@@ -1,7 +1,7 @@
 """The referee: the game as it really is, the opponent's moves, the perturbations, the scores.
 
 The :class:`Referee` keeps the game's record (:class:`Record`: the board and the moves as they
-really are) and the sheet's true place, plays the opponent's moves on the real board (inking
+really are; sealed while the robot decides: reading it then is an error) and the sheet's true place, plays the opponent's moves on the real board (inking
 its crosses, neat or sloppy), perturbs the scene between moves and scores what the robot did
 and saw.  It never chooses, filters or retries for the robot: the robot's decisions come from
 its own sightings (:mod:`.player`), and the game goes on from them.  The referee compares
@@ -27,6 +27,7 @@ Perturbations (world settings, seeded by ``--seed``), after each of the opponent
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import replace
 from typing import Any
 
@@ -43,13 +44,52 @@ BUMP_TURN_DEG = 15.0
 BUMP_FULL = 0.03
 
 
+class SealedRecordError(RuntimeError):
+    """The game's record was read while the robot was deciding: a bug (the robot decides from
+    what it sees, never from the record)."""
+
+
 class Record:
     """The game as it really is: the board (9 marks) and the moves (dicts with ``player``,
-    ``mark``, ``cell``, ``t``)."""
+    ``mark``, ``cell``, ``t``).
+
+    While :meth:`sealed` (the world seals it while it answers the robot's questions and names
+    the points the robot binds), reading or writing it raises :class:`SealedRecordError`.
+    """
 
     def __init__(self) -> None:
-        self.board: ttt.Board = ttt.empty_board()
-        self.moves: list[dict[str, Any]] = []
+        self._board: ttt.Board = ttt.empty_board()
+        self._moves: list[dict[str, Any]] = []
+        self._seals = 0
+
+    def _open(self, what: str) -> None:
+        if self._seals:
+            raise SealedRecordError(f"the game's record ({what}) was read while the robot was deciding; "
+                                    "its decisions come from what it sees")
+
+    @property
+    def board(self) -> ttt.Board:
+        self._open("board")
+        return self._board
+
+    @board.setter
+    def board(self, value: ttt.Board) -> None:
+        self._open("board")
+        self._board = tuple(value)
+
+    @property
+    def moves(self) -> list[dict[str, Any]]:
+        self._open("moves")
+        return self._moves
+
+    @contextmanager
+    def sealed(self):
+        """Seal the record for the duration (re-entrant)."""
+        self._seals += 1
+        try:
+            yield self
+        finally:
+            self._seals -= 1
 
 
 class Referee:

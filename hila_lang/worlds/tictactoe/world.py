@@ -5,7 +5,8 @@ demonstration's, rotated and 0.20 m higher -- against an opponent who plays cros
 
 Two sides, kept apart.  The robot's side is a :class:`~.player.Player`: it decides from what
 the robot's eyes see (:mod:`.vision`) and what it remembers, and has no handle on the game's
-record.  The :class:`~.referee.Referee` keeps the record, plays the opponent on the real board,
+record; the record is sealed while the world answers the robot's questions and names its
+points (reading it then raises :class:`~.referee.SealedRecordError`).  The :class:`~.referee.Referee` keeps the record, plays the opponent on the real board,
 perturbs the scene between moves and scores after the fact (``report.json``: ``vision``, with
 every misread).  Every question the program asks is answered by the robot's side; the referee
 acts only when the robot waits for the opponent and after the robot has drawn.
@@ -183,8 +184,16 @@ class TicTacToeWorld:
                     f"{self.first} starts")
         self._print(ttt.render(self.board))
 
-    # -- World protocol: the robot's side ---------------------------------------------------
+    # -- World protocol: the robot's side (the record is sealed meanwhile) -------------------
     def points(self) -> dict[str, np.ndarray]:
+        with self.referee.record.sealed():
+            return self._points()
+
+    def query(self, name: str, *args: Any) -> Any:
+        with self.referee.record.sealed():
+            return self._answer(name, *args)
+
+    def _points(self) -> dict[str, np.ndarray]:
         corners = self.player.corners()
         pts: dict[str, np.ndarray] = {"arm.park": self.park.copy(), "arm.lift": self.player.lift_point()}
         for cell in range(1, 10):
@@ -195,7 +204,7 @@ class TicTacToeWorld:
                 pts[f"board.move.{name}"] = np.asarray(p, dtype=float).copy()
         return pts
 
-    def query(self, name: str, *args: Any) -> Any:
+    def _answer(self, name: str, *args: Any) -> Any:
         player = self.player
         if name == "game_over":
             return player.game_over()
