@@ -29,7 +29,7 @@ from ..sim.scene import _check_point
 from . import ik, model
 from .lens import EYE_HEIGHT, EYE_WIDTH, ICUB_EYE_K, eye_calibration, eyes_calibration, true_lens
 
-__all__ = ["EYE_HEIGHT", "EYE_WIDTH", "Eyes", "ICUB_EYE_K", "eye_pose"]
+__all__ = ["EYE_HEIGHT", "EYE_WIDTH", "Eyes", "ICUB_EYE_K", "aim_gaze", "eye_pose", "eye_poses_looking_at"]
 
 #: how much each head joint takes of a gaze change (neck first, then the eyes' tilt)
 GAZE_WEIGHTS = {"neck_pitch": 1.0, "neck_yaw": 1.0, model.EYES_TILT_JOINT: 0.3}
@@ -62,6 +62,32 @@ def eye_pose(chain: ik.KinematicChain, joints: Mapping[str, float]) -> np.ndarra
     return chain.forward(q)[0]
 
 
+def aim_gaze(chain: ik.KinematicChain, torso: Mapping[str, float], target: np.ndarray) -> tuple[np.ndarray, float]:
+    """Joint angles (n,) of the gaze ``chain`` (world to the eyes' tilt link) that aim the eyes at
+    ``target`` (3,), neck first then the eyes' tilt (:data:`GAZE_WEIGHTS`), from the head straight
+    ahead with the torso at ``torso`` (name -> radians; joints not given at 0); and the angle,
+    radians, still missing where the joints' limits stop it."""
+    weights = np.array([GAZE_WEIGHTS.get(n, 0.0) for n in chain.names])
+    q0 = np.array([float(torso.get(n, 0.0)) for n in chain.names])
+    return ik.aim(chain, q0, np.asarray(target, dtype=float), weights)
+
+
+def eye_poses_looking_at(target: np.ndarray, torso: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+    """``{"left", "right"} -> world_T_camera`` (4, 4) of the eyes when the robot (torso at
+    ``torso``, default upright) looks at ``target`` (3,): :func:`aim_gaze` and :func:`eye_pose`
+    on the robot's own model, without a simulator -- where its eyes are while it watches a
+    demonstration (:func:`hila_lang.worlds.tictactoe.recording.demonstration_rig`)."""
+    from ..rotation import about_z, pose
+
+    text = model.urdf_path().read_text()
+    root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
+    gaze = ik.KinematicChain.from_urdf(text, "eyes_tilt_link", root)
+    q, _ = aim_gaze(gaze, torso or {}, _check_point(target))
+    joints = dict(zip(gaze.names, q))
+    return {eye: eye_pose(ik.KinematicChain.from_urdf(text, model.EYE_LINKS[eye], root), joints)
+            for eye in ("left", "right")}
+
+
 class Eyes:
     """The two eye cameras of ``body``, looking at ``target`` until told otherwise.
 
@@ -91,10 +117,7 @@ class Eyes:
         exactly, so the head's angles depend only on the torso and ``point``."""
         target = _check_point(point)
         names = self._gaze_chain.names
-        arm = self.body.angles([n for n in names if n in model.ARM_CHAIN])
-        q0 = np.array([arm.get(n, 0.0) for n in names])
-        weights = np.array([GAZE_WEIGHTS.get(n, 0.0) for n in names])
-        q, angle = ik.aim(self._gaze_chain, q0, target, weights)
+        q, angle = aim_gaze(self._gaze_chain, self.body.angles([n for n in names if n in model.ARM_CHAIN]), target)
         for name, value in zip(names, q):
             if name in self.body.held:
                 self.body.set_held(name, value)

@@ -25,11 +25,10 @@ from functools import lru_cache
 
 import numpy as np
 
-#: iCub eye camera resolution, pixels (paper section III.C: 320x240 at 20 Hz)
-EYE_WIDTH, EYE_HEIGHT = 320, 240
-#: the simulated eyes' true intrinsics at 320x240 (focal length of the iCub's calibrated eyes,
-#: ~64 degrees horizontal field of view): for rendering only
-ICUB_EYE_K = np.array([[257.34, 0.0, 160.0], [0.0, 257.34, 120.0], [0.0, 0.0, 1.0]])
+from ..perception.rig import EYE_K as ICUB_EYE_K  # the simulated eyes' true intrinsics: rendering only
+from ..perception.rig import HEIGHT as EYE_HEIGHT
+from ..perception.rig import WIDTH as EYE_WIDTH
+
 #: chessboard images per eye and their supersampling: as the demonstration's recording
 #: (:func:`hila_lang.perception.recording.write_recording`).  Measured here: 14 views at 2x left
 #: the principal point 0.4 px off, 40 views at 4x 0.25 px (0.06 px RMS reprojection)
@@ -150,7 +149,7 @@ def eyes_calibration():
     def make(folder):
         _progress(f"calibrating the iCub's eye pair from {STEREO_PAIRS} chessboard pairs (once; kept in {folder})")
         rig = StereoRig(Camera(ICUB_EYE_K, np.eye(4), EYE_WIDTH, EYE_HEIGHT),
-                        Camera(ICUB_EYE_K, head, EYE_WIDTH, EYE_HEIGHT))
+                        Camera(ICUB_EYE_K, head, EYE_WIDTH, EYE_HEIGHT))  # the left eye at the origin
         lens = true_lens(CALIBRATION_SUPERSAMPLE)
         right = type(lens)(rig.right, lens.dist, supersample=CALIBRATION_SUPERSAMPLE)
         left_images, right_images = stereo_views(lens, right, rig, STEREO_PAIRS, seed=STEREO_SEED)
