@@ -252,3 +252,20 @@ def test_a_blind_player_plays_from_the_moves_it_made_and_was_told():
     player.opponent_moved(1)
     assert player.board() == ("X", "", "", "", "O", "", "", "", "") and player.to_move() == "robot"
     assert player.last_move() == 5
+
+
+def test_an_aside_place_out_of_reach_is_skipped_not_fatal():
+    from hila_lang.errors import UnreachableError
+
+    eyes, arm = Eyes(), Arm(LIFT)
+
+    def move(path):
+        if np.allclose(np.asarray(path)[-1], ASIDE):
+            raise UnreachableError("cannot reach the aside place")
+        arm.move(path)
+
+    hidden = Reading(EMPTY, occluded=[3], confidence=[1] * 2 + [0] + [1] * 6)
+    sight = look_at_board(eyes, Hand(arm.position, move), known_table(), Memory(), LIFT, ASIDE,
+                          read=scripted([hidden, hidden, Reading(EMPTY), Reading(EMPTY)]))
+    assert [v["view"] for v in sight.views] == ["left eye", "right eye", "left eye (gaze on the doubtful cells)"]
+    assert sight.unsure == [] and arm.moves == []

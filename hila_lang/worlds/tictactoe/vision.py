@@ -52,7 +52,8 @@ import numpy as np
 from ...errors import HilaRuntimeError, InputError
 from .board import CORNER_NAMES
 
-#: the views tried in order while in doubt: (name, eye, where the arm is, where the eyes look)
+#: the views tried in order while in doubt: (name, eye, where the arm is -- None: where the views
+#: before left it --, where the eyes look)
 VIEWS = (
     ("left eye", "left", "still", "board"),
     ("right eye", "right", "still", "board"),
@@ -60,8 +61,8 @@ VIEWS = (
     ("right eye (arm lifted)", "right", "lifted", "board"),
     ("left eye (arm aside)", "left", "aside", "board"),
     ("right eye (arm aside)", "right", "aside", "board"),
-    ("left eye (gaze on the doubtful cells)", "left", "aside", "doubt"),
-    ("right eye (gaze on the doubtful cells)", "right", "aside", "doubt"),
+    ("left eye (gaze on the doubtful cells)", "left", None, "doubt"),
+    ("right eye (gaze on the doubtful cells)", "right", None, "doubt"),
 )
 #: a cell reading is sure at this confidence (halfway between its decision threshold and a clear
 #: decision; see :mod:`.reading`)
@@ -188,7 +189,8 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
     Raises
     ------
     HilaRuntimeError
-        No view found the grid.
+        No view found the grid, or the table's height is still unknown (no two images, one from
+        each eye, saw the whole grid).
     """
     if read is None:
         from .reading import read_board
@@ -207,6 +209,7 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
             arm = "lifted"  # a pen low over the board (after a circle) goes up first: the next reach starts there
             skipped.add("still")
         for name, eye, where, look in VIEWS:
+            where = arm if where is None else where
             if where in skipped:
                 continue
             if where != arm:
@@ -214,7 +217,7 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
                     break
                 if not _move_arm(hand, np.asarray(lift if where == "lifted" else aside, dtype=float),
                                  straight_up=where == "lifted"):
-                    skipped.add(where)  # the pen was already that high: the same views again would not help
+                    skipped.add(where)  # already that high (the same views again would not help), or out of reach
                     continue
                 arm = where
             if look == "doubt" and result is not None:
@@ -374,13 +377,19 @@ def _doubt(result, images: list[_Image], memory: Memory) -> tuple[list[int], lis
 
 def _move_arm(hand, target: np.ndarray, *, straight_up: bool) -> bool:
     """Move the pen to ``target`` (3,); ``straight_up``: only up to its height, and only when
-    the pen is more than :data:`LIFT_TOLERANCE` lower.  True when the arm moved."""
+    the pen is more than :data:`LIFT_TOLERANCE` lower.  True when the arm moved; False when it
+    did not need to, or could not (the place is out of reach: that view is skipped)."""
+    from ...errors import UnreachableError
+
     here = np.asarray(hand.position(), dtype=float)
     if straight_up:
         if here[2] >= target[2] - LIFT_TOLERANCE:
             return False
         target = np.array([here[0], here[1], target[2]])
-    hand.move(target[None])
+    try:
+        hand.move(target[None])
+    except UnreachableError:
+        return False
     return True
 
 
