@@ -204,7 +204,8 @@ class Player:
     def aside_point(self) -> np.ndarray:
         """Where the pen goes so that the arm is out of the eyes' view of the board, shape (3,):
         beyond the near-right corner of the grid as last seen (the arm's side), at the park
-        height; before the first sighting, beside where the eyes look."""
+        height; before the first sighting, beside where the eyes look (the back end first aims
+        them at the middle of the sheet it was handed: where to look, not what is there)."""
         if self.sightings:
             c = self.sightings[-1]["corners"]
             right = c[9]["br"] - c[9]["bl"]
