@@ -153,6 +153,15 @@ def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
     return atomic_write_text(path, header + body)
 
 
+def cache_folders(name: str) -> list[Path]:
+    """Where hila may keep what it computes once and reuses (the generated robot model, the eyes'
+    lens calibration): ``$HILA_CACHE_DIR/hila/<name>`` (else ``$XDG_CACHE_HOME`` or
+    ``~/.cache``), then a temporary folder for when that one is not writable, in that order."""
+    base = os.environ.get("HILA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME")
+    root = Path(base) if base else Path.home() / ".cache"
+    return [root / "hila" / name, Path(tempfile.gettempdir()) / f"hila-{os.getuid()}" / name]
+
+
 def output_folder(out, name: str) -> Path:
     """``out`` as given (created), or a fresh ``runs/<name>-<UTC time>[-k]`` folder (created).
 

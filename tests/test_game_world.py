@@ -213,3 +213,72 @@ def test_out_on_a_file_is_refused_before_the_game(tmp_path, capsys):
     captured = capsys.readouterr()
     assert code == 2 and "expected --out to be a folder, got a file" in captured.err
     assert "plays cell" not in captured.out and "Traceback" not in captured.err
+
+
+def test_the_record_is_sealed_while_the_robot_decides(tmp_path):
+    """Reading the game's record while the world answers the robot's questions or names its
+    points is an error, so no decision can come from it (the games here and in
+    test_game_vision.py run with the seal on); outside a decision the referee reads it freely."""
+    from hila_lang.worlds.tictactoe.referee import SealedRecordError
+
+    world = _world(tmp_path)
+    assert world.query("best_move") == "board.cell5" and world.board == ttt.empty_board()
+    world.player.board = lambda: world.board  # a robot that peeks at the record
+    with pytest.raises(SealedRecordError, match=r"the game's record \(board\) was read while the robot was deciding"):
+        world.query("game_over")
+    with pytest.raises(SealedRecordError):
+        world.points()
+    assert world.board == ttt.empty_board()  # unsealed again
+
+
+def test_a_blind_robot_plays_from_the_moves_it_made_and_was_told(tmp_path):
+    """On the dry back end (no eyes) the robot's board is its own memory: a record made wrong
+    does not change what it plays, and the referee's fouls say what went wrong."""
+    options = _options(tmp_path, 0, "minimax")
+    interp = prepare(PROGRAM, options, "dry")
+    world = interp.world
+    world.referee.record.board = ("", "", "", "", "X", "", "", "", "")
+    while not world.marks:
+        interp.step()
+    assert world.player.own == [5] and world.marks[0]["cell"] == 5
+    assert world.referee.fouls == [{"cell": 5, "foul": "drawn over X", "moves_before": 0}]
+    assert world.board[4] == "X"  # the record keeps the cell's first mark
+
+
+@pytest.mark.parametrize("setting", ["board.bump=0.03", "light=0.5"])
+def test_perturbations_need_a_back_end_that_can_show_them(tmp_path, capsys, setting):
+    code = cli.main(["exec", str(PROGRAM), "--backend", "dry", "--set", setting, "--quiet", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and "changes the scene between moves" in err and "back end 'dry' has no eyes" in err
+    assert "Traceback" not in err
+
+
+def test_exec_help_names_every_setting(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["exec", "--help"])
+    text = capsys.readouterr().out
+    for name in ("board.bump=D", "light=F", "crosses=neat|sloppy", "eyes.noise=SIGMA", "opponent=random|minimax|human"):
+        assert name in text, name
+
+
+@pytest.mark.parametrize("backend", ["dry", "pybullet"])
+def test_back_restores_the_game_so_the_same_steps_play_again(tmp_path, backend):
+    """The REPL's ``back`` over a robot move and an opponent move: the referee's record and scores,
+    the robot's memory and the opponent's generator go back too, so stepping again gives the same
+    entries and no foul (a circle over a mark the record still held would be one)."""
+    options = _options(tmp_path, seed=3, opponent="random")
+    interp = prepare(PROGRAM, options, backend)
+    world = interp.world
+    assert interp.keep_history() is None
+    try:
+        first = [interp.step().text for _ in range(14)]
+        record = (list(world.board), len(world.moves), len(world.marks), len(world.sightings))
+        again = first[-9:]
+        interp.back(9)
+        assert [interp.step().text for _ in range(9)] == again
+        assert (list(world.board), len(world.moves), len(world.marks), len(world.sightings)) == record
+        interp.run()
+    finally:
+        report = finish(interp)
+    assert report["fouls"] == [] and report["result"] in ("robot", "draw")
+    assert len(report["marks"]) == sum(m["player"] == "robot" for m in report["moves"])

@@ -117,7 +117,9 @@ def test_declarations_are_documented_and_import_nothing_heavy():
             assert doc and "\n" not in doc, name
     ttt = registry.world("tictactoe")
     assert set(ttt.questions) >= {"game_over", "best_move", "free"} and set(ttt.events) == {"opponent_moved"}
-    assert ttt.parse({}) == {"opponent": "minimax", "first": "robot", "report": True}
+    assert ttt.parse({}) == {"opponent": "minimax", "first": "robot", "report": True,
+                             "board.bump": 0.0, "light": 1.0, "crosses": "neat"}
+    assert ttt.parse({"board.bump": "0.03", "crosses": "sloppy"})["board.bump"] == 0.03
     code = ("import sys; from hila_lang.plugins import registry\n"
             "[registry.world(n) for n in registry.names('world')]\n"
             "[registry.backend(n) for n in registry.names('back end')]\n"
@@ -291,9 +293,10 @@ def test_settings_go_to_their_owner_and_are_parsed():
         {"osila.threshold": "0.002", "first": "opponent", "hand": "0.1, 0.2, 0.3"},
         registry.world("tictactoe"), registry.backend("dry"))
     assert osila == {"threshold": 0.002}
-    assert world == {"opponent": "minimax", "first": "opponent", "report": True}
+    assert world == {"opponent": "minimax", "first": "opponent", "report": True, "board.bump": 0.0, "light": 1.0,
+                     "crosses": "neat"}
     assert backend == {"hand": (0.1, 0.2, 0.3)}
-    with pytest.raises(InputError, match=r"unknown setting 'colour' .* known: first, hand, opponent, report, osila.OPTION"):
+    with pytest.raises(InputError, match=r"unknown setting 'colour' .* known: board.bump, crosses, first, hand, light, opponent, report, osila.OPTION"):
         split_settings({"colour": "red"}, registry.world("tictactoe"), registry.backend("dry"))
 
 

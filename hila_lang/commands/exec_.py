@@ -12,7 +12,10 @@ DESCRIPTION = (
 
 
 def add_arguments(parser) -> None:
+    from ..plugins.registry import settings_help
+
     add_run_arguments(parser)
+    parser.epilog = settings_help()
     parser.add_argument("--trace", default=None, metavar="FILE", help="write the state trace to FILE")
     parser.add_argument("--quiet", action="store_true", help="do not print the state trace")
     parser.add_argument("--record", default=None, metavar="FILE.hilarec",

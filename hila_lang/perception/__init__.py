@@ -4,7 +4,7 @@ Perception knows no world: what the ICPs of a demonstration are is read by the w
 reader (:func:`~hila_lang.perception.learn.perceive` takes it as an argument).
 
 - :mod:`~hila_lang.perception.distortion`    the simulated lens (radial, barrel) and undistortion
-- :mod:`~hila_lang.perception.rig`           the eyes' intrinsics and poses while watching
+- :mod:`~hila_lang.perception.rig`           the eyes' true intrinsics and a pair of eye cameras
 - :mod:`~hila_lang.perception.calibration`   chessboard calibration per eye, and of the eye pair
 - :mod:`~hila_lang.perception.recording`     recording folders: writing a simulated one, reading frames
 - :mod:`~hila_lang.perception.extraction`    sub-pixel marker track, gap bridging, RBF smoothing

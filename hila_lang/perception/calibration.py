@@ -235,8 +235,9 @@ def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, se
                  dist=None) -> list[np.ndarray]:
     """``n`` seeded card poses (4, 4), world, seen whole by both eyes of ``rig`` (a StereoRig).
 
-    The card is held around the point both eyes fixate (their optical axes' closest approach),
-    up to 0.12 m off it sideways and 0.15 m nearer or farther, facing the eyes within 30 degrees.
+    The card is held around the point both eyes fixate (their optical axes' closest approach;
+    0.5 m ahead when the eyes look in parallel, as the robot's do), up to 0.12 m off it sideways
+    and 0.15 m nearer or farther, facing the eyes within 30 degrees.
     """
     from ..rotation import from_euler
     from ..sim.camera import look_at
@@ -273,10 +274,14 @@ def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, se
     return poses
 
 
-def _closest_point(p, d, q, e) -> np.ndarray:
-    """Midpoint of the shortest segment between lines p + s d and q + t e."""
+def _closest_point(p, d, q, e, parallel_distance: float = 0.5) -> np.ndarray:
+    """Midpoint of the shortest segment between lines p + s d and q + t e (unit directions);
+    for (nearly) parallel lines, ``parallel_distance`` ahead of the midpoint of p and q."""
     A = np.array([[d @ d, -d @ e], [d @ e, -e @ e]])
     b = np.array([(q - p) @ d, (q - p) @ e])
+    if abs(np.linalg.det(A)) < 1e-6:
+        ahead = (d + e) / np.linalg.norm(d + e)
+        return (p + q) / 2 + parallel_distance * ahead
     s, t = np.linalg.solve(A, b)
     return (p + s * d + q + t * e) / 2
 

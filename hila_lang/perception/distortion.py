@@ -111,3 +111,15 @@ def undistort_image(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     import cv2
 
     return cv2.undistort(image, np.asarray(K, float), np.asarray(dist, float))
+
+
+def undistorted(image):
+    """The ideal pinhole version of a :class:`~hila_lang.sim.camera.CameraImage` taken through a
+    lens (``image.dist``): the same ``K``, pose and size, ``dist`` None.  An image without ``dist``
+    comes back as it is."""
+    from dataclasses import replace
+
+    if image.dist is None:
+        return image
+    rgb = undistort_image(np.ascontiguousarray(image.rgb), image.K, image.dist)
+    return replace(image, rgb=rgb, dist=None)

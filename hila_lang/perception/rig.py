@@ -1,11 +1,13 @@
-"""The iCub's stereo eye cameras while it watches something: intrinsics and poses.
+"""The iCub's stereo eye cameras: their true intrinsics, frame rate, and a pair of them.
 
-The iCub's eyes are 68 mm apart on its head, about 0.33 m above the waist; its cameras run at
-320x240 and 20 Hz (paper section III.C).  While it watches the demonstrator the neck is tilted
-down and both eyes verge on the centre of the demonstration grid.  The true (ideal pinhole)
-intrinsics here are what the renderer uses; the pipeline does *not* read them: it calibrates
-each camera from chessboard images (:mod:`hila_lang.perception.calibration`) and uses the
-calibrated intrinsics with the eyes' poses from the head kinematics (``world_T_camera``).
+The iCub's cameras run at 320x240 and 20 Hz (paper section III.C).  :data:`EYE_K` is the true
+(ideal pinhole) intrinsics of both simulated eyes -- the game's and the demonstration's -- with
+the lens of :mod:`hila_lang.perception.distortion` in front: what the renderer uses.  The
+pipeline does *not* read them: it calibrates each camera from chessboard images
+(:mod:`hila_lang.perception.calibration`).  Where the eyes are comes from the robot's head and
+eye joint angles through its kinematic chain (:func:`hila_lang.robot.eyes.eye_pose`; the
+demonstration's :func:`hila_lang.worlds.tictactoe.recording.demonstration_rig` aims the robot's
+gaze at the demonstration sheet with it), never from a look-at guess.
 """
 
 from __future__ import annotations
@@ -14,15 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..sim.camera import Camera, intrinsics, look_at
+from ..sim.camera import Camera
 
 WIDTH, HEIGHT = 320, 240
-#: horizontal field of view of the eye cameras, degrees (f ~ 257 px at 320 px)
-HFOV_DEG = 64.0
-#: distance between the eyes, metres
-BASELINE = 0.068
-#: midpoint between the eyes, world frame, metres (root (0, 0, 0.62) + torso + neck)
-EYES_CENTER = (0.05, 0.0, 0.95)
+#: true intrinsics of the simulated eye cameras at 320x240 (the iCub's calibrated focal length,
+#: ~64 degrees horizontal field of view): for rendering only
+EYE_K = np.array([[257.34, 0.0, 160.0], [0.0, 257.34, 120.0], [0.0, 0.0, 1.0]])
 #: frame rate of the eye cameras, Hz
 FPS = 20.0
 
@@ -39,17 +38,7 @@ class StereoRig:
         return {"left": self.left, "right": self.right}[eye]
 
 
-def stereo_rig(target, *, eyes_center=EYES_CENTER, baseline: float = BASELINE, hfov_deg: float = HFOV_DEG,
-               width: int = WIDTH, height: int = HEIGHT) -> StereoRig:
-    """Eye cameras verging on ``target`` (3,), world, metres.
-
-    The left eye is at +y (the robot's left; it faces +x), the right eye at -y.
-    """
-    target = np.asarray(target, dtype=float)
-    c = np.asarray(eyes_center, dtype=float)
-    K = intrinsics(width, height, hfov_deg)
-    cams = []
-    for sign in (1.0, -1.0):
-        eye = c + np.array([0.0, sign * baseline / 2, 0.0])
-        cams.append(Camera(K, look_at(eye, target), width, height))
-    return StereoRig(*cams)
+def rig(poses: dict, K: np.ndarray = EYE_K) -> StereoRig:
+    """A :class:`StereoRig` of two eyes with intrinsics ``K`` at ``poses`` (eye -> world_T_camera)."""
+    return StereoRig(*(Camera(np.asarray(K, float), np.asarray(poses[eye], float), WIDTH, HEIGHT)
+                       for eye in ("left", "right")))

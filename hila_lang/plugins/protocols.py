@@ -8,9 +8,10 @@ member and signature by signature.
 
 What only some back ends have is a *capability*: an attribute of the back end holding an object
 that implements a small protocol, or None.  ``backend.eyes`` (:class:`Eyes`: the robot's
-cameras), ``backend.ink`` (:class:`Ink`: a drawing surface that keeps the ink) and
+cameras), ``backend.ink`` (:class:`Ink`: a drawing surface that keeps the ink and can be moved),
 ``backend.overview`` (:class:`Overview`: a camera outside the robot, for reports and never for
-decisions).  A world asks ``if backend.eyes is not None`` -- it never probes for methods.
+decisions) and ``backend.lighting`` (:class:`Lighting`: the simulated scene's light, which a
+world may change).  A world asks ``if backend.eyes is not None`` -- it never probes for methods.
 ``backend.view`` (:class:`View`) is a window a person watches (``--gui``).
 Worlds and back ends both declare ``snapshots`` (:class:`Snapshots`: save what they are now and
 restore it later, for the REPL's ``back``; :class:`hila_lang.plugins.snapshots.AttributeSnapshots`
@@ -43,8 +44,9 @@ if TYPE_CHECKING:  # numpy and the scene types only for annotations: importing t
 @runtime_checkable
 class Eyes(Protocol):
     """The robot's eye cameras.  An image carries what the robot may know about it: the
-    camera's intrinsics and pose, and the joint angles it was taken at (``CameraImage.joints``),
-    so a caller can recompute the pose from the kinematic chain (:meth:`chain`)."""
+    camera's intrinsics and lens distortion as the robot calibrated them (``K``, ``dist``), its
+    pose and the joint angles it was taken at (``CameraImage.joints``), so a caller can
+    recompute the pose from the kinematic chain (:meth:`chain`)."""
 
     def look_at(self, point: "np.ndarray") -> float:
         """Aim the eyes at ``point`` (3,); returns the angle (radians) the joint limits leave."""
@@ -62,6 +64,18 @@ class Eyes(Protocol):
         """The kinematic chain from the world to ``eye`` (:class:`hila_lang.robot.ik.KinematicChain`)."""
         ...
 
+    def body_outline(self) -> Any:
+        """The robot's own body parts that may come into view, as it knows them: a list of
+        capsules ``(points (2, 3), radius)``, world frame, metres (an image reader treats what
+        they cover as hidden)."""
+        ...
+
+    def stereo(self) -> Any:
+        """The robot's calibration of the eye pair: an object with ``right_T_left`` (4, 4), the
+        left camera's coordinates to the right one's (e.g.
+        :class:`hila_lang.perception.calibration.StereoCalibration`)."""
+        ...
+
 
 @runtime_checkable
 class Ink(Protocol):
@@ -75,6 +89,19 @@ class Ink(Protocol):
 
     def ink_image(self) -> "np.ndarray":
         """The surface's texture (H, W, 3) uint8 RGB, row 0 its far edge."""
+        ...
+
+    def move_to(self, surface: "Surface") -> None:
+        """Put the surface, ink and all, at ``surface``'s pose (same size, same height)."""
+        ...
+
+
+@runtime_checkable
+class Lighting(Protocol):
+    """The light of a simulated scene (a world's perturbation, e.g. a lighting change)."""
+
+    def set_light(self, level: float, direction: Any = None) -> None:
+        """Light at ``level`` times the built one, from ``direction`` (3,) (None: unchanged)."""
         ...
 
 
@@ -127,6 +154,7 @@ class Backend(Protocol):
     overview: "Overview | None"
     snapshots: "Snapshots | None"
     view: "View | None"
+    lighting: "Lighting | None"
 
     def hand_position(self) -> "np.ndarray":
         """Current pen-tip position, shape (3,), metres, world frame."""
@@ -189,7 +217,8 @@ class World(Protocol):
 
 
 #: the capability attributes of a back end and the protocol each must implement when not None
-CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview, "snapshots": Snapshots, "view": View}
+CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview, "lighting": Lighting, "snapshots": Snapshots,
+                "view": View}
 #: the same for a world
 WORLD_CAPABILITIES = {"snapshots": Snapshots}
 

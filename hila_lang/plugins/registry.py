@@ -184,6 +184,23 @@ def declarations(kind: str) -> list:
     return out
 
 
+def settings_help(width: int = 100) -> str:
+    """Every ``--set`` a registered world or back end declares, for ``--help`` (one block per
+    plug-in, a line per setting: ``name=METAVAR  doc (default: ...)``)."""
+    import textwrap
+
+    lines = ["settings (--set KEY=VALUE, repeatable; a world's apply when a program names it,",
+             "a back end's with --backend; osila.OPTION goes to OSILA):"]
+    for kind in ("world", "back end"):
+        for info in declarations(kind):
+            if not info.settings:
+                continue
+            lines.append(f"  {kind} {info.name}:")
+            for s in info.settings:
+                lines += textwrap.wrap(s.help(), width, initial_indent="    ", subsequent_indent="        ")
+    return "\n".join(lines)
+
+
 def refresh() -> None:
     """Forget the entry points and declarations found so far."""
     _entry_points.cache_clear()

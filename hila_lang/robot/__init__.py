@@ -18,7 +18,7 @@ points ``hila.backends``).  Importing this package imports nothing heavy; pybull
 """
 
 from ..plugins.registry import BackendInfo
-from ..plugins.settings import Setting, point
+from ..plugins.settings import Setting, number, point
 
 DRY = BackendInfo(
     name="dry",
@@ -30,5 +30,8 @@ DRY = BackendInfo(
 PYBULLET = BackendInfo(
     name="pybullet",
     factory="hila_lang.robot.backend:make_backend",
-    doc="the iCub in PyBullet: IK, 240 Hz position control, ink on the paper, eye cameras",
+    doc="the iCub in PyBullet: IK, 240 Hz position control, ink on the paper, fish-eye eye cameras",
+    settings=(Setting("eyes.noise", "sensor noise of the eye cameras: Gaussian, standard deviation in grey "
+                                    "levels 0-255, seeded by --seed", number(0.0, 40.0), default=0.0,
+                      metavar="SIGMA"),),
 )

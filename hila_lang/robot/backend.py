@@ -7,10 +7,13 @@ owns one :class:`~hila_lang.sim.scene.SimScene` (a PyBullet client, ``DIRECT`` b
 - a table and the paper the world asks for (:class:`~hila_lang.robot.paper.Paper`, the ``ink``
   capability), with a camera above it (``overview``),
 - the arm controller (:class:`~hila_lang.robot.arm.Arm`: IK along a path, the 240 Hz loop),
-- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability),
+- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability: fish-eye
+  lenses, the robot's own calibration, poses from the joint angles, optional sensor noise),
+- the scene's light (:class:`~hila_lang.sim.scene.Lights`, the ``lighting`` capability: a
+  world may change it during a run),
 - snapshots for the REPL's ``back`` (:class:`SimSnapshots`: PyBullet's ``saveState`` /
   ``restoreState`` plus what PyBullet does not save: the ink, the paper's pose, the held head
-  joints, the gaze target, the list of executed moves).
+  joints, the gaze target, the light, the eyes' noise generator, the list of executed moves).
 
 :meth:`PyBulletBackend.move` asks the arm to follow a path and inks where the pen touched.
 
@@ -25,7 +28,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..sim.camera import RenderStyle
-from ..sim.scene import SimScene, _check_point
+from ..sim.scene import Lights, SimScene, _check_point
 from ..sim.surface import Surface
 from ..validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
@@ -44,10 +47,11 @@ __all__ = ["PyBulletBackend", "Trace", "make_backend"]
 
 
 def make_backend(scene, options, settings) -> "PyBulletBackend":
-    """Plug-in factory: the world's ``scene.surface`` (default :func:`.workspace.default_surface`)
-    and ``options.gui``."""
+    """Plug-in factory: the world's ``scene.surface`` (default :func:`.workspace.default_surface`),
+    ``options.gui``, and the eyes' sensor noise (``--set eyes.noise=SIGMA``, seeded by ``options.seed``)."""
     surface = None if scene is None else scene.surface
-    return PyBulletBackend(surface, gui=options.gui)
+    return PyBulletBackend(surface, gui=options.gui, eye_noise=float(settings.get("eyes.noise") or 0.0),
+                           seed=int(options.seed))
 
 
 class PyBulletBackend:
@@ -67,6 +71,10 @@ class PyBulletBackend:
         the hand by the robot's side, out of the cameras' view (for watching a demonstration);
         "auto" is "rest" for a paper on a table lower than the robot's (the demonstrator's) or
         out of reach, else "ready".
+    eye_noise : float
+        Standard deviation of the eye cameras' sensor noise, grey levels (0: none).
+    seed : int
+        Seed of the sensor noise.
 
     Attributes
     ----------
@@ -76,6 +84,7 @@ class PyBulletBackend:
     eyes : Eyes
     ink : Paper
     overview : TopView
+    lighting : Lights
     snapshots : SimSnapshots
     view : Window or None
         The window (``gui``): framed, paths drawn, the state written, the left eye's image.
@@ -88,7 +97,8 @@ class PyBulletBackend:
 
     name = "pybullet"
 
-    def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto") -> None:
+    def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto",
+                 eye_noise: float = 0.0, seed: int = 0) -> None:
         self.surface = surface if surface is not None else default_surface()
         if not isinstance(self.surface, Surface):
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
@@ -108,7 +118,8 @@ class PyBulletBackend:
             low_table = self.surface.z < TABLE_TOP_Z - 0.05
             rest = arm == "rest" or (arm == "auto" and (low_table or not reachable))
             self.body.set_arm(self.arm.rest_posture if rest else self.arm.ready_posture)
-            self.eyes = Eyes(self.body, centre, self._render)
+            self.eyes = Eyes(self.body, centre, self._render, noise=eye_noise, seed=seed)
+            self.lighting = Lights(self.sim)
             self.snapshots = SimSnapshots(self)
             self.view = self._open_window() if gui else None
         except BaseException:
@@ -195,8 +206,8 @@ class SimSnapshots:
     """The ``snapshots`` capability of :class:`PyBulletBackend`.
 
     PyBullet's ``saveState`` keeps the bodies' poses and joint states in memory (no file); the
-    ink texture, the paper's pose, the head's held angles, the gaze target and the executed
-    moves are copied beside it.  On restore the motors are told to hold the restored posture,
+    ink texture, the paper's pose, the head's held angles, the gaze target, the light, the eyes'
+    noise generator and the executed moves are copied beside it.  On restore the motors are told to hold the restored posture,
     and the ink is uploaded again.
     """
 
@@ -208,7 +219,7 @@ class SimSnapshots:
         pb, c = b.sim.pb, b.sim.client
         return {"state": pb.saveState(physicsClientId=c), "ink": b.ink.canvas.image.copy(),
                 "strokes": b.ink.canvas.strokes, "surface": b.ink.surface, "held": dict(b.body.held), "gaze": b.eyes.target.copy(),
-                "traces": len(b.traces)}
+                "style": b.sim.style, "noise": b.eyes._rng.bit_generator.state, "traces": len(b.traces)}
 
     def restore(self, saved: dict) -> None:
         b = self.b
@@ -219,6 +230,8 @@ class SimSnapshots:
         b.body.hold_head()
         b.body.command(b.body.arm_angles(), np.zeros(len(b.body.arm_joints)))
         b.eyes.target = saved["gaze"].copy()
+        b.eyes._rng.bit_generator.state = saved["noise"]
+        b.sim.style = saved["style"]
         if saved["surface"] is not b.ink.surface:
             b.ink.move_to(saved["surface"])
         b.ink.canvas.image[...] = saved["ink"]

@@ -3,8 +3,8 @@
 Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
 ``--set hand=X,Y,Z`` (a setting of this back end), else the origin; a program's
 ``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
-It has no eyes, no ink, no overview camera and no window (those capabilities are None); its ``snapshots``
-copy where the hand is and cut the list of moves back.
+It has no eyes, no ink, no overview camera, no lights and no window (those capabilities are None);
+its ``snapshots`` copy where the hand is and cut the list of moves back.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ class DryBackend:
     ink = None
     overview = None
     view = None
+    lighting = None
 
     def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
         from ..plugins.snapshots import AttributeSnapshots

@@ -31,8 +31,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
-import tempfile
 import xml.etree.ElementTree as ET
 from functools import lru_cache
 from pathlib import Path
@@ -241,12 +239,6 @@ def _add_eyes(robot: ET.Element) -> None:
         )
 
 
-def _cache_dir() -> Path:
-    base = os.environ.get("HILA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME")
-    root = Path(base) if base else Path.home() / ".cache"
-    return root / "hila" / "robot"
-
-
 @lru_cache(maxsize=None)
 def urdf_path() -> Path:
     """Path of the generated URDF, written once into the cache folder and reused.
@@ -255,12 +247,12 @@ def urdf_path() -> Path:
     writes a new file.  The cache folder is ``$HILA_CACHE_DIR/hila/robot`` or
     ``~/.cache/hila/robot``; when it is not writable a temporary folder is used.
     """
-    from ..fileio import atomic_write_text
+    from ..fileio import atomic_write_text, cache_folders
 
     text = generate_urdf()
     digest = hashlib.sha256((_GENERATOR_VERSION + text).encode()).hexdigest()[:12]
     name = f"{ROBOT_NAME}_hila_{digest}.urdf"
-    for folder in (_cache_dir(), Path(tempfile.gettempdir()) / f"hila-{os.getuid()}"):
+    for folder in cache_folders("robot"):
         path = folder / name
         if path.is_file():
             return path

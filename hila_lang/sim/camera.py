@@ -75,6 +75,11 @@ class CameraImage:
     joints : mapping joint name -> radians, or None
         The robot's joint angles when the image was taken (an eye image: enough to recompute
         ``world_T_camera`` from the eye's kinematic chain); None for a camera outside the robot.
+    dist : tuple of float, or None
+        The lens distortion (OpenCV coefficients k1, k2, p1, p2, k3) the image was taken through,
+        as far as whoever took it knows it (the robot's eyes: their own calibration, like ``K``);
+        None for an ideal pinhole image.  :func:`hila_lang.perception.distortion.undistorted`
+        makes the pinhole image.
     """
 
     rgb: np.ndarray
@@ -83,6 +88,7 @@ class CameraImage:
     width: int
     height: int
     joints: Mapping[str, float] | None = None
+    dist: tuple | None = None
 
     @property
     def camera(self) -> Camera:

@@ -52,6 +52,26 @@ def _check_point(point, what: str = "point") -> np.ndarray:
     return arr
 
 
+class Lights:
+    """The light of a :class:`SimScene`, which a world may change during a run (implements
+    :class:`hila_lang.plugins.protocols.Lighting`): a level that scales the ambient, diffuse and
+    specular light the scene was built with, and where the light comes from."""
+
+    def __init__(self, sim: "SimScene") -> None:
+        self.sim = sim
+        self.built = sim.style
+
+    def set_light(self, level: float, direction=None) -> None:
+        """Light at ``level`` times the built one (1: as built), from ``direction`` (3,) (a vector
+        towards the light, world frame; None: unchanged)."""
+        if isinstance(level, bool) or not isinstance(level, (int, float, np.floating)) or not 0 < level <= 3:
+            raise InputError(f"light level must be a number in (0, 3], got {level!r}")
+        b = self.built
+        light = b.light_direction if direction is None else tuple(float(v) for v in _check_point(direction, "light direction"))
+        self.sim.style = RenderStyle(**{**b.__dict__, "ambient": b.ambient * level, "diffuse": b.diffuse * level,
+                                        "specular": b.specular * level, "light_direction": light})
+
+
 class SimScene:
     """A PyBullet client holding a scene; close it when done (or use ``with``).
 

@@ -2,8 +2,11 @@
 
 - :mod:`.rules` -- rules and a minimax player that never loses (pure Python);
 - :mod:`.opponents` -- seeded built-in opponents and a person typing at a prompt;
-- :mod:`.marks` -- the opponent's hand-drawn crosses, measures of the robot's circles;
-- :mod:`.vision` -- the robot reads the board through its eyes;
+- :mod:`.marks` -- the opponent's hand-drawn crosses (neat or sloppy), measures of the robot's circles;
+- :mod:`.reading` -- the grid and the marks in one camera image;
+- :mod:`.vision` -- the robot reads the board through its eyes and decides when to look again;
+- :mod:`.player` -- the robot's side: what it saw and did, and what it decides from that;
+- :mod:`.referee` -- the game's record, the opponent's moves, the perturbations, the scores;
 - :mod:`.demonstration` -- the seeded human-like demonstration behind ``primitives/circle.yaml``;
 - :mod:`.world` -- the ``tictactoe`` world ``hila exec programs/game.hila`` runs in;
 - :mod:`.report` -- the output folder of a game.
@@ -12,7 +15,7 @@
 """
 
 from ...plugins.registry import WorldInfo
-from ...plugins.settings import Setting, boolean, choice
+from ...plugins.settings import Setting, boolean, choice, number
 
 WORLD = WorldInfo(
     name="tictactoe",
@@ -24,6 +27,12 @@ WORLD = WorldInfo(
         Setting("first", "who starts", choice("robot", "opponent"), default="robot", metavar="robot|opponent"),
         Setting("report", "write the output folder (images, traces, report.json)", boolean, default=True,
                 metavar="yes|no"),
+        Setting("board.bump", "after each opponent move the sheet is pushed up to D metres from where it was laid "
+                              "and turned up to 15 deg (seeded)", number(0.0, 0.05), default=0.0, metavar="D"),
+        Setting("light", "after each opponent move the light changes to a seeded level between F and 1 of the "
+                         "original, from a seeded direction", number(0.3, 2.0), default=1.0, metavar="F"),
+        Setting("crosses", "how the opponent draws its crosses: neat, or sloppy (off-centre, turned, over a grid "
+                           "line)", choice("neat", "sloppy"), default="neat", metavar="neat|sloppy"),
     ),
     questions={
         "game_over": "true when someone has won or the board is full",

@@ -14,27 +14,44 @@ from .board import Grid, cell_center
 CONTACT_TOLERANCE = 0.0005
 #: half the length of a cross's bar, as a fraction of the cell size
 CROSS_HALF = 0.30
+#: a sloppy cross: turned by up to this many degrees, and over one of its cell's grid lines by
+#: this much (metres, low and high)
+SLOPPY_TURN_DEG = 40.0
+SLOPPY_OVERLAP = (0.002, 0.005)
 
 
 def cross_strokes(spec: Grid, cell: int, rng: np.random.Generator,
-                  points_per_stroke: int = 12) -> list[np.ndarray]:
+                  points_per_stroke: int = 12, *, sloppy: bool = False) -> list[np.ndarray]:
     """Two hand-drawn strokes of a cross in ``cell`` on the paper, each shape (N, 3).
 
     The bars run along the cell's diagonals with seeded jitter in length, angle and position,
-    like a person's cross.
+    like a person's cross.  A ``sloppy`` cross is turned by up to :data:`SLOPPY_TURN_DEG`, its
+    bars more uneven, and it is drawn off-centre towards one of the cell's grid lines (a side
+    shared with another cell), which one of its bars crosses by 2-5 mm; its centre stays in
+    its cell.
     """
     size = spec.grid_size / 3
     centre = spec.world_to_grid(cell_center(spec, cell)) + rng.normal(scale=0.04 * size, size=2)
-    strokes = []
+    turn = np.radians(rng.uniform(-SLOPPY_TURN_DEG, SLOPPY_TURN_DEG)) if sloppy else 0.0
+    bars = []
     for base in (np.pi / 4, -np.pi / 4):
-        angle = base + rng.normal(scale=0.08)
-        half = CROSS_HALF * size * np.sqrt(2) * rng.uniform(0.85, 1.05)
+        angle = base + turn + rng.normal(scale=0.15 if sloppy else 0.08)
+        half = CROSS_HALF * size * np.sqrt(2) * rng.uniform(*((0.75, 1.1) if sloppy else (0.85, 1.05)))
         d = np.array([np.cos(angle), np.sin(angle)])
         t = np.linspace(-half, half, points_per_stroke)[:, None]
         bow = np.sin(np.linspace(0, np.pi, points_per_stroke))[:, None] * rng.normal(scale=0.02 * size)
-        pts = centre + t * d + bow * np.array([-d[1], d[0]])
-        strokes.append(spec.grid_to_world(pts[:, 0], pts[:, 1]))
-    return strokes
+        bars.append(t * d + bow * np.array([-d[1], d[0]]))
+    if sloppy:
+        row, col = divmod(cell - 1, 3)
+        # the sides of the cell that are grid lines, as unit (right, far) directions
+        sides = [np.array(v, float) for v, ok in (((1, 0), col < 2), ((-1, 0), col > 0),
+                                                   ((0, 1), row > 0), ((0, -1), row < 2)) if ok]
+        side = sides[int(rng.integers(len(sides)))]
+        reach = max(float((bar @ side).max()) for bar in bars)
+        along = size / 2 + rng.uniform(*SLOPPY_OVERLAP) - reach
+        centre = spec.world_to_grid(cell_center(spec, cell)) + along * side \
+            + rng.uniform(-0.1, 0.1) * size * side[::-1]
+    return [spec.grid_to_world(*(centre + bar).T) for bar in bars]
 
 
 def similarity_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:

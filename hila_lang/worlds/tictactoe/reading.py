@@ -1,12 +1,16 @@
 """Reading the tic-tac-toe board from one camera image: the grid's cell corners and the marks.
 
-Method.  The paper lies on a known plane z = ``surface_z``.  The image is warped into a
-top-down view of that plane (``RESOLUTION`` metres per pixel) through the plane-to-image
-homography ``K [r1 r2 z r3 + t]``, so the grid is seen without perspective, at metric scale:
+Method.  An image taken through a lens (``image.dist``: the robot's eyes) is undistorted first
+with the camera's own calibration.  The paper lies on a plane z = ``surface_z`` (the robot
+estimates it from both eyes: :mod:`.vision`).  The image is warped into a top-down view of that
+plane (``RESOLUTION`` metres per pixel) through the plane-to-image homography
+``K [r1 r2 z r3 + t]``, so the grid is seen without perspective, at metric scale.  Every
+brightness threshold is relative to the paper's own brightness in the image, so a lighting
+change moves them with it:
 
 1. the sheet is the largest bright, unsaturated region (closed over what is drawn on it); grid
-   ink is dark and neutral (the printed grid), mark ink is anything clearly darker or more
-   saturated than paper (circles and crosses in any colour); the green hand marker is neither;
+   ink is dark and neutral (the printed grid), mark ink is anything coloured or a dark stroke
+   off the grid lines (circles and crosses in any colour); the green hand marker is neither;
 2. the grid's orientation is the one where the grid ink projects into the sharpest peaks, the
    two strongest peaks along each axis are the lines (so a hand hiding part of a line does not
    matter); each line is refitted (total least squares on the ink pixels on it) and the four
@@ -14,12 +18,18 @@ homography ``K [r1 r2 z r3 + t]``, so the grid is seen without perspective, at m
 3. cell corners follow at 0.5 and 1.5 spacings from the centre; "far" is the grid axis closest
    to world +x (the robot faces +x), "right" is far rotated by -90 degrees about z, matching
    :mod:`hila_lang.worlds.tictactoe.board` (cell 1 far-left, ``tl`` far-left corner);
-4. each cell's ink, away from the grid lines, is a circle ("O") when it rings an empty middle
-   and a cross ("X") when it crosses it; little ink means empty ("").
+4. the mark ink is cut along the grid lines into pieces, each in the cell that holds its centre;
+   a cell's mark is its largest piece of at least :data:`MIN_MARK_AREA` (what a sloppy cross
+   spills over a line is a stub, smaller than that, and never joins the next cell's mark); its ink is a circle ("O") when its pixels lie on a circle (least-squares circle
+   fit, small residual: this holds for a circle partly hidden or not quite closed too) and a
+   cross ("X") otherwise; no blob means empty ("").
+
+Each cell also gets a confidence in [0, 1] (how far its measure is from the decision's
+threshold: ink amount for an empty cell, the circle fit's residual for a mark) and may be
+*occluded* (more than 20 % of it neither paper nor ink, e.g. the arm in
+front): the robot's looking (:mod:`.vision`) uses both to decide whether to look again.
 
 An image where no grid can be found raises :class:`~hila_lang.errors.InputError` saying why.
-The image must be undistorted (a pinhole ``K``); use
-:func:`hila_lang.perception.distortion.undistort_image` first for a distorted camera.
 """
 
 from __future__ import annotations
@@ -32,6 +42,17 @@ from ...errors import InputError
 
 #: size of a top-down pixel, metres
 RESOLUTION = 0.001
+#: the smallest blob of ink that is a mark, square metres (a pen stroke 3 mm wide and 8 mm long;
+#: a circle or a cross is about 300 mm2)
+MIN_MARK_AREA = 25e-6
+#: a cell's ink is a circle when it lies on one: the RMS distance of its pixels from the
+#: best-fitting circle below this fraction of the circle's radius (measured on rasterised marks:
+#: the demonstrated circle 0.10, half of it 0.10; crosses, neat or sloppy, 0.455-0.468)
+CIRCLE_FIT = 0.25
+#: the distance from CIRCLE_FIT at which a reading is fully sure
+CIRCLE_FIT_SURE = 0.12
+#: a cell is occluded when more than this fraction of it is neither paper nor ink
+OCCLUDED_FRACTION = 0.2
 _CORNER_STEPS = {"tl": (-0.5, 0.5), "tr": (0.5, 0.5), "br": (0.5, -0.5), "bl": (-0.5, -0.5)}
 
 
@@ -57,6 +78,13 @@ class BoardReading:
     occluded : list[int]
         Cells more than 20 % hidden (neither paper nor ink seen there, e.g. the arm in front):
         their marks are not trustworthy; look again from another view or move the arm away.
+    confidence : list[float]
+        Per cell (1..9), in [0, 1]: how far its measure is from the threshold that decided its
+        mark (ink amount for empty cells, the circle fit's residual for marks); 0 for an
+        occluded cell.
+    contrast : float
+        How much darker the grid lines are than the paper, as a fraction of the paper's
+        brightness (about 0.6 in good light; low contrast makes every reading less sure).
     """
 
     corners: dict[int, dict[str, np.ndarray]]
@@ -67,6 +95,8 @@ class BoardReading:
     cell_size: float
     ink: list[float] = field(default_factory=list)
     occluded: list[int] = field(default_factory=list)
+    confidence: list[float] = field(default_factory=list)
+    contrast: float = 1.0
 
 
 def plane_to_image_homography(K: np.ndarray, world_T_camera: np.ndarray, z: float) -> np.ndarray:
@@ -76,36 +106,75 @@ def plane_to_image_homography(K: np.ndarray, world_T_camera: np.ndarray, z: floa
     return np.asarray(K, dtype=float) @ np.column_stack([R[:, 0], R[:, 1], R[:, 2] * z + t])
 
 
-def _paper_mask(rgb: np.ndarray) -> np.ndarray:
-    """Bright, unsaturated pixels (the paper), bool (H, W)."""
-    f = rgb.astype(np.int16)
-    return (f.min(axis=2) > 150) & ((f.max(axis=2) - f.min(axis=2)) < 40)
+def _channels(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(darkest channel, brightest channel, mean) per pixel of an RGB image, int16/float32."""
+    r, g, b = (rgb[:, :, k].astype(np.int16) for k in range(3))
+    return np.minimum(np.minimum(r, g), b), np.maximum(np.maximum(r, g), b), (r + g + b).astype(np.float32) / 3
+
+
+def _paper_mask(rgb: np.ndarray, level: float | None = None) -> np.ndarray:
+    """Bright, unsaturated pixels (the paper), bool (H, W).
+
+    "Bright" is relative to ``level``, the paper's brightness if known, else the brightest
+    neutral things in view (their 95th percentile): in good light, darkest channel above 150 and
+    spread below 40 (of 255), as measured on the game's sheet; both scale with the light.
+    """
+    lo, hi, _ = _channels(rgb)
+    if level is None:
+        neutral = (hi - lo) < np.maximum(25, hi // 5)
+        level = float(np.percentile(hi[neutral], 95)) if neutral.any() else 255.0
+    level = max(float(level), 20.0)
+    return (lo > 0.62 * level) & ((hi - lo) < 0.16 * level + 2)
 
 
 def _ink_masks(rgb: np.ndarray, paper_level: float, resolution: float) -> tuple[np.ndarray, np.ndarray]:
-    """(grid ink, any ink), bool (H, W).
+    """(grid ink, mark ink), bool (H, W).
 
     Strokes are thin: a pixel is a dark stroke when it is darker than its neighbourhood's
     closing (a black-hat over ~9 mm) by a quarter of the paper's brightness, which ignores large
     dark areas (table, a shaded arm).  Grid lines are printed in neutral grey (dark, unsaturated
-    strokes); marks may be in any ink (dark strokes, or saturated pixels).  The green hand
-    marker is neither.
+    strokes); marks may be in any ink (dark strokes, or coloured pixels: a spread between the
+    channels of more than 0.3 of the paper's brightness).  The green hand marker is neither.
     """
     import cv2
 
-    f = rgb.astype(np.int16)
-    gray = rgb.mean(axis=2).astype(np.float32)
+    lo, hi, gray = _channels(rgb)
     k = max(3, int(round(0.009 / resolution)) | 1)
     blackhat = cv2.morphologyEx(gray, cv2.MORPH_BLACKHAT, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     stroke = blackhat > 0.25 * paper_level
-    sat = f.max(axis=2) - f.min(axis=2)
+    sat = hi - lo
+    f = rgb.astype(np.int16)
     green = f[:, :, 1] - np.maximum(f[:, :, 0], f[:, :, 2])
-    not_marker = green < 12
-    return stroke & (sat < 45) & not_marker, (stroke | (sat > 60)) & not_marker
+    not_marker = green < max(12.0, 0.06 * paper_level)
+    return stroke & (sat < 0.22 * paper_level) & not_marker, (stroke | (sat > 0.3 * paper_level)) & not_marker
 
 
-def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent: float = 0.8):
-    """Top-down view of the sheet on the plane z = ``surface_z``.
+def own_body_mask(image, body, shape=None) -> np.ndarray:
+    """Pixels (bool, ``shape`` = (H, W), default the image's) of a pinhole ``image`` covered by
+    the camera's own robot: ``body`` is a list of capsules ``(points (2, 3), radius)``, world
+    frame, metres (:meth:`hila_lang.robot.eyes.Eyes.body_outline`)."""
+    import cv2
+
+    from ...sim.camera import world_to_camera
+
+    h, w = shape or np.asarray(image.rgb).shape[:2]
+    mask = np.zeros((h, w), np.uint8)
+    K, T = np.asarray(image.K, float), np.asarray(image.world_T_camera, float)
+    for ends, radius in body or ():
+        a, b = np.asarray(ends, float)
+        n = max(2, int(np.ceil(np.linalg.norm(b - a) / (radius / 2))) + 1)
+        pts = world_to_camera(a + np.linspace(0, 1, n)[:, None] * (b - a), T)
+        for x, y, z in pts:
+            if z > 0.01:
+                u, v = K[0, 0] * x / z + K[0, 2], K[1, 1] * y / z + K[1, 2]
+                r = K[0, 0] * radius / z
+                if -r < u < w + r and -r < v < h + r:
+                    cv2.circle(mask, (int(round(u * 4)), int(round(v * 4))), int(round(r * 4)), 1, -1, cv2.LINE_8, 2)
+    return mask.astype(bool)
+
+
+def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent: float = 0.8, body=None):
+    """Top-down view of the sheet on the plane z = ``surface_z`` (``image`` undistorted first).
 
     Returns
     -------
@@ -117,11 +186,15 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
         Paper-like regions in the top view, closed over what is drawn on them (holes up to
         ~9 mm); a white hand may be among them: :func:`read_board` keeps the region holding
         the most grid ink.
+    own : ndarray (h, w) bool
+        What the camera's own robot hides in the top view (``body``, see :func:`own_body_mask`).
     """
     import cv2
 
+    from ...perception.distortion import undistorted
     from ...sim.camera import intersect_plane_z
 
+    image = undistorted(image)
     rgb = np.ascontiguousarray(np.asarray(image.rgb)[:, :, :3])
     K, T = np.asarray(image.K, float), np.asarray(image.world_T_camera, float)
     mask = _paper_mask(rgb).astype(np.uint8)
@@ -146,10 +219,24 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     H = plane_to_image_homography(K, T, surface_z) @ top_to_plane
     top = cv2.warpPerspective(rgb, H, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
-    paper = _paper_mask(top).astype(np.uint8)
+    level = float(np.median(rgb[labels == best].max(axis=1)))
+    own = np.zeros((h, w), bool)
+    if body:
+        own = cv2.warpPerspective(own_body_mask(image, body).astype(np.uint8), H, (w, h),
+                                  flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP).astype(bool)
+    paper = (_paper_mask(top, level) & ~own).astype(np.uint8)
     k = max(3, int(round(0.009 / resolution)) | 1)
     sheet = cv2.morphologyEx(paper, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
-    return top, np.array([lo[0], hi[1]]), sheet.astype(bool)
+    return top, np.array([lo[0], hi[1]]), sheet.astype(bool), own
+
+
+def _fill_holes(mask: np.ndarray) -> np.ndarray:
+    """``mask`` (bool) with every region it encloses (not connected to the image's border) filled."""
+    import cv2
+
+    outside = np.pad(~mask, 1, constant_values=True).astype(np.uint8)
+    cv2.floodFill(outside, None, (0, 0), 2)
+    return (outside[1:-1, 1:-1] != 2)
 
 
 def _grid_axes(pts: np.ndarray, min_sep: float = 10.0) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
@@ -163,20 +250,21 @@ def _grid_axes(pts: np.ndarray, min_sep: float = 10.0) -> tuple[np.ndarray, np.n
     c = pts.mean(axis=0)
     q = pts - c
 
-    def score(alpha):
-        n1 = np.array([np.cos(alpha), np.sin(alpha)])
-        n2 = np.array([-n1[1], n1[0]])
-        tot = 0.0
-        for n in (n1, n2):
-            proj = q @ n
-            h = np.bincount(np.round(proj - proj.min()).astype(int))
-            tot += float((h.astype(float) ** 2).sum())
-        return tot
+    def scores(alphas):
+        """Peakedness of both projections, for every angle at once."""
+        total = np.zeros(len(alphas))
+        for shift in (0.0, np.pi / 2):
+            proj = q @ np.array([np.cos(alphas + shift), np.sin(alphas + shift)])  # (P, A)
+            bins = np.round(proj - proj.min(axis=0)).astype(np.int64)
+            width = int(bins.max()) + 1
+            counts = np.bincount((bins + width * np.arange(len(alphas))).ravel(), minlength=width * len(alphas))
+            total += (counts.reshape(len(alphas), width).astype(float) ** 2).sum(axis=1)
+        return total
 
     coarse = np.radians(np.arange(0.0, 90.0, 1.0))
-    a0 = coarse[int(np.argmax([score(a) for a in coarse]))]
+    a0 = coarse[int(np.argmax(scores(coarse)))]
     fine = a0 + np.radians(np.arange(-1.0, 1.0001, 0.05))
-    alpha = fine[int(np.argmax([score(a) for a in fine]))]
+    alpha = fine[int(np.argmax(scores(fine)))]
     n1 = np.array([np.cos(alpha), np.sin(alpha)])
     n2 = np.array([-n1[1], n1[0]])
     positions = []
@@ -211,19 +299,23 @@ def _intersect(l1, l2) -> np.ndarray:
 
 
 def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_cell: float = 0.02,
-               max_cell: float = 0.15) -> BoardReading:
-    """Find the grid and the marks in one (undistorted) camera image.
+               max_cell: float = 0.15, body=None) -> BoardReading:
+    """Find the grid and the marks in one camera image.
 
     Parameters
     ----------
     image : CameraImage
-        Anything with ``rgb`` (H, W, 3) uint8, ``K`` (3, 3) and ``world_T_camera`` (4, 4).
+        Anything with ``rgb`` (H, W, 3) uint8, ``K`` (3, 3), ``world_T_camera`` (4, 4) and
+        ``dist`` (the lens, or None for a pinhole image).
     surface_z : float
         World z of the paper, metres.
     resolution : float
         Top-down pixel size, metres.
     min_cell, max_cell : float
         Plausible grid spacing, metres.
+    body : list of (ndarray (2, 3), float), optional
+        The camera's own robot as capsules (points, radius), world frame, metres: what they
+        cover is hidden, neither paper nor ink (:meth:`hila_lang.robot.eyes.Eyes.body_outline`).
 
     Returns
     -------
@@ -236,15 +328,15 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     """
     import cv2
 
-    top, origin, regions = rectify(image, float(surface_z), resolution)
+    top, origin, regions, own = rectify(image, float(surface_z), resolution, body=body)
     paper_level = float(np.median(top[regions].mean(axis=1))) if regions.any() else 240.0
     grid_ink, ink = _ink_masks(top, paper_level, resolution)
     n, labels = cv2.connectedComponents(regions.astype(np.uint8), connectivity=8)
     counts = np.bincount(labels[grid_ink & regions], minlength=n)
     counts[0] = 0
-    sheet = labels == int(np.argmax(counts))
-    grid_ink &= sheet
-    ink &= sheet
+    sheet = _fill_holes(labels == int(np.argmax(counts)))  # marks of any size are on the sheet
+    grid_ink &= sheet & ~own
+    ink &= sheet & ~own
     ys, xs = np.nonzero(grid_ink)
     if len(xs) < 50:
         raise InputError("no grid found on the sheet: no dark grid lines seen",
@@ -306,10 +398,13 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
         cc = c3 + (col - 1) * _vec3(right_vec) + (1 - row) * _vec3(far_vec)
         corners[idx + 1] = {name: cc + dr * _vec3(right_vec) + df * _vec3(far_vec)
                             for name, (dr, df) in _CORNER_STEPS.items()}
-    f = top.astype(np.int16)
-    seen = (np.abs(f.mean(axis=2) - paper_level) < 35) & ((f.max(axis=2) - f.min(axis=2)) < 40) | ink
-    marks, fractions, occluded = _read_marks(ink, seen, corners, origin, resolution, lines, cell)
-    return BoardReading(corners, marks, c3, far_u, right_u, cell, fractions, occluded)
+    lo, hi, gray = _channels(top)
+    paperlike = (np.abs(gray - paper_level) < 0.175 * paper_level) & ((hi - lo) < 0.2 * paper_level)
+    seen = (paperlike | ink | grid_ink) & ~own
+    contrast = float((paper_level - np.median(gray[grid_ink])) / paper_level) if grid_ink.sum() > 20 else 0.0
+    frame = (origin, resolution, c3, right_u, far_u, cell)
+    marks, fractions, occluded, confidence = _read_marks(ink & ~grid_ink, seen, frame, lines)
+    return BoardReading(corners, marks, c3, far_u, right_u, cell, fractions, occluded, confidence, contrast)
 
 
 def _vec3(v2: np.ndarray) -> np.ndarray:
@@ -317,40 +412,74 @@ def _vec3(v2: np.ndarray) -> np.ndarray:
     return np.array([v2[0], v2[1], 0.0])
 
 
-def _read_marks(ink, seen, corners, origin, res, lines, cell) -> tuple[list[str], list[float], list[int]]:
-    """Classify each cell's ink (away from the grid lines) as "", "O" or "X".
+def _circle_residual(pts: np.ndarray) -> float:
+    """RMS distance of points (N, 2) from their least-squares circle (Kasa's algebraic fit),
+    as a fraction of its radius; 1 for fewer than 3 points or a degenerate fit."""
+    if len(pts) < 3:
+        return 1.0
+    A = np.column_stack([2 * pts, np.ones(len(pts))])
+    sol = np.linalg.lstsq(A, (pts ** 2).sum(axis=1), rcond=None)[0]
+    centre = sol[:2]
+    r2 = sol[2] + centre @ centre
+    if not r2 > 0:
+        return 1.0
+    radius = np.sqrt(r2)
+    return float(np.sqrt(np.mean((np.linalg.norm(pts - centre, axis=1) - radius) ** 2)) / radius)
 
-    Also returns the cells more than 20 % of whose inner area is neither paper nor ink (hidden,
-    e.g. by the arm).
+
+def _read_marks(mark, seen, frame, lines) -> tuple[list[str], list[float], list[int], list[float]]:
+    """Each cell's mark ("", "O" or "X"), inked fraction, whether it is occluded, and confidence.
+
+    ``mark`` is the ink that may be a mark (not the grid's own ink), ``seen`` what is paper or
+    ink (top view, bool); ``frame`` = (origin (2,), resolution, centre (3,), right (3,), far (3,),
+    cell size); ``lines`` the grid lines (point, direction) in top-view pixels.  A cell's mark is
+    its largest piece of ink (the ink cut along the grid lines) whose centre is in the cell.
     """
-    h, w = ink.shape
-    ys, xs = np.mgrid[0:h, 0:w]
-    pix = np.stack([xs, ys], axis=-1).astype(float)
-    near_line = np.zeros_like(ink)
-    band = max(0.004 / res, 2.0)
+    import cv2
+
+    origin, res, centre, right, far, cell = frame
+    h, w = mark.shape
+    xs = np.arange(w, dtype=float)[None, :]
+    ys = np.arange(h, dtype=float)[:, None]
+    wx, wy = origin[0] + xs * res - centre[0], origin[1] - ys * res - centre[1]
+    u = (wx * right[0] + wy * right[1]) / cell + 1.5   # column coordinate, 0..3 over the grid
+    v = 1.5 - (wx * far[0] + wy * far[1]) / cell       # row coordinate, 0..3 over the grid
+    col, row = np.floor(u).astype(int), np.floor(v).astype(int)
+    in_grid = (col >= 0) & (col < 3) & (row >= 0) & (row < 3)
+    cell_of = np.where(in_grid, row * 3 + col + 1, 0)
+    inner = in_grid & ((u - col - 0.5) ** 2 + (v - row - 0.5) ** 2 < 0.46 ** 2)
+    area = np.maximum(np.bincount(cell_of[inner], minlength=10), 1)
+    hidden = np.bincount(cell_of[inner & ~seen], minlength=10) / area
+    inked = np.bincount(cell_of[inner & mark], minlength=10)  # diagnostics
+    # cut the ink along the grid's lines, so a mark over a line (a sloppy cross) and a mark in the
+    # next cell that it touches stay apart; what spills over a line is a stub smaller than a mark
+    band = np.zeros_like(mark)
     for (p, d) in lines.values():
         n = np.array([-d[1], d[0]])
-        near_line |= np.abs((pix - p) @ n) < band
-    marks, fractions, occluded = [], [], []
+        band |= np.abs((xs - p[0]) * n[0] + (ys - p[1]) * n[1]) < max(0.002 / res, 1.5)
+    count, labels, stats, cents = cv2.connectedComponentsWithStats((mark & ~band).astype(np.uint8), connectivity=8)
+    min_area = MIN_MARK_AREA / res ** 2
+    biggest = np.zeros(10, dtype=int)  # cell -> its largest piece of ink (0: none)
+    for k in range(1, count):
+        cx, cy = (int(round(c)) for c in cents[k])
+        home = cell_of[min(max(cy, 0), h - 1), min(max(cx, 0), w - 1)]
+        if home and (not biggest[home] or stats[k, cv2.CC_STAT_AREA] > stats[biggest[home], cv2.CC_STAT_AREA]):
+            biggest[home] = k
+    marks, fractions, occluded, confidence = [], [], [], []
     for cellno in range(1, 10):
-        c = corners[cellno]
-        centre_w = np.mean([c[k][:2] for k in c], axis=0)
-        centre_px = (centre_w - origin) / [res, -res]
-        half_px = cell / res / 2
-        r_px = np.linalg.norm(pix - centre_px, axis=-1)
-        inner = r_px < 0.92 * half_px
-        m = ink & inner & ~near_line
-        area = inner.sum()
-        if (inner & ~seen).sum() > 0.2 * area:
+        fractions.append(float(inked[cellno] / area[cellno]))
+        if hidden[cellno] > OCCLUDED_FRACTION:
             occluded.append(cellno)
-        frac = float(m.sum() / max(area, 1))
-        fractions.append(frac)
-        if m.sum() < max(12, 0.01 * area):
+        largest = stats[biggest[cellno], cv2.CC_STAT_AREA] if biggest[cellno] else 0
+        if largest < min_area:  # sure it is empty while its largest piece is under 3/4 of a mark's size
             marks.append("")
-            continue
-        ink_xy = pix[m]
-        r = np.linalg.norm(ink_xy - ink_xy.mean(axis=0), axis=1)
-        mid = (r < 0.35 * np.mean(r)).sum() / max(m.sum(), 1)
-        ring = np.std(r) / max(np.mean(r), 1e-9)
-        marks.append("O" if mid < 0.05 and ring < 0.35 else "X")
-    return marks, fractions, occluded
+            conf = float(np.clip(2.0 * (1.0 - largest / min_area), 0.0, 1.0))
+        else:
+            x0, y0, bw, bh = stats[biggest[cellno], :4]
+            py, px = np.nonzero(labels[y0:y0 + bh, x0:x0 + bw] == biggest[cellno])
+            fit = _circle_residual(np.column_stack([px + x0, py + y0]).astype(float))
+            marks.append("O" if fit < CIRCLE_FIT else "X")
+            conf = float(np.clip(abs(fit - CIRCLE_FIT) / CIRCLE_FIT_SURE, 0.0, 1.0))
+        h_frac = float(hidden[cellno])
+        confidence.append(0.0 if h_frac > OCCLUDED_FRACTION else conf * (1.0 - h_frac / OCCLUDED_FRACTION / 2))
+    return marks, fractions, occluded, confidence

@@ -107,12 +107,15 @@ class DemonstrationScene:
         self.close()
 
 
-def demonstration_rig(spec: Grid | None = None, **kwargs):
-    """The iCub's eyes while it watches: verging on the demonstration grid's centre."""
-    from ...perception.rig import stereo_rig
+def demonstration_rig(spec: Grid | None = None):
+    """The iCub's eyes while it watches: its gaze aimed at the demonstration grid's centre, each
+    eye placed by its joint angles through the robot's kinematic chain
+    (:func:`hila_lang.robot.eyes.eye_poses_looking_at`, the function that places the game's eyes)."""
+    from ...perception.rig import rig
+    from ...robot.eyes import eye_poses_looking_at
 
     spec = spec or Grid.demonstration()
-    return stereo_rig((spec.grid_center[0], spec.grid_center[1], spec.surface_z), **kwargs)
+    return rig(eye_poses_looking_at((spec.grid_center[0], spec.grid_center[1], spec.surface_z)))
 
 
 def record_demonstration(out_dir, seed: int = 0, *, n_calibration: int = 40, n_stereo: int = 16,

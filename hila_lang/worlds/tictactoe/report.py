@@ -4,9 +4,13 @@ Files (all written atomically through :mod:`hila_lang.fileio`):
 
 - ``report.json``: seed, opponent, who started, the moves, the final board, the result, per-mark
   R of each drawn circle against the demonstrated one (after similarity alignment), how far each
-  circle strays outside its cell, tracking error (planned against executed pen path), wall time,
-  and ``vision``: whether the board was read by the robot's eye cameras (with the largest
-  distance of a perceived cell corner from the true one, mm) or known from memory (dry back end);
+  circle strays outside its cell (on the sheet where it was then), tracking error (planned
+  against executed pen path), wall time, the perturbations (settings and what happened when),
+  the referee's ``fouls``, and ``vision``: whether the robot read the board with its eye cameras
+  or played blind (dry back end); with eyes, every ``misread`` the referee found (look, cell,
+  what the robot saw, what was there), the perceived grid corners' distance from the true ones
+  (median and max, mm), the table height the robot estimated and its error, and per look the
+  views it took and why;
 - ``eye.png``: the final left eye-camera image (PyBullet back end only);
 - ``top.png``: the board from above with the planned paths (green) and the executed pen paths
   (blue) drawn over it -- a rendered camera view with the PyBullet back end (the arm may hide
@@ -73,10 +77,16 @@ def build_report(world, trace=None) -> dict[str, Any]:
         "backend": None if backend is None else backend.name,
         "park": [round(float(v), 5) for v in world.park],
         "scene": {
-            "grid_center": list(world.spec.grid_center),
-            "grid_size": world.spec.grid_size,
-            "grid_rotation_deg": round(float(np.degrees(world.spec.grid_rotation)), 3),
-            "surface_z": world.spec.surface_z,
+            "grid_center": list(world.referee.layout.grid_center),
+            "grid_size": world.referee.layout.grid_size,
+            "grid_rotation_deg": round(float(np.degrees(world.referee.layout.grid_rotation)), 3),
+            "surface_z": world.referee.layout.surface_z,
+        },
+        "perturbations": {
+            "board.bump": world.referee.bump, "light": world.referee.light,
+            "crosses": "sloppy" if world.referee.sloppy else "neat",
+            "eyes.noise": None if not world.sees else float(getattr(backend.eyes, "noise", 0.0)),
+            "events": world.referee.perturbations,
         },
         "moves": world.moves,
         "board": list(world.board),
@@ -84,6 +94,8 @@ def build_report(world, trace=None) -> dict[str, Any]:
         "result": world.result(),
         "winning_line": ttt.winning_line(world.board),
         "marks": marks,
+        "marks_outside_cell": sum(1 for m in world.marks if m["outside_cell_m"] > 0),
+        "fouls": world.referee.fouls,
         "r_min": None if not rs else min(rs),
         "r_mean": None if not rs else round(float(np.mean(rs)), 4),
         "tracking_error_mm": None if all_err is None else {
@@ -98,21 +110,32 @@ def build_report(world, trace=None) -> dict[str, Any]:
 
 
 def vision_summary(world) -> dict[str, Any]:
-    """How the robot knew the board: its eye cameras (per robot move, the views it took and how
-    far the perceived cell corners were from the true ones) or, without cameras, memory."""
-    sightings = world.sightings
+    """How the robot knew the board: its eye cameras (the referee's scores of every look) or,
+    without cameras, blind play from the moves it knew of."""
+    sightings, looks = world.sightings, world.referee.looks
     if not sightings:
-        return {"board_read_by": "memory", "corners_from": "known geometry (no eye cameras)"}
+        return {"board_read_by": "memory", "corners_from": "the board's layout (no eye cameras)", "misreads": []}
+    errors = np.concatenate([look["corner_errors_m"] for look in looks]) if looks else np.zeros(1)
     return {
         "board_read_by": "vision",
         "corners_from": "eye cameras",
-        "sightings": len(sightings),
-        "corner_error_max_mm": _mm(max(s["corner_error_m"] for s in sightings)),
+        "looks": len(sightings),
+        "images": sum(len(s["views"]) for s in sightings),
+        "misreads": [dict(m) for m in world.referee.misreads],
+        "unsure": [{"look": s["look"], "cells": list(s["unsure"])} for s in sightings if s["unsure"]],
+        "corner_error_mm": {"median": _mm(np.median(errors)), "max": _mm(errors.max())},
+        "corner_error_max_mm": _mm(errors.max()),
+        "table_height_m": round(float(sightings[-1]["surface_z"]), 5),
+        "table_error_max_mm": _mm(max(abs(look["table_error_m"]) for look in looks)) if looks else None,
         "arm_lifted": sum(s["arm"] == "lifted" for s in sightings),
         "arm_aside": sum(s["arm"] == "aside" for s in sightings),
         "seconds": round(sum(s["seconds"] for s in sightings), 3),
-        "per_move": [{"moves_before": s["moves_before"], "views": [v["view"] for v in s["views"]],
-                      "corner_error_mm": _mm(s["corner_error_m"])} for s in sightings],
+        "per_look": [{"look": look["look"], "moves_before": look["moves_before"], "views": look["views"],
+                      "doubts": sight["doubts"], "misreads": look["misreads"],
+                      "corner_error_median_mm": _mm(look["corner_error_median_m"]),
+                      "corner_error_max_mm": _mm(look["corner_error_max_m"]),
+                      "table_error_mm": _mm(look["table_error_m"])}
+                     for look, sight in zip(looks, sightings)],
     }
 
 
@@ -141,8 +164,20 @@ def traces_csv(world) -> str:
     return buf.getvalue()
 
 
+def _on_sheet_now(points: np.ndarray, then, now) -> np.ndarray:
+    """``points`` (N, 3) drawn when the sheet was at ``then`` (a Grid), where they are on the
+    sheet at ``now``: the ink moved with the sheet (``board.bump``)."""
+    if then is None or then == now:
+        return points
+    local = then.world_to_grid(points)
+    moved = now.grid_to_world(local[:, 0], local[:, 1])
+    moved[:, 2] = points[:, 2]
+    return moved
+
+
 def _overlay(rgb: np.ndarray, world, project) -> np.ndarray:
-    """``rgb`` with every planned (green) and executed (blue) robot path drawn over it."""
+    """``rgb`` with every planned (green) and executed (blue) robot path drawn over it, each
+    where it lies on the sheet now."""
     import cv2
 
     scale = 1 if rgb.shape[0] >= 480 else 2
@@ -154,7 +189,8 @@ def _overlay(rgb: np.ndarray, world, project) -> np.ndarray:
             pts = st[kind]
             if pts is None or len(pts) < 2:
                 continue
-            px = np.asarray(project(np.asarray(pts, dtype=float)), dtype=float) * scale
+            pts = _on_sheet_now(np.asarray(pts, dtype=float), st.get("sheet"), world.spec)
+            px = np.asarray(project(pts), dtype=float) * scale
             px = px[np.isfinite(px).all(axis=1)]
             if len(px) >= 2:
                 cv2.polylines(bgr, [np.round(px).astype(np.int32)], False, colour, 1, cv2.LINE_AA)

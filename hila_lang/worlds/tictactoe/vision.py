@@ -1,60 +1,126 @@
-"""The robot reads the tic-tac-toe board through its own eye cameras (issue 6, item 5).
+"""The robot reads the tic-tac-toe board through its own eyes, and decides when to look again.
 
-Before each of its moves the robot looks at the board and reads, with
-:func:`hila_lang.worlds.tictactoe.reading.read_board` (OpenCV), where the grid's cells are (their
-corners become the ICPs the program binds) and which cells hold a cross or a circle (the board
-minimax plays on).  Nothing of the game's memory goes into the reading; the game's own record
-is used only to check it (and to decide to look again).
+Nothing of the game's record or of the simulator's truth goes in: :func:`look_at_board` gets
+the robot's eyes (images with their own calibration and poses from the joint angles), its arm,
+its estimate of the table (:class:`Table`) and what it remembers (:class:`Memory`: the board
+it saw last and how many marks have been made since, by itself or by the opponent, who says
+when it has moved).  Each image is read with :func:`hila_lang.worlds.tictactoe.reading.read_board`
+(OpenCV): where the grid's cells are (their corners become the ICPs the program binds) and
+which cells hold a cross or a circle (the board minimax plays on).
 
-Views, in order, each taken only when the ones before leave a doubt (the head re-aims at the
-grid centre for every image, so "looking" is rendering an eye camera aimed at the board):
+Looking again.  After every image the robot asks itself whether it is sure, from its own
+measures only:
 
-1. ``left eye``: the left eye, the arm where it is;
-2. ``left eye (arm lifted)``: the pen goes straight up to ``lift`` -- the point the next reach
-   starts from anyway, so the arm makes no extra journey -- and the left eye looks again;
-3. ``left eye (arm aside)``: the last resort: the pen goes to ``aside``, beyond the grid on the
-   arm's side, and the left eye looks again;
-4. ``right eye (arm aside)``: the right eye, for cells the left eye still sees hidden.
+- a cell is *hidden*: more than 20 % of it neither paper nor ink, or covered by the robot's own
+  arm where its joint angles say the arm is (:meth:`~hila_lang.robot.eyes.Eyes.body_outline`:
+  its pen is never read as a mark);
+- a cell's reading is *weak*: its confidence (how far the measure that decided it is from the
+  decision's threshold, times the grid's contrast) is below :data:`SURE`;
+- two images disagree about a cell, each sure of itself (the two eyes, or two looks);
+- the board disagrees with its memory: a mark it saw before is gone or changed, or the number
+  of new marks is not the number of moves made since it last looked.
 
-After going aside the pen comes back to ``lift``, so the program's next reach starts where it
-would have.  The right eye is not tried with the arm over the board: the arm comes from the
-robot's right and hides the same cells from the right eye (measured on seeds 0, 2, 3 and 4: in
-each of the four turns where the left eye was in doubt, the right eye was too).  Each left-eye
-view starts afresh (the cells it sees unhidden); a right-eye view fills in cells it left hidden.
+It looks with its pen up: a pen low over the board (after a circle) first goes straight up to
+``lift``, where the next reach starts anyway, so the arm makes no extra journey.  While in
+doubt it takes the next view of :data:`VIEWS`: the other eye; the pen lifted (when it was not
+yet); the pen taken ``aside``, beyond the board on the arm's side (both eyes); and last the gaze
+moved onto the doubtful cells (both eyes).  Marks are decided by the images taken since the arm last
+moved, each cell by the confidence-weighted vote of the images that saw it; corners are the
+mean of those images' corners.  After going aside the pen comes back to ``lift``, so the
+program's next reach starts where it would have.  When the last view still leaves a doubt the
+robot plays on what it saw (the game goes on from its own reading) and the sighting lists the
+cells it was unsure of; no view finding the grid at all is a
+:class:`~hila_lang.errors.HilaRuntimeError`.
 
-A view is in doubt when some cell is hidden (more than 20 % neither paper nor ink) or when what
-it reads differs from the game's record (a shaded arm can look like a stroke without hiding 20 %
-of a cell).  When the last view still leaves a hidden cell or a cell that differs from the
-record, :func:`look_at_board` raises :class:`~hila_lang.errors.HilaRuntimeError` naming the
-cells: the game never goes on on a board it did not see.
-
-Measured over 20 whole PyBullet games (seeds 0-19, ``bench/game.py``'s series): the cell corners
-are within 0.4 mm of the true ones; the left eye alone settles most turns; the pen is lifted in
-about one turn per game (when, low over the far-right cells after a circle, it hides or darkens
-one); the arm went aside in 2 turns of 20 games (the park place above the grid hid cell 3 at the
-first move).
+The table.  The paper's plane is not given: the robot starts from a rough prior (a table a
+little below its waist, :data:`TABLE_PRIOR_BELOW_ROOT`), reads both eyes' images on it, and
+triangulates the four inner crossings of the grid (cell 5's corners) from the two eyes
+(:func:`hila_lang.perception.triangulation.triangulate`, the left eye placed by its joint
+angles, the right one by the robot's calibration of the pair) -- only from two images that each
+see the whole grid, and only when the four crossings come out level; the plane's height is the
+median of every crossing triangulated so far (:class:`Table`), and the images are read again on it.  The
+first look always uses both eyes for that; later looks refine it whenever both eyes look.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable
 
 import numpy as np
 
 from ...errors import HilaRuntimeError, InputError
+from .board import CORNER_NAMES
 
-#: the views tried in order: (name, eye, where the arm is: "still", "lifted" or "aside")
-VIEWS = (("left eye", "left", "still"), ("left eye (arm lifted)", "left", "lifted"),
-         ("left eye (arm aside)", "left", "aside"), ("right eye (arm aside)", "right", "aside"))
+#: the views tried in order while in doubt: (name, eye, where the arm is -- None: where the views
+#: before left it --, where the eyes look)
+VIEWS = (
+    ("left eye", "left", "still", "board"),
+    ("right eye", "right", "still", "board"),
+    ("left eye (arm lifted)", "left", "lifted", "board"),
+    ("right eye (arm lifted)", "right", "lifted", "board"),
+    ("left eye (arm aside)", "left", "aside", "board"),
+    ("right eye (arm aside)", "right", "aside", "board"),
+    ("left eye (gaze on the doubtful cells)", "left", None, "doubt"),
+    ("right eye (gaze on the doubtful cells)", "right", None, "doubt"),
+)
+#: a cell reading is sure at this confidence (halfway between its decision threshold and a clear
+#: decision; see :mod:`.reading`)
+SURE = 0.5
+#: the grid lines' contrast (fraction of the paper's brightness) at which a reading is fully
+#: trusted; lower contrast scales every confidence down (about 0.6 in the game's light)
+GOOD_CONTRAST = 0.3
 #: the pen is lifted only when it is more than this below the lift point, metres
 LIFT_TOLERANCE = 0.005
+#: the robot's prior for the table before it has seen it: this far below its waist, metres
+#: (only a start for reading the first images; the plane is then triangulated)
+TABLE_PRIOR_BELOW_ROOT = 0.15
+#: rounds of (read on the plane, triangulate, move the plane) at the first look
+PLANE_ROUNDS = 1
+#: a pair of images whose four crossings are not level within this (the table is flat) does not
+#: place the table, metres (measured: 0.2-0.9 mm when both eyes see the whole grid)
+TABLE_SPREAD = 0.002
+#: images are read again when the table estimate moves by more than this, metres (0.2 mm of
+#: height moves a corner seen 35 degrees off the vertical by 0.14 mm)
+REREAD_DZ = 0.0002
 _NAMES = {"": "empty", "O": "a circle (O)", "X": "a cross (X)"}
+
+
+class Table:
+    """The robot's estimate of the table's height (the paper's plane z, world frame, metres).
+
+    Every triangulated grid crossing is a sample; the height is their median.
+    """
+
+    def __init__(self, prior_z: float) -> None:
+        self.prior_z = float(prior_z)
+        self.samples: list[float] = []
+
+    @property
+    def known(self) -> bool:
+        return bool(self.samples)
+
+    @property
+    def z(self) -> float:
+        return float(np.median(self.samples)) if self.samples else self.prior_z
+
+    def add(self, heights) -> None:
+        self.samples.extend(float(h) for h in heights if np.isfinite(h))
+
+
+@dataclass
+class Memory:
+    """What the robot remembers when it looks: the board it saw last (None: it has not looked
+    yet) and how many marks have been made since (its own circles and the moves the opponent
+    announced; None: unknown)."""
+
+    board: tuple[str, ...] | None = None
+    new_marks: int | None = None
 
 
 @dataclass
 class BoardSight:
-    """What the robot's eyes made of the board before one of its moves.
+    """What the robot's eyes made of the board at one look.
 
     Attributes
     ----------
@@ -63,119 +129,268 @@ class BoardSight:
     corners : dict[int, dict[str, ndarray]]
         Cell (1..9) -> ``tl|tr|br|bl`` -> point (3,), world frame, metres (on the paper).
     views : list of dict
-        Per image looked at: ``view`` (name), ``occluded`` (cells), ``marks`` or ``error``.
+        Per image: ``view`` (name), ``occluded`` (cells), ``marks``, ``confidence``, or ``error``.
     arm : str
         Where the arm went to see the board: "still" (nowhere), "lifted" or "aside" (and back).
+    unsure : list of int
+        Cells still in doubt after the last view (decided by the vote anyway).
+    doubts : list of str
+        Why it looked again, in order.
+    surface_z : float
+        The table height the images were read on (the robot's estimate), metres.
+    center : ndarray, shape (3,)
+        The grid's centre, world, metres.
     """
 
     board: tuple[str, ...]
     corners: dict[int, dict[str, np.ndarray]]
     views: list[dict[str, Any]] = field(default_factory=list)
     arm: str = "still"
+    unsure: list[int] = field(default_factory=list)
+    doubts: list[str] = field(default_factory=list)
+    surface_z: float = float("nan")
+    center: np.ndarray | None = None
 
 
-def look_at_board(backend, surface_z: float, record: Sequence[str], lift: np.ndarray | None = None,
+@dataclass
+class _Image:
+    view: str
+    eye: str
+    arm: str
+    image: Any
+    body: Any = None
+    reading: Any = None
+    error: str | None = None
+    paired: bool = False
+
+
+def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | None = None,
                   aside: np.ndarray | None = None, *, read: Callable | None = None) -> BoardSight:
-    """Read the board through ``backend``'s eye cameras (see the module docstring).
+    """Read the board through ``eyes`` until sure (see the module docstring).
 
     Parameters
     ----------
-    backend
-        A :class:`~hila_lang.plugins.protocols.Backend` with eyes (``backend.eyes``); it moves
-        the arm with ``move`` when ``lift`` is given.
-    surface_z : float
-        World z of the paper, metres.
-    record : sequence of 9 str
-        The game's own board, to check the reading against.
+    eyes
+        The robot's eyes (:class:`~hila_lang.plugins.protocols.Eyes`).
+    hand
+        The robot's arm: ``hand.position()`` (3,) and ``hand.move(path (T, 3))``.
+    table : Table
+        The robot's estimate of the table; refined here when both eyes look.
+    memory : Memory
     lift : ndarray, shape (3,), optional
         Where the pen goes straight up to (the next reach's start) and comes back to after
         going aside; None: the arm does not move.
     aside : ndarray, shape (3,), optional
         A pen position with the arm out of the eyes' view of the board; None: not used.
     read : callable, optional
-        ``read(image, surface_z) -> BoardReading``; default
+        ``read(image, surface_z, body=OUTLINE) -> BoardReading``; default
         :func:`hila_lang.worlds.tictactoe.reading.read_board`.
 
     Raises
     ------
     HilaRuntimeError
-        No view found the grid, or the last view still leaves cells hidden or different from
-        the record (the message names them).
+        No view found the grid, or the table's height is still unknown (no two images, one from
+        each eye, saw the whole grid).
     """
     if read is None:
         from .reading import read_board
 
         read = read_board
-    record = tuple(record)
-    marks: list[str | None] = [None] * 9
-    corners = None
-    fewest_hidden = 10
-    views: list[dict[str, Any]] = []
+    right_T_left = np.asarray(eyes.stereo().right_T_left, dtype=float)
+    images: list[_Image] = []
+    doubts: list[str] = []
     arm = "still"
-    can_move = lift is not None
+    skipped: set[str] = set()
+    gaze = np.asarray(eyes.target, dtype=float).copy()
+    unsure: list[int] = []
+    result = None
     try:
-        for name, eye, where in VIEWS:
-            if where != arm:
-                if not can_move or (where == "aside" and aside is None):
-                    break
-                moved = _move_arm(backend, np.asarray(lift if where == "lifted" else aside, dtype=float),
-                                  straight_up=where == "lifted")
-                arm = where
-                if not moved:  # the pen was already that high: the same view again would not help
-                    continue
-            image = backend.eyes.camera_image(eye)
-            try:
-                reading = read(image, surface_z)
-            except InputError as exc:
-                views.append({"view": name, "error": str(exc).splitlines()[0]})
+        if lift is not None and _move_arm(hand, np.asarray(lift, dtype=float), straight_up=True):
+            arm = "lifted"  # a pen low over the board (after a circle) goes up first: the next reach starts there
+            skipped.add("still")
+        for name, eye, where, look in VIEWS:
+            where = arm if where is None else where
+            if where in skipped:
                 continue
-            hidden = sorted(int(c) for c in reading.occluded)
-            views.append({"view": name, "occluded": hidden, "marks": list(reading.marks)})
-            if len(hidden) < fewest_hidden or (eye == "left" and len(hidden) == fewest_hidden):
-                corners, fewest_hidden = reading.corners, len(hidden)
-            first_of_arm = eye == "left"  # a left-eye view after the arm moved overrides the views before
-            for cell in range(1, 10):
-                if cell not in hidden and (marks[cell - 1] is None or first_of_arm):
-                    marks[cell - 1] = reading.marks[cell - 1]
-                elif cell in hidden and first_of_arm:
-                    marks[cell - 1] = None
-            if None not in marks and tuple(marks) == record:
-                return BoardSight(tuple(marks), corners, views, arm)
+            if where != arm:
+                if lift is None or (where == "aside" and aside is None):
+                    break
+                if not _move_arm(hand, np.asarray(lift if where == "lifted" else aside, dtype=float),
+                                 straight_up=where == "lifted"):
+                    skipped.add(where)  # already that high (the same views again would not help), or out of reach
+                    continue
+                arm = where
+            if look == "doubt" and result is not None:
+                targets = unsure or list(range(1, 10))
+                eyes.look_at(np.mean([np.mean(list(result[1][c].values()), axis=0) for c in targets], axis=0))
+            shot = _Image(name, eye, arm, eyes.camera_image(eye), eyes.body_outline())
+            images.append(shot)
+            z_read = table.z
+            _read(shot, read, z_read)
+            if _update_table(images, table, read, right_T_left) and abs(table.z - z_read) > REREAD_DZ:
+                for other in images:
+                    _read(other, read, table.z)
+            current = [im for im in images if im.arm == arm and im.reading is not None]
+            if not current or not table.known and len(images) < 2:
+                if not current:
+                    doubts.append(f"{name}: no grid found")
+                continue
+            result = _combine(current)
+            unsure, reasons = _doubt(result, current, memory)
+            if reasons:
+                doubts.append(f"{name}: " + "; ".join(reasons))
+            if not unsure and table.known:
+                break
     finally:
+        eyes.look_at(gaze)
         if arm == "aside":
-            _move_arm(backend, np.asarray(lift, dtype=float), straight_up=False)
-    if corners is None:
+            _move_arm(hand, np.asarray(lift, dtype=float), straight_up=False)
+    if result is None or not table.known:
+        found = "did not find the board" if result is None else "did not find the grid with both eyes at once"
         raise HilaRuntimeError(
-            "the robot's eyes did not find the board: "
-            + "; ".join(f"{v['view']}: {v['error']}" for v in views),
-            hint="is the grid in the eye cameras' view?")
-    hidden = [c for c in range(1, 10) if marks[c - 1] is None]
-    wrong = [c for c in range(1, 10) if marks[c - 1] is not None and marks[c - 1] != record[c - 1]]
-    parts = [f"cell {c} hidden in every view" for c in hidden]
-    parts += [f"cell {c} seen {_NAMES[marks[c - 1]]}, the game's record says {_NAMES[record[c - 1]]}"
-              for c in wrong]
-    raise HilaRuntimeError(
-        "the board the robot sees differs from the game's record: " + "; ".join(parts)
-        + f" (looked {len(views)} times: " + "; ".join(v["view"] for v in views) + ")",
-        hint="a misread mark or a mark that was not inked; the robot does not play on a board it did not see")
+            f"the robot's eyes {found}: "
+            + "; ".join(f"{im.view}: {im.error or 'grid found'}" for im in images),
+            hint="is the grid in the eye cameras' view? The robot finds the table's height from both eyes")
+    board, corners, centre = result
+    if table.known:  # the next look aims at the board as seen now (it may have been moved)
+        eyes.look_at(centre)
+    views = [{"view": im.view, "error": im.error} if im.reading is None else
+             {"view": im.view, "occluded": sorted(int(c) for c in im.reading.occluded),
+              "marks": list(im.reading.marks), "confidence": [round(c, 3) for c in _confidence(im.reading)]}
+             for im in images]
+    return BoardSight(tuple(board), corners, views, arm, sorted(unsure), doubts, table.z, centre)
 
 
-def _move_arm(backend, target: np.ndarray, *, straight_up: bool) -> bool:
+def _read(shot: _Image, read: Callable, z: float) -> None:
+    try:
+        shot.reading, shot.error = read(shot.image, z, body=shot.body), None
+    except InputError as exc:
+        shot.reading, shot.error = None, str(exc).splitlines()[0]
+
+
+def _update_table(images: list[_Image], table: Table, read: Callable, right_T_left: np.ndarray) -> bool:
+    """Triangulate the grid's inner crossings (cell 5's corners) from the newest image and the
+    other eye's latest image with the arm in the same place; True when the table estimate got
+    new samples.  While the table is unknown, the pair is first read again on the plane its own
+    crossings give (:data:`PLANE_ROUNDS` times): the prior may be centimetres off."""
+    last = images[-1]
+    pair = next((im for im in reversed(images[:-1]) if im.arm == last.arm and im.eye != last.eye), None)
+    if pair is None or last.paired or pair.paired or not all(_whole(im) for im in (last, pair)):
+        return False
+    left, right = (last, pair) if last.eye == "left" else (pair, last)
+    if not table.known:
+        for _ in range(PLANE_ROUNDS):
+            heights = _crossing_heights(left, right, right_T_left)
+            if heights is None:
+                return False
+            for im in (left, right):
+                _read(im, read, float(np.median(heights)))
+            if left.reading is None or right.reading is None:
+                return False
+    heights = _crossing_heights(left, right, right_T_left)
+    if heights is None or np.ptp(heights) > TABLE_SPREAD:
+        return False
+    left.paired = right.paired = True
+    table.add(heights)
+    return True
+
+
+def _whole(shot: _Image) -> bool:
+    """Whether an image saw the whole grid (no cell hidden): only those place the table."""
+    return shot.reading is not None and not shot.reading.occluded
+
+
+def _crossing_heights(left: _Image, right: _Image, right_T_left: np.ndarray) -> np.ndarray | None:
+    """World z (4,) of the grid's inner crossings triangulated from two readings, or None.
+
+    The left eye is placed by its joint angles, the right one relative to it by the robot's
+    calibration of the pair (``right_T_left``), which keeps the two rays consistent with the
+    calibrated intrinsics."""
+    from ...perception.triangulation import triangulate
+
+    uv = {im.eye: im.image.project(np.array([im.reading.corners[5][n] for n in CORNER_NAMES]))
+          for im in (left, right)}
+    world_T_right = left.image.world_T_camera @ np.linalg.inv(right_T_left)
+    try:
+        xyz = triangulate(uv["left"], uv["right"], left.image.K, left.image.world_T_camera,
+                          right.image.K, world_T_right)
+    except InputError:
+        return None
+    return xyz[:, 2]
+
+
+def _confidence(reading) -> list[float]:
+    """Per cell, the reading's confidence scaled by the grid's contrast (see :data:`GOOD_CONTRAST`)."""
+    scale = min(1.0, max(float(reading.contrast), 0.0) / GOOD_CONTRAST)
+    return [float(c) * scale for c in reading.confidence]
+
+
+def _combine(images: list[_Image]):
+    """(board, corners, centre): per cell the confidence-weighted vote of the images that saw it
+    (an occluded cell does not vote), corners and centre the images' mean."""
+    board = []
+    for cell in range(1, 10):
+        votes: dict[str, float] = {}
+        for im in images:
+            if cell not in im.reading.occluded:
+                mark = im.reading.marks[cell - 1]
+                votes[mark] = votes.get(mark, 0.0) + _confidence(im.reading)[cell - 1] + 1e-6
+        board.append(max(votes, key=votes.get) if votes else "")
+    corners = {c: {n: np.mean([im.reading.corners[c][n] for im in images], axis=0) for n in CORNER_NAMES}
+               for c in range(1, 10)}
+    centre = np.mean([im.reading.center for im in images], axis=0)
+    return board, corners, centre
+
+
+def _doubt(result, images: list[_Image], memory: Memory) -> tuple[list[int], list[str]]:
+    """The cells the robot is not sure of, and why (see the module docstring)."""
+    board = result[0]
+    cells: set[int] = set()
+    reasons = []
+    for cell in range(1, 10):
+        seen = [im for im in images if cell not in im.reading.occluded]
+        if not seen:
+            cells.add(cell)
+            reasons.append(f"cell {cell} hidden")
+            continue
+        sure = {im.reading.marks[cell - 1] for im in seen if _confidence(im.reading)[cell - 1] >= SURE}
+        if not sure:
+            cells.add(cell)
+            reasons.append(f"cell {cell} unclear")
+        elif len(sure) > 1:
+            cells.add(cell)
+            reasons.append(f"cell {cell} seen as " + " and as ".join(_NAMES[m] for m in sorted(sure)))
+    if memory.board is not None:
+        gone = [c for c in range(1, 10) if memory.board[c - 1] and board[c - 1] != memory.board[c - 1]]
+        for c in gone:
+            cells.add(c)
+            reasons.append(f"cell {c} held {_NAMES[memory.board[c - 1]]} before, now {_NAMES[board[c - 1]]}")
+        if memory.new_marks is not None:
+            new = [c for c in range(1, 10) if board[c - 1] and not memory.board[c - 1]]
+            if len(new) != memory.new_marks:
+                suspects = new if len(new) > memory.new_marks else \
+                    [c for c in range(1, 10) if not board[c - 1]]
+                cells.update(suspects)
+                reasons.append(f"{len(new)} new mark(s) where {memory.new_marks} were made since the last look")
+    return sorted(cells), reasons
+
+
+def _move_arm(hand, target: np.ndarray, *, straight_up: bool) -> bool:
     """Move the pen to ``target`` (3,); ``straight_up``: only up to its height, and only when
-    the pen is more than :data:`LIFT_TOLERANCE` lower.  True when the arm moved."""
-    here = np.asarray(backend.hand_position(), dtype=float)
+    the pen is more than :data:`LIFT_TOLERANCE` lower.  True when the arm moved; False when it
+    did not need to, or could not (the place is out of reach: that view is skipped)."""
+    from ...errors import UnreachableError
+
+    here = np.asarray(hand.position(), dtype=float)
     if straight_up:
         if here[2] >= target[2] - LIFT_TOLERANCE:
             return False
         target = np.array([here[0], here[1], target[2]])
-    backend.move(target[None], label="look")
+    try:
+        hand.move(target[None])
+    except UnreachableError:
+        return False
     return True
-
-
-def corner_error(sight: BoardSight, true_corners: dict[int, dict[str, np.ndarray]]) -> float:
-    """Largest distance (metres) between perceived and true cell corners."""
-    return max(float(np.linalg.norm(sight.corners[c][n] - true_corners[c][n]))
-               for c in true_corners for n in true_corners[c])
 
 
 # --------------------------------------------------------------------------- learning the demonstration

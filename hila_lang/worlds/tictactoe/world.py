@@ -3,43 +3,48 @@
 The iCub plays circles (``O``) on :meth:`Grid.game` -- a grid 20 % smaller than the
 demonstration's, rotated and 0.20 m higher -- against an opponent who plays crosses (``X``).
 
-Scene points (:meth:`TicTacToeWorld.points`), world frame, metres:
+Two sides, kept apart.  The robot's side is a :class:`~.player.Player`: it decides from what
+the robot's eyes see (:mod:`.vision`) and what it remembers, and has no handle on the game's
+record; the record is sealed while the world answers the robot's questions and names its
+points (reading it then raises :class:`~.referee.SealedRecordError`).  The :class:`~.referee.Referee` keeps the record, plays the opponent on the real board,
+perturbs the scene between moves and scores after the fact (``report.json``: ``vision``, with
+every misread).  Every question the program asks is answered by the robot's side; the referee
+acts only when the robot waits for the opponent and after the robot has drawn.
 
-- ``board.cellN.tl|tr|br|bl`` for N = 1..9: every cell's corners;
-- ``board.move.tl|tr|br|bl``: the corners of the cell the robot plays next (minimax, never
-  loses; present only while it is the robot's turn);
+Scene points (:meth:`TicTacToeWorld.points`), world frame, metres, as the robot knows them:
+
+- ``board.cellN.tl|tr|br|bl`` for N = 1..9: every cell's corners, as last seen;
+- ``board.move.tl|tr|br|bl``: the corners of the cell the robot plays next (minimax on the
+  board it sees, never loses; present only while it sees that it is its turn);
 - ``arm.park``: where the arm was parked at the start, a seeded random place above the grid;
-- ``arm.lift``: straight above the pen at the park height (see :meth:`TicTacToeWorld.lift_point`).
+- ``arm.lift``: straight above the pen at the park height (:meth:`.player.Player.lift_point`).
 
-Questions (:meth:`TicTacToeWorld.query`): ``game_over``, ``robot_to_move``, ``opponent_to_move``,
-``best_move`` (the robot's next cell as a point group, ``"board.cell5"``, so ``c.*`` binds the
-ICPs ``tl``, ``tr``, ``br``, ``bl`` to its corners), ``best_cell`` (the same as a number),
-``last_move`` (the point group of the robot's last circle), ``winner`` (``"robot"``,
-``"opponent"``, ``"draw"`` or None), ``marks`` (number of marks on the board), ``free N``
-(cell N is empty).
+Questions (:meth:`TicTacToeWorld.query`), all answered from the robot's own view of the board:
+``game_over``, ``robot_to_move``, ``opponent_to_move``, ``best_move`` (the robot's next cell as a
+point group, ``"board.cell5"``, so ``c.*`` binds the ICPs ``tl``, ``tr``, ``br``, ``bl`` to its
+corners), ``best_cell`` (the same as a number), ``last_move`` (the point group of the robot's
+last circle), ``winner`` (``"robot"``, ``"opponent"``, ``"draw"`` or None), ``marks`` (number
+of marks on the board), ``free N`` (cell N is empty).
 
-Events: ``wait("opponent_moved")`` asks the opponent for a cell, inks its cross on the paper and
-returns the cell.  ``notify("state_done", pen_down=True, executed=TRACE, ...)`` records the robot's
+Events: ``wait("opponent_moved")``: the opponent plays a cell on the real board, its cross is
+inked on the paper, the scene is perturbed (settings below), and the cell is returned (the
+opponent announces it; a robot with eyes still reads the board itself).
+``notify("state_done", pen_down=True, executed=TRACE, ...)``: the referee records the robot's
 circle in the cell where the pen actually drew.  The board is printed after every move.
 
-Seeing the board (issue 6, item 5).  With a back end that has eyes (``backend.eyes``:
-PyBullet) the robot reads the board through them before each of its moves
-(:func:`hila_lang.worlds.tictactoe.vision.look_at_board`): the left eye first; when the arm hides a cell or
-the reading differs from the record, the pen is lifted straight up to ``arm.lift`` (where the
-next reach starts anyway) and the left eye looks again; as a last resort the pen goes aside
-(:meth:`TicTacToeWorld.aside_point`), both eyes look, and it comes back to ``arm.lift``.  The corners it finds are the scene points
-``board.cellN.*`` and ``board.move.*`` (the ICPs the program binds), and minimax plays on the
-marks it reads.  A reading that differs from the game's own record (a misread or an uninked mark)
-is a :class:`~hila_lang.errors.HilaRuntimeError` naming the cells.  With the dry back end (no
-cameras) the corners come from the known geometry (:meth:`Grid.game`) and the board from
-the game's memory.  ``report.json`` says which (``vision``), with the largest distance of a
-perceived corner from the true one.
+Seeing the board.  With a back end that has eyes (``backend.eyes``: PyBullet) the robot looks
+before every decision that follows a move (:func:`.vision.look_at_board`) and, while unsure,
+looks again -- the other eye, the arm lifted, the arm aside, the gaze moved.  With the dry back
+end (no cameras) it plays blind: the corners are the board's layout and the board is the moves
+it made and the moves the opponent announced.
 
 Settings (``--set key=value``, declared in :mod:`hila_lang.worlds.tictactoe`):
 ``opponent=random|minimax|human`` (default minimax; ``--opponent`` is an alias),
 ``first=robot|opponent`` (default robot, as in the paper), ``report=yes|no`` (write the output
-folder, default yes).  Each circle is compared with the
-demonstration it was warped from: the path of the program's pen-down sub-template.
+folder, default yes), and the perturbations, seeded by ``--seed``: ``board.bump=D`` (metres),
+``light=F``, ``crosses=neat|sloppy`` (:mod:`.referee`); the back end's ``eyes.noise=SIGMA``
+adds sensor noise.  Each circle is compared with the demonstration it was warped from: the
+path of the program's pen-down sub-template.
 """
 
 from __future__ import annotations
@@ -53,16 +58,19 @@ import numpy as np
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
-from .board import Grid, cell_at, cell_corners
 from . import rules as ttt
-from .marks import cross_strokes, on_paper
+from .board import Grid
 from .opponents import make_opponent
+from .player import OPPONENT, ROBOT, Hand, Player
+from .referee import Referee
 
 #: park height above the paper, metres (low, high)
 PARK_HEIGHT = (0.08, 0.13)
-ROBOT, OPPONENT = "robot", "opponent"
-#: how far beyond the grid's right edge the pen goes to take the arm out of the eyes' view, metres
-ASIDE_MARGIN = 0.06
+#: the robot waits for an opponent who has nothing to play at most this many times in a row
+IDLE_WAITS = 3
+#: the game stops after this many circles drawn out of turn or over a mark (the referee's fouls)
+MAX_FOULS = 3
+_NAMES = {"": "empty", "O": "a circle (O)", "X": "a cross (X)"}
 
 
 def park_position(spec: Grid, rng: np.random.Generator) -> np.ndarray:
@@ -82,7 +90,14 @@ class TicTacToeWorld:
     options : RunOptions
         ``seed``, ``out``, ``stdin``, ``stdout`` are used.
     settings : dict
-        ``opponent``, ``first``, ``report``, parsed (see :data:`hila_lang.worlds.tictactoe.WORLD`).
+        Parsed (see :data:`hila_lang.worlds.tictactoe.WORLD`).
+
+    Attributes
+    ----------
+    player : Player
+        The robot's side.
+    referee : Referee
+        The record, the opponent's moves, the perturbations and the scores.
     """
 
     def __init__(self, options, settings: dict[str, Any] | None = None) -> None:
@@ -92,117 +107,132 @@ class TicTacToeWorld:
         self.options = options
         self.seed = int(options.seed)
         self.settings = {**WORLD.parse({}), **(settings or {})}
-        self.spec = Grid.game()
-        self.scene = Scene(surface=self.spec.paper())
+        layout = Grid.game()
+        self.scene = Scene(surface=layout.paper())
         self.first = self.settings["first"]
         self.write_report = self.settings["report"]
         out = options.out
         if self.write_report and out is not None and Path(out).exists() and not Path(out).is_dir():
             raise InputError("expected --out to be a folder, got a file", file=str(out))
         self.rng = np.random.default_rng([self.seed, 5])
-        self.park = park_position(self.spec, self.rng)
+        self.park = park_position(layout, self.rng)
         self.opponent = make_opponent(self.settings["opponent"], self.seed, options.stdin, options.stdout)
         self.stdout = options.stdout
-        self.board: ttt.Board = ttt.empty_board()
-        self.moves: list[dict[str, Any]] = []
-        self.marks: list[dict[str, Any]] = []  # the robot's circles with their paths
-        self.crosses: list[list[np.ndarray]] = []  # the opponent's ink strokes, per move
+        self.referee = Referee(layout, self.first, self.seed, bump=self.settings["board.bump"],
+                               light=self.settings["light"], sloppy=self.settings["crosses"] == "sloppy")
+        self.player = Player(self.first, self.park, layout=layout)
         self.states: list[dict[str, Any]] = []
         self.backend = None
         self.fsm = None
-        #: what the eyes saw before each robot move: dicts with ``moves_before`` (moves played
-        #: then), ``board`` (marks read), ``corners`` (cell -> name -> (3,)), ``views``, ``arm``,
-        #: ``corner_error_m`` (against the true geometry) and ``seconds``
-        self.sightings: list[dict[str, Any]] = []
-        #: the REPL's ``back``: the game as it was (the board, whose turn, the opponent's and the
-        #: scene's random generators); the lists only grow
-        self.snapshots = AttributeSnapshots(self, ("board", "rng", "opponent._rng"),
-                                            append_only=("moves", "marks", "crosses", "states", "sightings"))
+        self._scored = 0
+        self._idle = 0
+        #: the REPL's ``back``: the game as it was -- the referee's record, sheet pose, generator
+        #: and scores, the robot's own memory (its moves, table estimate, what it last chose), the
+        #: opponent's and the scene's generators; lists that only grow are cut back
+        self.snapshots = AttributeSnapshots(
+            self,
+            ("rng", "opponent._rng", "_scored", "_idle", "referee.grid", "referee.rng", "referee.record._board",
+             "player.table", "player.own", "player.choice", "player._blind_board", "player._since", "player._stale"),
+            append_only=("states", "referee.record._moves", "referee.marks", "referee.crosses", "referee.looks",
+                         "referee.misreads", "referee.fouls", "referee.perturbations", "player.sightings"))
+
+    # -- the referee's view, for reports and tests -------------------------------------------
+    @property
+    def spec(self) -> Grid:
+        """Where the sheet and its grid really are now (moved by ``board.bump``)."""
+        return self.referee.grid
+
+    @property
+    def board(self) -> ttt.Board:
+        """The real board (the referee's record)."""
+        return self.referee.record.board
+
+    @property
+    def moves(self) -> list[dict[str, Any]]:
+        return self.referee.record.moves
+
+    @property
+    def marks(self) -> list[dict[str, Any]]:
+        """The robot's circles as the referee scored them."""
+        return self.referee.marks
+
+    @property
+    def crosses(self) -> list[list[np.ndarray]]:
+        return self.referee.crosses
+
+    @property
+    def sightings(self) -> list[dict[str, Any]]:
+        """The robot's looks (:attr:`.player.Player.sightings`)."""
+        return self.player.sightings
+
+    @property
+    def sees(self) -> bool:
+        """Whether the board is read through eye cameras (the back end has eyes)."""
+        return self.player.sees
 
     def _print(self, text: str = "") -> None:
         print(text, file=self.stdout, flush=True)
 
     # -- plug-in hooks -----------------------------------------------------------------------
     def attach(self, backend) -> None:
-        """Park the arm at :attr:`park` (no drawing) and keep the back end for inking."""
+        """Park the arm at :attr:`park` (no drawing), give the robot's side its eyes and arm,
+        and the referee the paper and the lights."""
+        needs = [name for name, on in (("board.bump", self.referee.bump > 0), ("light", self.referee.light != 1.0))
+                 if on]
+        missing = [cap for cap, on in (("eyes", True), ("ink", "board.bump" in needs),
+                                       ("lighting", "light" in needs)) if getattr(backend, cap, None) is None]
+        if needs and missing:
+            raise InputError(f"--set {' and '.join(needs)} changes the scene between moves, which only a back end "
+                             f"with eyes, a paper and lights can show; back end {backend.name!r} has no "
+                             f"{', '.join(missing)}", hint="use --backend pybullet")
         self.backend = backend
+        self.referee.backend = backend
         backend.reset_hand(self.park)
+        hand = Hand(backend.hand_position, lambda path: backend.move(path, label="look"))
+        self.player = Player(self.first, self.park, eyes=backend.eyes, hand=hand, layout=self.referee.layout)
         self._print(f"tic-tac-toe: the robot plays O, the opponent ({self.opponent.name}) plays X; "
                     f"{self.first} starts")
         self._print(ttt.render(self.board))
 
-    # -- World protocol ----------------------------------------------------------------------
+    # -- World protocol: the robot's side (the record is sealed meanwhile) -------------------
     def points(self) -> dict[str, np.ndarray]:
-        corners = self.cell_corners()
-        pts: dict[str, np.ndarray] = {"arm.park": self.park.copy(), "arm.lift": self.lift_point()}
-        for cell in range(1, 10):
-            for name, p in corners[cell].items():
-                pts[f"board.cell{cell}.{name}"] = p.copy()
-        if self.to_move() == ROBOT:
-            for name, p in corners[self.best_move()].items():
-                pts[f"board.move.{name}"] = p.copy()
-        return pts
-
-    # -- seeing the board ----------------------------------------------------------------------
-    @property
-    def sees(self) -> bool:
-        """Whether the board is read through eye cameras (the back end has eyes)."""
-        return self.backend is not None and self.backend.eyes is not None
-
-    def cell_corners(self) -> dict[int, dict[str, np.ndarray]]:
-        """Cell (1..9) -> ``tl|tr|br|bl`` -> point (3,), metres: as last seen by the eyes
-        (looking first when it is the robot's turn and it has not looked yet), else the known
-        geometry (no cameras)."""
-        sight = self.look()
-        if sight is None:
-            return {cell: cell_corners(self.spec, cell) for cell in range(1, 10)}
-        return sight["corners"]
-
-    def look(self) -> dict[str, Any] | None:
-        """The latest sighting of the board; a new one when it is the robot's turn and the eyes
-        have not seen the board since the last move (or never).  None without cameras."""
-        if not self.sees:
-            return None
-        last = self.sightings[-1] if self.sightings else None
-        if last is not None and (last["moves_before"] == len(self.moves) or self.to_move() != ROBOT):
-            return last
-        from .vision import corner_error, look_at_board
-
-        clock = time.perf_counter()
-        sight = look_at_board(self.backend, self.spec.surface_z, self.board, self.lift_point(),
-                              self.aside_point())
-        true = {cell: cell_corners(self.spec, cell) for cell in range(1, 10)}
-        entry = {"moves_before": len(self.moves), "board": sight.board, "corners": sight.corners,
-                 "views": sight.views, "arm": sight.arm, "corner_error_m": corner_error(sight, true),
-                 "seconds": time.perf_counter() - clock}
-        self.sightings.append(entry)
-        return entry
-
-    def seen_board(self) -> ttt.Board:
-        """The board minimax plays on: read by the eyes (equal to the record, or
-        :meth:`look` raised), else the game's memory (no cameras)."""
-        sight = self.look()
-        return self.board if sight is None else tuple(sight["board"])
+        with self.referee.record.sealed():
+            return self._points()
 
     def query(self, name: str, *args: Any) -> Any:
+        with self.referee.record.sealed():
+            return self._answer(name, *args)
+
+    def _points(self) -> dict[str, np.ndarray]:
+        corners = self.player.corners()
+        pts: dict[str, np.ndarray] = {"arm.park": self.park.copy(), "arm.lift": self.player.lift_point()}
+        for cell in range(1, 10):
+            for name, p in corners[cell].items():
+                pts[f"board.cell{cell}.{name}"] = np.asarray(p, dtype=float).copy()
+        if self.player.to_move() == ROBOT:
+            for name, p in corners[self.player.best_move()].items():
+                pts[f"board.move.{name}"] = np.asarray(p, dtype=float).copy()
+        return pts
+
+    def _answer(self, name: str, *args: Any) -> Any:
+        player = self.player
         if name == "game_over":
-            return ttt.game_over(self.board)
+            return player.game_over()
         if name == "robot_to_move":
-            return self.to_move() == ROBOT
+            return player.to_move() == ROBOT
         if name == "opponent_to_move":
-            return self.to_move() == OPPONENT
+            return player.to_move() == OPPONENT
         if name == "best_move":
-            return f"board.cell{self.best_move()}"
+            return f"board.cell{player.best_move()}"
         if name == "best_cell":
-            return self.best_move()
+            return player.best_move()
         if name == "last_move":
-            if not self.marks:
-                raise HilaRuntimeError("the robot has not drawn a mark yet: there is no last move")
-            return f"board.cell{self.marks[-1]['cell']}"
+            return f"board.cell{player.last_move()}"
         if name == "winner":
-            return self.result()
+            w = ttt.winner(player.board())
+            return {ttt.CIRCLE: ROBOT, ttt.CROSS: OPPONENT}.get(w, "draw" if player.game_over() else None)
         if name == "marks":
-            return 9 - self.board.count(ttt.EMPTY)
+            return 9 - player.board().count(ttt.EMPTY)
         if name == "free":
             if len(args) != 1:
                 raise InputError(f"query 'free' takes one cell number, got {len(args)} arguments")
@@ -211,28 +241,39 @@ class TicTacToeWorld:
                 cell = int(cell)
             if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 9:
                 raise InputError(f"query 'free' expects a cell 1..9, got {cell!r}")
-            return self.board[cell - 1] == ttt.EMPTY
+            return player.board()[cell - 1] == ttt.EMPTY
         from . import WORLD
 
         raise UnknownNameError("question", name, WORLD.questions, owner="the tictactoe world")
 
+    # -- World protocol: the referee's side ---------------------------------------------------
     def wait(self, event: str, *args: Any) -> Any:
         if event != "opponent_moved":
             from . import WORLD
 
             raise UnknownNameError("event", event, WORLD.events, owner="the tictactoe world")
-        if ttt.game_over(self.board):
+        self._score()
+        turn = self.referee.to_move()
+        if turn is None:
+            self._idle += 1
+            if self._idle >= IDLE_WAITS:
+                raise HilaRuntimeError(f"the robot has waited {self._idle} times for an opponent who has no move: "
+                                       f"the game is over on the paper ({self._seen_versus_real()})")
             return None
-        if self.to_move() != OPPONENT:
-            raise HilaRuntimeError("waiting for the opponent, but it is the robot's turn")
-        cell = int(self.opponent.choose(self.board))
-        self.board = ttt.play(self.board, cell, ttt.CROSS)
-        strokes = cross_strokes(self.spec, cell, self.rng)
-        if self.backend is not None and self.backend.ink is not None:
-            for stroke in strokes:
-                self.backend.ink.ink_polyline(stroke)
-        self.crosses.append(strokes)
-        self._record_move(OPPONENT, cell)
+        if turn != OPPONENT:
+            raise HilaRuntimeError("waiting for the opponent, but it is the robot's turn"
+                                   + (f" ({self._seen_versus_real()})" if self.player.sightings else ""))
+        self._idle = 0
+        cell = self.referee.opponent_moves(self.opponent, time.perf_counter() - self.t0)
+        self._print(f"\n{OPPONENT} ({ttt.CROSS}) plays cell {cell}")
+        self._print(ttt.render(self.board))
+        event_ = self.referee.perturb()
+        if event_ is not None:
+            self._print("the scene changes: " + "; ".join(
+                f"the sheet is pushed {e['shift_mm']:.0f} mm and turned {e['turn_deg']:+.1f} deg from where it was laid"
+                if k == "board" else f"the light changes to {e['level']:.2f}"
+                for k, e in event_.items() if k != "after_move"))
+        self.player.opponent_moved(cell)
         return cell
 
     def notify(self, event: str, **data: Any) -> None:
@@ -245,119 +286,58 @@ class TicTacToeWorld:
             "pen_down": bool(data.get("pen_down", False)),
             "planned": None if planned is None else np.asarray(planned, dtype=float),
             "executed": None if executed is None else np.asarray(executed, dtype=float),
+            "sheet": self.referee.grid,  # where the sheet was while this state ran
         }
         self.states.append(entry)
         if entry["pen_down"]:
-            self._record_circle(entry, data.get("template"))
+            self._score()
+            fouls = len(self.referee.fouls)
+            mark = self.referee.score_circle(entry, data.get("template"), self.player.choice,
+                                             time.perf_counter() - self.t0)
+            self.player.drew(mark["executed"])
+            self._print(f"\n{ROBOT} ({ttt.CIRCLE}) plays cell {mark['cell']}")
+            for foul in self.referee.fouls[fouls:]:
+                self._print(f"referee: the robot's circle in cell {mark['cell']} is {foul['foul']}")
+            self._print(ttt.render(self.board))
+            if len(self.referee.fouls) >= MAX_FOULS:
+                raise HilaRuntimeError(f"the robot has drawn {len(self.referee.fouls)} circles where it may not: the "
+                                       f"game cannot go on ({self._seen_versus_real()})", state=entry["state"])
 
-    # -- game logic --------------------------------------------------------------------------
-    def to_move(self) -> str | None:
-        """``"robot"``, ``"opponent"``, or None when the game is over."""
-        if ttt.game_over(self.board):
-            return None
-        placed = 9 - self.board.count(ttt.EMPTY)
-        robot_first = self.first == ROBOT
-        return ROBOT if (placed % 2 == 0) == robot_first else OPPONENT
+    def _score(self) -> None:
+        """The referee scores the sightings made since it last did (the truth has not changed
+        since: it changes only when the opponent moves or the robot draws, after this)."""
+        for sight in self.player.sightings[self._scored:]:
+            for m in self.referee.score_sighting(sight):
+                self._print(f"referee: at look {m['look']} the robot saw cell {m['cell']} {_NAMES[m['seen']]}, "
+                            f"it holds {_NAMES[m['true']]}")
+        self._scored = len(self.player.sightings)
 
-    def lift_point(self) -> np.ndarray:
-        """Straight above the pen at the park height, shape (3,): the hand's start of a reach.
-
-        After a circle the pen is low over the paper; a reach warped from there would squash
-        the demonstrated approach flat onto the paper, so each reach starts from this point
-        (the back end lifts the pen straight up to it).  At the start it is :attr:`park`.
-        """
-        here = self.park if self.backend is None else np.asarray(self.backend.hand_position(), dtype=float)
-        return np.array([here[0], here[1], max(float(here[2]), float(self.park[2]))])
-
-    def aside_point(self) -> np.ndarray:
-        """Where the pen goes so that the arm is out of the eyes' view of the board, shape (3,):
-        beyond the grid's near-right corner (the arm's side), at the park height."""
-        half = self.spec.grid_size / 2
-        point = self.spec.grid_to_world(half + ASIDE_MARGIN, -half)
-        point[2] = self.park[2]
-        return point
-
-    def best_move(self) -> int:
-        """The robot's minimax move on the board it sees (centre first among equals)."""
-        if ttt.game_over(self.board):
-            raise HilaRuntimeError("the game is over: the robot has no move to make")
-        return ttt.best_move(self.seen_board(), ttt.CIRCLE)
-
-    def result(self) -> str | None:
-        """``"robot"``, ``"opponent"``, ``"draw"``, or None while the game goes on."""
-        w = ttt.winner(self.board)
-        if w == ttt.CIRCLE:
-            return ROBOT
-        if w == ttt.CROSS:
-            return OPPONENT
-        return "draw" if ttt.EMPTY not in self.board else None
-
-    def _record_circle(self, entry: dict[str, Any], template=None) -> None:
-        from .marks import mark_correlation, outside_cell, tracking_error  # metrics: lazy
-
-        drawn = entry["executed"] if entry["executed"] is not None else entry["planned"]
-        if drawn is None or len(drawn) == 0:
-            raise HilaRuntimeError("the robot drew, but the back end reported no path",
-                                   state=entry["state"])
-        touching = on_paper(drawn, self.spec.surface_z)
-        ink = touching if len(touching) >= 3 else drawn
-        cell = cell_at(self.spec, np.median(ink, axis=0))
-        if cell is None:
-            raise HilaRuntimeError("the robot drew its circle outside the grid", state=entry["state"])
-        if self.to_move() != ROBOT:
-            raise HilaRuntimeError(f"the robot drew in cell {cell}, but it is not its turn",
-                                   state=entry["state"])
-        if self.board[cell - 1] != ttt.EMPTY:
-            raise HilaRuntimeError(f"the robot drew in cell {cell}, which is taken", state=entry["state"])
-        intended = self.best_move()
-        demo = None if template is None else np.asarray(template.path, dtype=float)
-        demo_circle = None if demo is None else on_paper(demo, float(demo[:, 2].min()))
-        planned = entry["planned"]
-        planned_circle = None if planned is None else on_paper(planned, self.spec.surface_z)
-
-        def r_of(circle):
-            ok = demo_circle is not None and circle is not None and len(circle) >= 4 and len(demo_circle) >= 4
-            return mark_correlation(circle, demo_circle) if ok else None
-
-        mark = {
-            "cell": cell,
-            "intended_cell": intended,
-            "state": entry["state"],
-            "planned": planned,
-            "executed": drawn,
-            "contact_points": int(len(touching)),
-            "outside_cell_m": outside_cell(self.spec, cell, ink),
-            "r": r_of(touching),
-            "r_planned": r_of(planned_circle),
-        }
-        if entry["planned"] is not None and entry["executed"] is not None:
-            err = tracking_error(entry["planned"], entry["executed"], prefix=True)
-            mark["tracking_median_m"] = float(np.median(err))
-            mark["tracking_max_m"] = float(err.max())
-        self.marks.append(mark)
-        self.board = ttt.play(self.board, cell, ttt.CIRCLE)
-        self._record_move(ROBOT, cell)
-
-    def _record_move(self, who: str, cell: int) -> None:
-        mark = ttt.CIRCLE if who == ROBOT else ttt.CROSS
-        self.moves.append({"player": who, "mark": mark, "cell": cell,
-                           "t": round(time.perf_counter() - self.t0, 3)})
-        self._print(f"\n{who} ({mark}) plays cell {cell}")
-        self._print(ttt.render(self.board))
+    def _seen_versus_real(self) -> str:
+        seen = self.player.sightings[-1]["board"] if self.player.sightings else self.player.board()
+        return "the robot sees " + " ".join(m or "." for m in seen) + "; the paper holds " + \
+            " ".join(m or "." for m in self.board)
 
     # -- the end -----------------------------------------------------------------------------
+    def result(self) -> str | None:
+        """``"robot"``, ``"opponent"``, ``"draw"``, or None while the game goes on (the real board)."""
+        return self.referee.result()
+
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
         """Print the result and write the output folder; returns the report as a dict."""
         from .report import build_report, write_outputs
 
         if fsm is not None:
             self.fsm = fsm
+        self._score()
         result = self.result()
         text = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw",
                 None: "unfinished"}[result]
         report = build_report(self, trace)
         rs = [m["r"] for m in self.marks if m["r"] is not None]
-        self._print(f"\nresult: {text}" + (f"; per-mark R min {min(rs):.3f}" if rs else ""))
+        vision = report["vision"]
+        seen = "" if vision["board_read_by"] != "vision" else \
+            f"; {vision['looks']} looks, {len(vision['misreads'])} misread cell(s)"
+        self._print(f"\nresult: {text}" + (f"; per-mark R min {min(rs):.3f}" if rs else "") + seen)
         if self.write_report:
             folder = write_outputs(self, report)
             report["out"] = str(folder)

@@ -1,0 +1,170 @@
+"""The eyes' lenses: the simulated fish-eye lens, and the robot's own calibration of it.
+
+The real iCub's eyes are fish-eye (paper section III.C), in the demonstration and in the game
+alike.  Each simulated eye renders through the lens model the demonstration is recorded with
+(:class:`~hila_lang.perception.distortion.DistortedCamera` with the true intrinsics
+:data:`ICUB_EYE_K` and the true coefficients
+:data:`~hila_lang.perception.distortion.TRUE_DISTORTION`): that is the simulator's truth,
+used to make images and never handed to the robot.
+
+What the robot knows of its lenses it measured itself: :func:`eye_calibration` shows a printed
+chessboard card to the eye at :data:`CALIBRATION_VIEWS` seeded poses and calibrates it with the
+OpenCV pipeline of :mod:`hila_lang.perception.calibration` (the one ``hila learn`` uses for the
+demonstration's eyes, with the same number of views and supersampling).  The result is kept in
+the cache folder (``$HILA_CACHE_DIR/hila/lens`` or ``~/.cache/hila/lens``, written atomically;
+:func:`hila_lang.fileio.cache_folders`) under a name that hashes everything it depends on, like
+the generated robot model, so it is made once per installation: about 25 s for both eyes and the
+pair here (a first ``hila exec programs/game.hila`` took 31.8 s instead of 5.3 s).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from functools import lru_cache
+
+import numpy as np
+
+from ..perception.rig import EYE_K as ICUB_EYE_K  # the simulated eyes' true intrinsics: rendering only
+from ..perception.rig import HEIGHT as EYE_HEIGHT
+from ..perception.rig import WIDTH as EYE_WIDTH
+
+#: chessboard images per eye and their supersampling: as the demonstration's recording
+#: (:func:`hila_lang.perception.recording.write_recording`).  Measured here: 14 views at 2x left
+#: the principal point 0.4 px off, 40 views at 4x 0.25 px (0.06 px RMS reprojection)
+CALIBRATION_VIEWS = 40
+CALIBRATION_SUPERSAMPLE = 4
+#: the chessboard poses' seed per eye (the two eyes see different sessions, as the recording's)
+CALIBRATION_SEEDS = {"left": 0, "right": 1000}
+#: card poses seen by both eyes at once for the eyes' relative pose, and their seed (as the
+#: recording's stereo session)
+STEREO_PAIRS = 16
+STEREO_SEED = 2000
+#: bump to invalidate every cached calibration
+_VERSION = "1"
+
+
+def true_lens(supersample: int = 1):
+    """The simulated eye lens at the origin: a
+    :class:`~hila_lang.perception.distortion.DistortedCamera` (truth: renders only)."""
+    from ..perception.distortion import TRUE_DISTORTION, DistortedCamera
+    from ..sim.camera import Camera
+
+    return DistortedCamera(Camera(ICUB_EYE_K, np.eye(4), EYE_WIDTH, EYE_HEIGHT), TRUE_DISTORTION,
+                           supersample=supersample)
+
+
+def _key(**what) -> str:
+    import cv2
+
+    from ..perception.calibration import PATTERN, SQUARE
+    from ..perception.distortion import TRUE_DISTORTION
+
+    what.update({"K": ICUB_EYE_K.tolist(), "dist": list(TRUE_DISTORTION), "size": [EYE_WIDTH, EYE_HEIGHT],
+                 "views": CALIBRATION_VIEWS, "supersample": CALIBRATION_SUPERSAMPLE, "pattern": list(PATTERN),
+                 "square": SQUARE, "version": _VERSION, "opencv": cv2.__version__})
+    return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:12]
+
+
+def _cached(name: str, load, make, save):
+    """``load(path)`` of the first cached ``name`` that reads, else ``make()`` saved with
+    ``save(path, value)`` into the first writable cache folder."""
+    from ..errors import InputError
+    from ..fileio import cache_folders
+
+    folders = cache_folders("lens")
+    for folder in folders:
+        if (folder / name).is_file():
+            try:
+                return load(folder / name)
+            except (InputError, KeyError, TypeError, ValueError):
+                break  # damaged: make it again
+    value = make(folders[0])
+    for folder in folders:
+        try:
+            save(folder / name, value)
+            break
+        except OSError:
+            continue
+    return value
+
+
+def _progress(text: str) -> None:
+    if sys.stderr.isatty():
+        print(f"hila: {text}", file=sys.stderr, flush=True)
+
+
+@lru_cache(maxsize=None)
+def eye_calibration(eye: str):
+    """The robot's calibration of ``eye``'s lens (:class:`~hila_lang.perception.calibration.Calibration`):
+    read from the cache, else made from simulated chessboard images and cached (see the module
+    docstring).  A cache file that cannot be read is made again."""
+    from ..errors import InputError
+    from ..perception.calibration import calibrate, chessboard_views, load_calibration, save_calibration
+
+    if eye not in CALIBRATION_SEEDS:
+        raise InputError(f"eye must be 'left' or 'right', got {eye!r}")
+
+    def make(folder):
+        _progress(f"calibrating the iCub's {eye} eye from {CALIBRATION_VIEWS} chessboard images "
+                  f"(once; kept in {folder})")
+        images = chessboard_views(true_lens(CALIBRATION_SUPERSAMPLE), CALIBRATION_VIEWS, seed=CALIBRATION_SEEDS[eye])
+        return calibrate(images, names=[f"{eye} chessboard {i}" for i in range(len(images))])
+
+    def save(path, calib):
+        save_calibration(path, calib, header=f"the iCub's {eye} eye calibrated from {calib.n_views} simulated "
+                                             f"chessboard images (hila_lang.robot.lens); made once, delete to make again")
+
+    return _cached(f"eye_{eye}_{_key(eye=eye, seed=CALIBRATION_SEEDS[eye])}.yaml", load_calibration, make, save)
+
+
+def eyes_in_head() -> np.ndarray:
+    """``left_T_right`` (4, 4): the right eye camera in the left one's frame, from the head's
+    model (the eyes tilt together, so it never changes): truth, to render the stereo session."""
+    from ..rotation import about_z, pose
+    from . import ik, model
+
+    text = model.urdf_path().read_text()
+    root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
+    left, right = (ik.KinematicChain.from_urdf(text, model.EYE_LINKS[e], root) for e in ("left", "right"))
+    q = np.zeros(left.dof)
+    return np.linalg.inv(left.forward(q)[0]) @ right.forward(q)[0]
+
+
+@lru_cache(maxsize=None)
+def eyes_calibration():
+    """The robot's calibration of the eye pair (:class:`~hila_lang.perception.calibration.StereoCalibration`:
+    ``right_T_left``), from a card both eyes see (:func:`~hila_lang.perception.calibration.stereo_views`,
+    :func:`~hila_lang.perception.calibration.calibrate_stereo` with each eye's own calibration);
+    cached like :func:`eye_calibration`.  Triangulating with it keeps the two eyes' rays
+    consistent with their calibrated intrinsics (a principal point 0.1 px off moves a depth at
+    0.5 m by about 1 mm)."""
+    from ..fileio import dump_yaml, load_yaml
+    from ..perception.calibration import StereoCalibration, calibrate_stereo, stereo_views
+    from ..perception.rig import StereoRig
+    from ..sim.camera import Camera
+
+    head = eyes_in_head()
+
+    def make(folder):
+        _progress(f"calibrating the iCub's eye pair from {STEREO_PAIRS} chessboard pairs (once; kept in {folder})")
+        rig = StereoRig(Camera(ICUB_EYE_K, np.eye(4), EYE_WIDTH, EYE_HEIGHT),
+                        Camera(ICUB_EYE_K, head, EYE_WIDTH, EYE_HEIGHT))  # the left eye at the origin
+        lens = true_lens(CALIBRATION_SUPERSAMPLE)
+        right = type(lens)(rig.right, lens.dist, supersample=CALIBRATION_SUPERSAMPLE)
+        left_images, right_images = stereo_views(lens, right, rig, STEREO_PAIRS, seed=STEREO_SEED)
+        return calibrate_stereo(left_images, right_images, eye_calibration("left"), eye_calibration("right"))
+
+    def load(path):
+        data = load_yaml(path, "eye pair calibration")
+        return StereoCalibration(np.asarray(data["right_T_left"], float).reshape(4, 4), float(data["rms_px"]),
+                                 int(data["n_pairs"]))
+
+    def save(path, stereo):
+        dump_yaml(path, {"right_T_left": stereo.right_T_left.tolist(), "rms_px": stereo.rms, "n_pairs": stereo.n_pairs},
+                  header="the iCub's eye pair calibrated from simulated chessboard pairs (hila_lang.robot.lens)")
+
+    key = _key(pairs=STEREO_PAIRS, seed=STEREO_SEED, head=np.round(head, 6).tolist(),
+               left=CALIBRATION_SEEDS["left"], right=CALIBRATION_SEEDS["right"])
+    return _cached(f"eyes_{key}.yaml", load, make, save)
