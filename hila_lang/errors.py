@@ -20,6 +20,13 @@ EXIT_OK = 0
 EXIT_RUN_FAILED = 1
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 3
+#: stopped by Ctrl-C (SIGINT), as shells report it: 128 + 2
+EXIT_INTERRUPTED = 130
+
+#: widest source line shown under an error; a longer one is clipped around the column
+SHOWN_WIDTH = 100
+#: longest line of a message; a longer one (a giant token echoed back) is clipped in the middle
+MESSAGE_WIDTH = 400
 
 #: where a user reports an internal error of hila itself
 REPORT_TO = "the hila maintainers (the issue tracker of the project hila-lang)"
@@ -54,17 +61,68 @@ class HilaError(Exception):
         return ":".join(parts)
 
     def __str__(self) -> str:
-        loc = self.location()
-        head = f"{loc}: error: {self.message}" if loc else f"error: {self.message}"
+        loc = printable(self.location())
+        message = printable(self.message)
+        head = f"{loc}: error: {message}" if loc else f"error: {message}"
         lines = [head]
         if self.source_line is not None:
-            src = self.source_line.rstrip("\n").expandtabs(1)
-            lines.append(f"    {src}")
-            if self.column is not None and self.column >= 1:
-                lines.append("    " + " " * (self.column - 1) + "^")
+            shown, caret = show_source(self.source_line, self.column)
+            lines.append(f"    {shown}")
+            if caret is not None:
+                lines.append("    " + " " * caret + "^")
         if self.hint:
-            lines.append(f"hint: {self.hint}")
+            lines.append(f"hint: {printable(self.hint)}")
         return "\n".join(lines)
+
+
+def _escape(ch: str) -> str:
+    """One character as a terminal may show it: a tab as a space, a control or format character
+    (ESC, NUL, a right-to-left override, a byte-order mark) as its escape, e.g. ``\\x1b``."""
+    if ch == "\t":
+        return " "
+    if ch.isprintable() or ch == " ":
+        return ch
+    return ch.encode("unicode_escape").decode("ascii")
+
+
+def printable(text: str, width: int = MESSAGE_WIDTH) -> str:
+    """``text`` safe to print: control characters escaped line by line, lines longer than ``width``
+    clipped in the middle (``...``).  An error message is an interface: it never sends raw
+    escape sequences to a terminal, and never echoes a megabyte back."""
+    out = []
+    for line in str(text).split("\n"):
+        line = "".join(map(_escape, line))
+        if len(line) > width:
+            half = (width - 5) // 2
+            line = f"{line[:half]} ... {line[-half:]}"
+        out.append(line)
+    return "\n".join(out)
+
+
+def show_source(line: str, column: int | None, width: int = SHOWN_WIDTH) -> tuple[str, int | None]:
+    """A source line as shown under an error, and the caret's offset in it (None: no caret).
+
+    Control characters are escaped (:func:`_escape`); a line wider than ``width`` is clipped to
+    a window around ``column`` with ``...`` where text was cut, and the caret moves with it.
+    """
+    pieces = [_escape(ch) for ch in line.rstrip("\r\n")]
+    starts = [0]
+    for p in pieces:
+        starts.append(starts[-1] + len(p))
+    total = starts[-1]
+    caret = None
+    if column is not None and column >= 1:
+        caret = starts[min(column - 1, len(pieces))]
+    if total <= width:
+        return "".join(pieces), caret
+    anchor = caret if caret is not None else 0
+    lo = max(0, min(anchor - width // 2, total - width))
+    first = next(i for i, s in enumerate(starts) if s >= lo)  # cut on whole characters only
+    last = next((i for i, s in enumerate(starts) if s > starts[first] + width), len(starts)) - 1
+    head = "..." if first > 0 else ""
+    tail = "..." if last < len(pieces) else ""
+    shown = head + "".join(pieces[first:last]) + tail
+    return shown, None if caret is None else len(head) + caret - starts[first]
 
 
 class InputError(HilaError, ValueError):
@@ -155,7 +213,7 @@ def internal_error_message(exc: BaseException) -> str:
                  f"program or data.\nPlease report it to that plug-in's authors with the command you ran "
                  "and the output of the same command with 'hila --debug'.")
     kind = type(exc).__name__
-    text = str(exc).splitlines()[0] if str(exc) else ""
+    text = printable(str(exc).splitlines()[0]) if str(exc) else ""
     return f"internal error: {kind}{': ' + text if text else ''}{where}\n{blame}"
 
 

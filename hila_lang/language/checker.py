@@ -266,30 +266,13 @@ class _Checker(A.Visitor):
             _Names(self, defined, where).visit(x)
 
     def recursion(self, main: A.MainDef) -> None:
-        def calls(body):
-            return [s for s in A.walk(body) if isinstance(s, A.CallStmt)]
+        """No task calls itself, the inlined program stays within bounds (:mod:`.calls`), and a
+        warning for each task main never calls."""
+        from .calls import check_calls
 
-        def visit(body, chain: list[str]):
-            for c in calls(body):
-                if c.task in chain:
-                    cycle = " -> ".join(chain[chain.index(c.task):] + [c.task])
-                    raise self.error(f"task '{c.task}' calls itself ({cycle})", c.pos,
-                                     "tasks are compiled inline into the FSM, so recursion is not allowed; use a loop")
-                visit(self.tasks[c.task].body, chain + [c.task])
-
-        visit(main.body, [])
-        used = set()
-
-        def collect(body):
-            for c in calls(body):
-                if c.task not in used:
-                    used.add(c.task)
-                    collect(self.tasks[c.task].body)
-
-        collect(main.body)
-        for name, t in self.tasks.items():
-            if name not in used:
-                self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
+        for name in check_calls(self.tasks, main, self.error):
+            t = self.tasks[name]
+            self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
 
 
 class _Names(A.Visitor):

@@ -68,19 +68,19 @@ _OPENERS = ("task", "main", "if", "else", "while", "until", "repeat")
 
 @functools.lru_cache(maxsize=1)
 def parser():
-    """The cached LALR parser for ``grammar/hila.lark``."""
+    """The cached LALR parser for ``grammar/hila.lark`` that returns lark's parse tree (for tools
+    that want the tree; the language itself parses straight to its AST:
+    :func:`hila_lang.language.transformer.parse_program`)."""
     from lark import Lark
 
     return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 
 
-@functools.lru_cache(maxsize=1)
-def expr_parser():
-    """The same grammar parsing one expression (``expr``), for FSM dumps read back."""
-    from lark import Lark
+def _lark():
+    """The parser the language parses with (for terminal names and for matching slips)."""
+    from .transformer import ast_parser
 
-    return Lark.open(str(grammar_path()), parser="lalr", start="expr", propagate_positions=True,
-                     maybe_placeholders=True)
+    return ast_parser()
 
 
 def read_source(path: str | os.PathLike) -> str:
@@ -89,9 +89,10 @@ def read_source(path: str | os.PathLike) -> str:
 
 
 def decode_source(data: bytes, file: str = "<program>") -> str:
-    """UTF-8 bytes -> text; a bad byte is a :class:`HilaSyntaxError` with line and column."""
+    """UTF-8 bytes -> text; a bad byte is a :class:`HilaSyntaxError` with line and column.
+    A byte-order mark at the start (editors on Windows write one) is dropped."""
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         start = data.rfind(b"\n", 0, exc.start) + 1
         line = data.count(b"\n", 0, exc.start) + 1
@@ -115,7 +116,7 @@ def _describe(term: str) -> str:
     if term in _FRIENDLY:
         return _FRIENDLY[term]
     try:
-        pattern = parser().get_terminal(term).pattern
+        pattern = _lark().get_terminal(term).pattern
     except KeyError:
         return term
     if type(pattern).__name__ == "PatternStr":
@@ -182,7 +183,9 @@ def _unclosed_block(text: str):
     return stack[-1] if stack else None
 
 
-def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
+def syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
+    """lark's ``UnexpectedInput`` for ``text`` as a :class:`HilaSyntaxError`: what was found,
+    what was expected, the innermost block left open, a common slip named when recognised."""
     from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
 
     line = getattr(exc, "line", None)
@@ -223,7 +226,7 @@ def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
         message = str(exc).splitlines()[0]
     if not at_end:
         try:
-            label = exc.match_examples(parser().parse, COMMON_SLIPS, use_accepts=True)
+            label = exc.match_examples(_lark().parse, COMMON_SLIPS, use_accepts=True)
         except Exception:  # noqa: BLE001 - a failed guess must never hide the real error
             label = None
         if label:
@@ -239,6 +242,6 @@ def parse_text(text: str, file: str = "<program>"):
     from lark.exceptions import UnexpectedInput
 
     try:
-        return parser().parse(text)
+        return parser().parse(text.removeprefix("\ufeff"))
     except UnexpectedInput as exc:
-        raise _syntax_error(exc, text, file) from None
+        raise syntax_error(exc, text, file) from None
