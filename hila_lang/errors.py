@@ -7,8 +7,10 @@ known.  Subclasses say which stage raised it and which exit status the CLI retur
 - exit 2 (bad input): :class:`InputError` (also a ``ValueError``), :class:`HilaSyntaxError`,
   :class:`CheckError`
 - exit 1 (a run that failed): :class:`HilaRuntimeError` and its subclasses
-  :class:`ConstraintError` (contradicted constraints), :class:`UnreachableError` and
+  :class:`ConstraintError` (contradicted constraints), :class:`UnreachableError`,
   :class:`UnknownNameError` (a program asks a world for a question or event it does not have)
+  and :class:`StepLimitError` (more steps than ``--max-steps``)
+- exit 130: :class:`Interrupted` (Ctrl-C during a run)
 - exit 3 (an internal error): anything else -- a ``KeyError``, ``TypeError``, ... raised by hila,
   a plug-in or OSILA is a bug, not a user error.  The CLI says so, names where it was raised and
   where to report it; ``hila --debug ...`` shows the traceback (:func:`internal_error_message`).
@@ -160,6 +162,18 @@ class ConstraintError(HilaRuntimeError):
 
 class UnreachableError(HilaRuntimeError):
     """The robot cannot reach a target point."""
+
+
+class StepLimitError(HilaRuntimeError):
+    """A run took more steps than its limit (``--max-steps``): a loop that never ends."""
+
+
+class Interrupted(HilaRuntimeError):
+    """A run stopped by Ctrl-C (SIGINT) between or inside states; exit status 130.  The REPL
+    reports it and goes on: the world, the simulator and the hand are as the interrupt left
+    them."""
+
+    exit_code = EXIT_INTERRUPTED
 
 
 class UnknownNameError(HilaRuntimeError):

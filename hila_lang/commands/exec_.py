@@ -7,31 +7,39 @@ from ..language.runopts import add_run_arguments, run_options
 HELP = "run a .hila program (dry kinematic back end or the PyBullet iCub)"
 DESCRIPTION = (
     "Run a program: each FSM state warps one sub-template onto the scene with OSILA and moves the "
-    "hand. Prints one line per state (unless --quiet); exit 1 if the run fails."
+    "hand. Prints one line per state (unless --quiet); exit 1 if the run fails, 130 if Ctrl-C "
+    "stops it. Output paths (--out, --trace) are checked before anything runs; the world saves "
+    "what was done and --trace is written even when the run fails or is stopped (its last line "
+    "is the state that failed)."
 )
 
 
 def add_arguments(parser) -> None:
     add_run_arguments(parser)
-    parser.add_argument("--trace", default=None, metavar="FILE", help="write the state trace to FILE")
+    parser.add_argument("--trace", default=None, metavar="FILE",
+                        help="write the state trace to FILE (also when the run fails: its last line is the failing state)")
     parser.add_argument("--quiet", action="store_true", help="do not print the state trace")
 
 
 def run(args) -> int:
-    from ..fileio import atomic_write_text
-    from ..language.runner import finish, prepare
+    from ..fileio import AtomicFile
+    from ..language.runner import finishing, prepare
 
     options = run_options(args)
-    interp = prepare(args.program, options, args.backend)
-    lines: list[str] = []
+    trace = AtomicFile(args.trace) if args.trace else None  # a bad --trace path: refused now
     try:
-        while not interp.done:
-            entry = interp.step()
-            lines.append(str(entry))
-            if not args.quiet:
-                print(lines[-1], file=options.stdout, flush=True)
+        interp = prepare(args.program, options, args.backend, step_limit=args.max_steps)
+    except BaseException:
+        if trace is not None:
+            trace.discard()
+        raise
+    if trace is not None:  # streamed: memory stays flat however long the run
+        interp.listeners.append(lambda entry: trace.write(f"{entry}\n"))
+    show = None if args.quiet else (lambda entry: print(entry, file=options.stdout, flush=True))
+    try:
+        with finishing(interp):
+            interp.run(each=show)
     finally:
-        if args.trace:
-            atomic_write_text(args.trace, "\n".join(lines) + "\n")
-    finish(interp)
+        if trace is not None:
+            trace.commit()
     return 0

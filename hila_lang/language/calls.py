@@ -3,10 +3,10 @@
 Tasks are compiled inline (each call site gets its own copy of the task's states), so the call
 graph must be acyclic, and what inlining makes of it must stay within two limits:
 
-- :data:`MAX_STATES` states in the FSM -- a task called twice by a task called twice ... doubles
-  at every level, so 30 levels would make a billion states;
-- :data:`~hila_lang.language.transformer.MAX_NESTING` levels of blocks and expressions with
-  every call opened in place (the compiler recurses through calls as through blocks).
+- :data:`~hila_lang.language.limits.MAX_STATES` states in the FSM -- a task called twice by
+  a task called twice ... doubles at every level, so 30 levels would make a billion states;
+- :data:`~hila_lang.language.limits.MAX_NESTING` levels of blocks and expressions with every
+  call opened in place (the compiler recurses through calls as through blocks).
 
 Everything here walks without recursion and visits each task once, whatever the program.
 """
@@ -17,9 +17,7 @@ from dataclasses import dataclass
 
 from . import ast as A
 
-#: most states a program may compile to: about 250 MB of FSM (a state is about 0.5 kB), 3-4
-#: times the states of a 5 MB program of plain statements (``bench/parse.py``)
-MAX_STATES = 500_000
+from .limits import MAX_NESTING, MAX_STATES
 
 
 @dataclass
@@ -77,10 +75,8 @@ def check_calls(tasks: dict, main: A.MainDef, error) -> list[str]:
 
     Raises (through ``error``): a task that calls itself, directly or through others; a program
     whose inlined FSM would exceed :data:`MAX_STATES` states or nest deeper than
-    :data:`~hila_lang.language.transformer.MAX_NESTING` levels.
+    :data:`~hila_lang.language.limits.MAX_NESTING` levels.
     """
-    from .transformer import MAX_NESTING
-
     bodies = {"main": _body(main, nesting=False)}
     path, on_path = ["main"], {"main"}
     stack = [iter(bodies["main"].sites)]

@@ -7,18 +7,22 @@ names (``world NAME``, default ``scripted``) and the back end (``--backend``, el
 YAML scalars: ``0.002``, ``true``; the world's and the back end's own settings through their
 declarations; any other key is refused with "did you mean"), builds the world, then the back end
 on the world's scene, attaches them, and returns an
-:class:`~hila_lang.language.interpreter.Interpreter`.  :func:`finish` ends the run.
+:class:`~hila_lang.language.interpreter.Interpreter`.  :func:`finish` ends the run;
+:func:`finishing` ends it also when it fails.
 """
 
 from __future__ import annotations
 
+import contextlib
 import difflib
+import sys
 
 from ..errors import InputError
 from ..plugins import registry
 from ..plugins.options import RunOptions
 from . import load_program
 from .interpreter import Interpreter
+from .limits import DEFAULT_STEP_LIMIT
 
 
 def osila_options(settings: dict[str, str]) -> dict:
@@ -63,8 +67,10 @@ def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict
     return osila_options(settings), world.parse(mine["world"]), backend.parse(mine["backend"])
 
 
-def prepare(path, options: RunOptions, backend: str | None = None) -> Interpreter:
-    """Program + world + back end -> a ready :class:`Interpreter` (at its start state)."""
+def prepare(path, options: RunOptions, backend: str | None = None, *,
+            step_limit: int | None = DEFAULT_STEP_LIMIT) -> Interpreter:
+    """Program + world + back end -> a ready :class:`Interpreter` (at its start state);
+    ``step_limit`` bounds each run (:data:`~hila_lang.language.limits.DEFAULT_STEP_LIMIT`)."""
     checked, fsm = load_program(path)
     world_info = registry.world(checked.world)
     backend_info = registry.backend(backend or world_info.default_backend)
@@ -73,15 +79,36 @@ def prepare(path, options: RunOptions, backend: str | None = None) -> Interprete
     be = backend_info.build(world.scene, options, backend_settings)
     try:
         world.attach(be)
-        return Interpreter(checked, fsm, world, be, osila)
+        return Interpreter(checked, fsm, world, be, osila, step_limit=step_limit)
     except BaseException:
         be.close()
         raise
 
 
 def finish(interp: Interpreter):
-    """``world.finish(trace, fsm=FSM)`` (its summary, or None), then close the back end."""
+    """``world.finish(trace, fsm=FSM)`` (its summary, or None), then close the back end.
+    A first Ctrl-C while the world saves its outputs waits until they are saved."""
+    from ..interrupts import guarded
+
     try:
-        return interp.world.finish(interp.trace, fsm=interp.fsm)
+        with guarded() as guard:
+            guard.hold()
+            return interp.world.finish(interp.trace, fsm=interp.fsm)
     finally:
         interp.backend.close()
+
+
+@contextlib.contextmanager
+def finishing(interp: Interpreter, stderr=None):
+    """:func:`finish` after the block, also when the run in it failed or was interrupted: the
+    world saves what was done (a game stopped at move 5 keeps its first 5 moves).  A failure
+    while saving after a failed run is reported as a note; the run's own error is raised."""
+    try:
+        yield interp
+    except BaseException:
+        try:
+            finish(interp)
+        except Exception as late:  # noqa: BLE001 - the run's own error is what the user must see
+            print(f"note: saving the outputs of the failed run failed too: {late}", file=stderr or sys.stderr)
+        raise
+    finish(interp)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .limits import DEFAULT_STEP_LIMIT
+
 
 def _seed(text: str) -> int:
     """argparse type for --seed: a whole number >= 0 (numpy's generators refuse negative seeds)."""
@@ -21,6 +23,19 @@ def _seed(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
+    return value
+
+
+def _steps(text: str) -> int:
+    """argparse type for --max-steps: a whole number >= 0 (0: no limit)."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0 (0: no limit), got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0 (0: no limit), got {value}")
     return value
 
 
@@ -51,6 +66,8 @@ def add_run_arguments(parser) -> None:
         parser.add_argument(flag, dest=f"alias:{name}", default=None, metavar=name.upper(),
                             help=f"same as --set {name}=VALUE ({'; '.join(owners)})")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window")
+    parser.add_argument("--max-steps", type=_steps, default=DEFAULT_STEP_LIMIT, metavar="N",
+                        help=f"stop a run after N steps, a loop that never ends (default {DEFAULT_STEP_LIMIT}; 0: no limit)")
     parser.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
                         help="a setting of the world, the back end or OSILA (osila.threshold=0.002); repeatable")
 

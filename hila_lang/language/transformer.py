@@ -10,6 +10,7 @@ from lark.exceptions import VisitError
 
 from . import ast as A
 from ..errors import HilaError, HilaSyntaxError
+from .limits import MAX_NESTING
 from .parser import source_line
 
 
@@ -370,12 +371,6 @@ def parse_expr(text: str):
     return A.map_names(e, lambda n: A.Var(slots[n.parts[0]], n.parts[1:], n.pos) if n.parts[0] in slots else n)
 
 
-#: deepest nesting accepted: blocks inside blocks (a task's or main's body is the first) plus
-#: expression levels (an operand inside an operator, a point's coordinate, an argument: every
-#: operator of a chain like ``a + b + c`` nests one level).  Every later stage walks the AST
-#: recursively; at this depth the deepest walk stays well inside Python's default stack
-#: (``bench/parse.py`` and ``tests/test_lang_parse.py`` measure the margin).
-MAX_NESTING = 100
 
 _BLOCK_OWNERS = (A.TaskDef, A.MainDef, A.IfStmt, A.WhileStmt, A.UntilStmt, A.RepeatStmt)
 

@@ -45,7 +45,6 @@ demonstration it was warped from: the path of the program's pen-down sub-templat
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -95,9 +94,12 @@ class TicTacToeWorld:
         self.scene = Scene(surface=self.spec.paper())
         self.first = self.settings["first"]
         self.write_report = self.settings["report"]
-        out = options.out
-        if self.write_report and out is not None and Path(out).exists() and not Path(out).is_dir():
-            raise InputError("expected --out to be a folder, got a file", file=str(out))
+        #: the output folder, made and proved writable now: a game is never played to be lost
+        self.outputs = None
+        if self.write_report:
+            from .report import output_folder
+
+            self.outputs = output_folder(options.out, self.seed)
         self.rng = np.random.default_rng([self.seed, 5])
         self.park = park_position(self.spec, self.rng)
         self.opponent = make_opponent(self.settings["opponent"], self.seed, options.stdin, options.stdout)
