@@ -14,8 +14,11 @@ FSM over a world and a back end (found through :mod:`hila_lang.plugins`; :mod:`.
 
 
 
-def load_program(path, text: str | None = None):
-    """Read, parse, check and compile a program: returns (CheckedProgram, FSM)."""
+def load_program(path, text: str | None = None, *, settings: dict[str, str] | None = None,
+                 backend: str | None = None):
+    """Read, parse, check and compile a program: returns (CheckedProgram, FSM).
+
+    ``settings`` and ``backend``: what it will run with (see :func:`.checker.check`)."""
     from .checker import check
     from .compiler import compile_program
     from .parser import read_source
@@ -24,5 +27,5 @@ def load_program(path, text: str | None = None):
     file = str(path)
     if text is None:
         text = read_source(path)
-    checked = check(parse_program(text, file))
+    checked = check(parse_program(text, file), settings=settings, backend=backend)
     return checked, compile_program(checked)

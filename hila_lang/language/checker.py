@@ -27,6 +27,7 @@ from . import ast as A
 from ..errors import CheckError, HilaError
 from ..plugins import registry
 from .parser import source_line
+from .worldcheck import WorldCheck
 
 START, END = "start", "end"
 RESERVED = {"hand", "main"}
@@ -45,6 +46,9 @@ class CheckedProgram:
     points: dict  # name -> Expr
     hand: A.Expr | None
     warnings: list[str] = field(default_factory=list)
+    #: the ``--set`` pairs it was checked with, parsed: (OSILA options, world settings,
+    #: back-end settings); None when checked without them
+    run_settings: tuple | None = None
 
 
 def template_search_path(program_file: str) -> list[Path]:
@@ -66,10 +70,27 @@ def did_you_mean(name: str, choices) -> str | None:
     return f"did you mean '{close[0]}'?" if close else None
 
 
+class _Defined(set):
+    """The names defined at a point of a body, and the dimension of the points some hold
+    (``let p = (0.3, 0.1)``: 2; None when it is not a point or not known before the run)."""
+
+    def __init__(self, names=()) -> None:
+        super().__init__(names)
+        self.dims: dict[str, int | None] = {}
+
+    def let(self, name: str, dim: int | None) -> None:
+        if name in self.dims and self.dims[name] != dim:
+            dim = None  # different sizes at different places: only the run knows
+        self.add(name)
+        self.dims[name] = dim
+
+
 class _Checker(A.Visitor):
-    def __init__(self, program: A.Program) -> None:
+    def __init__(self, program: A.Program, settings: dict[str, str] | None = None,
+                 backend: str | None = None) -> None:
         self.p = program
         self.warnings: list[str] = []
+        self.settings, self.backend = settings, backend
 
     def error(self, message: str, pos: A.Pos, hint: str | None = None) -> CheckError:
         line = pos.line or None
@@ -89,17 +110,22 @@ class _Checker(A.Visitor):
         if worlds and world not in known:
             raise self.error(f"unknown world '{world}'", worlds[0].pos,
                              did_you_mean(world, known) or f"known worlds: {', '.join(known)}")
+        self.world = WorldCheck(world, self.error, self.settings, self.backend)
         self.templates, self.files = {}, {}
         for imp in p.of(A.ImportDecl):
             if imp.alias in self.templates:
                 raise self.error(f"'{imp.alias}' is imported twice", imp.pos, "use 'import ... as OTHER'")
             self.files[imp.alias], self.templates[imp.alias] = self.load(imp)
         self.points = {}
+        self.point_dims: dict[str, int | None] = {}
+        self.point_depths: dict[str, int] = {}
         for pt in p.of(A.PointDecl):
             if pt.name in self.points:
                 raise self.error(f"point '{pt.name}' is declared twice", pt.pos)
             self.expr(pt.value, set(), pt.pos)
+            self.point_depth(pt)
             self.points[pt.name] = pt.value
+            self.point_dims[pt.name] = self.dim(pt.value, set())
         hands = p.of(A.HandDecl)
         if len(hands) > 1:
             raise self.error("'hand at' is given twice", hands[1].pos)
@@ -128,11 +154,11 @@ class _Checker(A.Visitor):
         if len(mains) > 1:
             raise self.error(f"'main' is defined twice (first at line {mains[0].pos.line})", mains[1].pos)
         for t in self.tasks.values():
-            self.body(t.body, set(t.params))
-        self.body(mains[0].body, set())
+            self.body(t.body, _Defined(t.params))
+        self.body(mains[0].body, _Defined())
         self.recursion(mains[0])
         return CheckedProgram(p, world, self.templates, self.files, self.tasks, mains[0], self.points,
-                              hands[0].value if hands else None, self.warnings)
+                              hands[0].value if hands else None, self.warnings, self.world.run_settings)
 
     def load(self, imp: A.ImportDecl):
         from ..template import load_template
@@ -183,9 +209,13 @@ class _Checker(A.Visitor):
         if s.name in RESERVED:
             raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
         self.expr(s.value, defined, s.pos)
-        defined.add(s.name)
+        if isinstance(defined, _Defined):
+            defined.let(s.name, self.dim(s.value, defined))
+        else:
+            defined.add(s.name)
 
     def visit_WaitStmt(self, s: A.WaitStmt, defined: set[str]) -> None:
+        self.world.event(s.wait.event, s.wait.pos if s.wait.pos.line else s.pos)
         self.expr(s.wait.args, defined, s.pos)
 
     def visit_IfStmt(self, s: A.IfStmt, defined: set[str]) -> None:
@@ -233,6 +263,8 @@ class _Checker(A.Visitor):
 
     def run_stmt(self, s: A.RunStmt, defined: set[str]) -> None:
         icps = self.template_icps(s)
+        dim = self.templates[s.template].dim
+        self.world.template(s.ref, dim, s.ref_pos)
         covered: dict[str, A.Binding] = {}
         spread = [b for b in s.bindings if b.icp == A.SPREAD]
         if len(spread) > 1:
@@ -251,6 +283,8 @@ class _Checker(A.Visitor):
                     raise self.error(f"ICP '{m}' is bound twice", b.pos, f"first bound at column {covered[m].pos.column}")
                 covered[m] = b
             self.expr(b.value, defined, b.pos)
+            if b.icp in icps:  # one ICP bound to one point (not a group bound to a group)
+                self.world.binding(s.ref, dim, b.icp, self.dim(b.value, defined), b.pos)
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
         if unbound:
             raise self.error(
@@ -259,6 +293,45 @@ class _Checker(A.Visitor):
                 f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
 
     # ------------------------------------------------------------------ expressions
+    def dim(self, e, defined) -> int | None:
+        """How many coordinates the point ``e`` has, when that is known before the run (a
+        literal, a program point, a world point, ``hand``, a ``let`` of one); None otherwise."""
+        if isinstance(e, A.Vector):
+            return len(e.items)
+        if isinstance(e, A.Unary) and e.op == "-":
+            return self.dim(e.operand, defined)
+        if isinstance(e, A.Binary) and e.op in ("+", "-", "*", "/"):
+            a, b = self.dim(e.left, defined), self.dim(e.right, defined)
+            return a if b is None or a == b else (b if a is None else None)
+        if not isinstance(e, A.Name):
+            return None
+        first = e.parts[0]
+        if first in defined:
+            return getattr(defined, "dims", {}).get(first) if len(e.parts) == 1 else None
+        if e.text == "hand":
+            return 3
+        if e.text in self.point_dims:
+            return self.point_dims[e.text]
+        if first == "hand" or e.parts[-1] in ("x", "y", "z") or any(p.startswith(e.text + ".") for p in self.points):
+            return None  # a coordinate, or a group of points
+        return 3 if len(e.parts) > 1 else None  # a world point: (x, y, z) by the World protocol
+
+    def point_depth(self, pt: A.PointDecl) -> None:
+        """A ``point`` defined through other points nests as deep as they do, all of it added up
+        when the run evaluates it: keep that within the nesting limit (no recursion here)."""
+        from .limits import MAX_NESTING
+        from .transformer import deepest
+
+        found = deepest([pt.value])
+        depth = 1 + (found[2] if found else 0)
+        for n in _names_in(pt.value):
+            depth = max(depth, 1 + self.point_depths.get(n.text, 0) + 1)
+        self.point_depths[pt.name] = depth
+        if depth > MAX_NESTING:
+            raise self.error(f"point '{pt.name}' is defined through points defined through points ... "
+                             f"{depth} levels deep (at most {MAX_NESTING})", pt.pos,
+                             "define it by its coordinates, or through fewer other points")
+
     def expr(self, e, defined: set[str], where: A.Pos) -> None:
         """Check the names in expression ``e`` (or a tuple of them); ``where`` locates a name
         that has no position of its own."""
@@ -275,14 +348,44 @@ class _Checker(A.Visitor):
             self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
 
 
+def _names_in(e) -> list:
+    """Every :class:`~hila_lang.language.ast.Name` in expression ``e`` (without recursion)."""
+    out, stack = [], [e]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, A.Name):
+            out.append(node)
+        stack.extend(A.children(node))
+    return out
+
+
 class _Names(A.Visitor):
-    """Every plain name in an expression is known; points have 2 or 3 coordinates."""
+    """Every plain name in an expression is known, and every question, event and world point
+    the world declares; points have 2 or 3 coordinates."""
 
     def __init__(self, checker: "_Checker", defined: set[str], where: A.Pos) -> None:
         self.c, self.defined, self.where = checker, defined, where
 
+    def _pos(self, e) -> A.Pos:
+        return e.pos if e.pos.line else self.where
+
+    def visit_Ask(self, e: A.Ask) -> None:
+        self.c.world.question(e.name, self._pos(e))
+        self.generic_visit(e)
+
+    def visit_Wait(self, e: A.Wait) -> None:
+        self.c.world.event(e.event, self._pos(e))
+        self.generic_visit(e)
+
     def visit_Name(self, e: A.Name) -> None:
         c, first = self.c, e.parts[0]
+        if len(e.parts) > 1 and first not in self.defined and first != "hand":
+            head, _, attr = e.text.rpartition(".")
+            program_point = (e.text in c.points or any(p.startswith(e.text + ".") for p in c.points)
+                             or (attr in ("x", "y", "z") and head in c.points))
+            if not program_point:
+                c.world.point(e.text, self._pos(e))
+            return
         if first in self.defined or first == "hand" or len(e.parts) > 1:
             return
         if first in c.points or any(p.startswith(first + ".") for p in c.points):
@@ -298,6 +401,13 @@ class _Names(A.Visitor):
         self.generic_visit(e)
 
 
-def check(program: A.Program) -> CheckedProgram:
-    """Check ``program``; raise :class:`CheckError` at the first mistake."""
-    return _Checker(program).run()
+def check(program: A.Program, *, settings: dict[str, str] | None = None,
+          backend: str | None = None) -> CheckedProgram:
+    """Check ``program``; raise :class:`CheckError` at the first mistake.
+
+    ``settings`` (the ``--set`` pairs as typed) and ``backend`` are what the program will run
+    with: they are parsed here (a bad one is an InputError naming it) and the world's questions,
+    events and points are those it declares with them (:mod:`.worldcheck`).  Without settings
+    (None) a world whose names follow from its settings is not checked by name.
+    """
+    return _Checker(program, settings, backend).run()

@@ -17,6 +17,7 @@ Frames: world frame, metres, z up; the root is at (0, 0, 0.62) and the robot fac
 from __future__ import annotations
 
 import time
+from collections import deque
 
 import numpy as np
 
@@ -30,6 +31,9 @@ from .body import Body
 from .eyes import Eyes
 from .paper import Paper, TopView
 from .workspace import PAPER_THICKNESS, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z, default_surface
+
+#: moves kept in :attr:`PyBulletBackend.traces` (a 4 s move at 240 Hz is about 100 kB)
+KEEP_TRACES = 1000
 
 #: the hand's ready point above the paper's centre, metres
 READY_HEIGHT = 0.10
@@ -72,7 +76,8 @@ class PyBulletBackend:
     eyes : Eyes
     ink : Paper
     overview : TopView
-    traces : list of Trace
+    traces : deque of Trace
+        The newest :data:`KEEP_TRACES` moves.
         Every executed move.
     stats : dict
         Counters for benchmarks: IK solves and their wall time, simulation steps and the wall
@@ -87,7 +92,7 @@ class PyBulletBackend:
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
         if arm not in ("auto", "ready", "rest"):
             raise InputError(f"arm must be 'auto', 'ready' or 'rest', got {arm!r}")
-        self.traces: list[Trace] = []
+        self.traces: deque[Trace] = deque(maxlen=KEEP_TRACES)  # the newest: memory stays flat
         self.stats = dict.fromkeys(("ik_solves", "ik_seconds", "steps", "step_seconds", "renders", "render_seconds"), 0)
         self.sim = SimScene(gui=gui, time_step=1.0 / SIM_RATE, solver_iterations=SOLVER_ITERATIONS, style=EYE_LIGHT)
         try:

@@ -8,10 +8,16 @@ It has no eyes, no ink and no overview camera (those capabilities are None).
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
 from ..errors import InputError
 from ..validation import check_path
+
+
+#: moves kept in :attr:`DryBackend.moves`
+KEEP_MOVES = 1000
 
 
 class DryBackend:
@@ -24,7 +30,8 @@ class DryBackend:
 
     def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
-        self.moves: list[tuple[str, np.ndarray, bool]] = []
+        #: the newest moves (label, path, pen_down); older ones are dropped so memory stays flat
+        self.moves: deque[tuple[str, np.ndarray, bool]] = deque(maxlen=KEEP_MOVES)
 
     def hand_position(self) -> np.ndarray:
         return self._hand.copy()

@@ -7,7 +7,7 @@
   that runs out is a runtime error, so a test fails loudly instead of looping;
 - ``events``: event -> list of values handed out in order by ``wait``.
 
-Every ``notify`` is kept in :attr:`log` as ``(event, data)``.  From the command line,
+Every ``notify`` is kept in :attr:`log` as ``(event, data)`` (the newest :data:`KEEP_LOG`).  From the command line,
 ``--set script=FILE.yaml`` loads a YAML mapping with the keys ``points``, ``answers``,
 ``events`` (and optionally ``home``: where the back end starts the hand, ``scene.home``); without
 a script the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
@@ -16,12 +16,17 @@ A question or event the script does not name is an :class:`~hila_lang.errors.Unk
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
 
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
 from ...sim.surface import Scene
+
+
+#: notifications kept in :attr:`ScriptedWorld.log`
+KEEP_LOG = 1000
 
 
 class ScriptedWorld:
@@ -33,7 +38,7 @@ class ScriptedWorld:
         self.events = {k: list(v) for k, v in (events or {}).items()}
         self.home = None if home is None else _point(home, "home")
         self.scene = None if self.home is None else Scene(home=self.home)
-        self.log: list[tuple[str, dict]] = []
+        self.log: deque[tuple[str, dict]] = deque(maxlen=KEEP_LOG)  # the newest: memory stays flat
 
     def attach(self, backend) -> None:
         pass
@@ -62,8 +67,12 @@ class ScriptedWorld:
         self.log.append((event, data))
 
     def finish(self, trace=None, *, fsm=None) -> dict:
-        runs = [t for t in (trace or []) if t.kind == "run"]
-        return {"states": len(trace or []), "runs": len(runs)}
+        """Counts of the states and run states executed (every one, not only those kept)."""
+        trace = trace or []
+        kinds = getattr(trace, "kinds", None)
+        if kinds is None:  # a plain list of entries
+            kinds = {"run": sum(1 for t in trace if t.kind == "run")}
+        return {"states": getattr(trace, "total", len(trace)), "runs": kinds.get("run", 0)}
 
 
 def _point(value, what: str) -> np.ndarray:
@@ -92,6 +101,20 @@ def load_script(path) -> ScriptedWorld:
     except InputError as exc:
         exc.file = str(path)
         raise
+
+
+def declared(settings):
+    """What the world with these settings answers (for ``hila check``): its script's names."""
+    from ...plugins.registry import Declared
+
+    script = settings.get("script")
+    if not script:
+        return Declared({}, {}, frozenset(), False, "the scripted world (no --set script=FILE.yaml)",
+                        "the scripted world answers what its script names: give the script with "
+                        "--set script=FILE.yaml (points, answers, events)")
+    world = load_script(script)
+    return Declared({k: "from the script" for k in world.answers}, {k: "from the script" for k in world.events},
+                    frozenset(world.points()), False, f"the scripted world ({script})")
 
 
 def make_world(options, settings) -> ScriptedWorld:
