@@ -133,12 +133,15 @@ class Step:
         Whether the template's ``"start"`` ICP was bound (to the hand, or by the caller).
     result : OsilaResult
         What OSILA did (warp kind, threshold, rounds, added constraint pairs).
+    notes : list of str
+        What a user should know about the step: a binding not used (:func:`check_coincident`).
     """
 
     path: np.ndarray
     icps: dict[str, np.ndarray]
     start_bound: bool
     result: Any
+    notes: list[str] = field(default_factory=list)
 
 
 def _fmt(p) -> str:
@@ -175,7 +178,7 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
 
 
 def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None, *, forced: Any = None,
-              obstacles: Any = None, **options: Any) -> Step:
+              obstacles: Any = None, surface: Any = None, **options: Any) -> Step:
     """THE HILA step: bind a (sub-)template to scene points and the hand, run OSILA.
 
     The interpreter (every ``run`` state of ``hila exec``/``hila repl``), ``hila imitate`` and
@@ -187,6 +190,18 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     there with :func:`start_at` (a sub-template whose start coincides with another template ICP
     gets the two merged, so the pinned stamp can miss the hand by a fraction of a millimetre).
 
+    Two ICPs at the same template point bound to different task points cannot both hold (OSILA
+    keeps one pair per template point): the hand's ``start`` wins with a note in ``Step.notes``,
+    any other pair is an :class:`InputError` naming both (:func:`check_coincident`); a binding is
+    never dropped in silence.  When OSILA cannot avoid an
+    obstacle because it covers a bound ICP the path passes through, the
+    :class:`~hila_lang.errors.ConstraintError` says so (:func:`explain_blocked`).
+
+    A 2-D template on a 3-D scene runs on ``surface`` (a drawing surface: ``to_local`` and
+    ``to_world``, e.g. :class:`hila_lang.sim.surface.Surface`): the bound points and the hand are
+    projected onto it, OSILA runs in its plane, and the path is lifted back onto it (see
+    :func:`on_surface`).
+
     Parameters
     ----------
     template : Template
@@ -197,14 +212,20 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
         Where the hand is: binds ``"start"`` unless ``task_icps`` names it.
     forced, obstacles, **options
         As :func:`hila_lang.osila.imitate`.
+    surface : drawing surface, optional
+        Where a 2-D template runs when the scene is 3-D.
 
     Returns
     -------
     Step
     """
+    from .errors import ConstraintError
     from .osila import imitate_detailed
 
+    if template.dim == 2 and _three_d(task_icps, hand):
+        return on_surface(template, task_icps, hand, surface, forced=forced, obstacles=obstacles, **options)
     icps = bind(template, task_icps, hand)
+    notes = check_coincident(template, icps, task_icps, options.get("threshold"))
     names = list(icps)
     start_bound = START in icps
     src = np.array([template.icps[k] for k in names], dtype=float)
@@ -212,13 +233,137 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     options = dict(options)
     if start_bound:
         options.setdefault("pin", (0,))
-    res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
+    try:
+        res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
+    except ConstraintError as exc:
+        raise explain_blocked(exc, template, icps, obstacles, options) from None
     path = np.asarray(res.path, dtype=float)
     if start_bound:
         # TODO(osila exact pin): when osila.imitate can pin a bound start/end ICP to an exact
         # point, pass it here and drop this fade.  This line and the pin above are the one place.
         path = start_at(path, icps[START])
-    return Step(path, icps, start_bound, res)
+    return Step(path, icps, start_bound, res, notes)
+
+
+def _three_d(task_icps: Mapping[str, Any], hand: Any) -> bool:
+    """Whether any bound point (or the hand) has 3 coordinates."""
+    points = [v for v in task_icps.values() if v is not None] + ([] if hand is None else [hand])
+    return any(np.asarray(p, dtype=float).size == 3 for p in points)
+
+
+def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surface: Any, *,
+               forced: Any = None, obstacles: Any = None, **options: Any) -> Step:
+    """A 2-D template run on a drawing surface of a 3-D scene.
+
+    The bound points, the hand, forced waypoints and obstacle centres (3-D, metres) are
+    projected straight down onto the surface (``surface.to_local``: its right and far axes);
+    OSILA warps the template in that plane; the path is lifted back onto the surface
+    (``surface.to_world``), so it lies on the paper, z = the surface's top.  The step's ICPs are
+    the projected points, on the paper.  A 2-D template is a drawing: it has no height to warp.
+    """
+    if surface is None:
+        raise InputError(f"'{template.name}' is a 2-D template, and this world has no drawing surface to run "
+                         "it on: run it in a world with paper, or learn the demonstration in 3-D")
+
+    def local(p):
+        arr = np.asarray(p, dtype=float).reshape(-1)
+        if arr.size != 3:
+            raise InputError(f"the 2-D template '{template.name}' runs on the drawing surface: bind its ICPs to "
+                             f"points of the world (x, y, z), got the {arr.size}-D point {_fmt(arr)}")
+        return np.asarray(surface.to_local(arr), dtype=float)
+
+    flat = {k: None if v is None else local(v) for k, v in task_icps.items()}
+    flat_forced = None if forced is None else np.array([local(f) for f in np.asarray(forced, float).reshape(-1, 3)])
+    flat_obstacles = None
+    if obstacles is not None:
+        from .osila import _obstacles  # the one reader of obstacle specs (3-D here)
+
+        spheres = _obstacles(obstacles, 3)
+        flat_obstacles = np.column_stack([np.array([local(c) for c in spheres[:, :3]]).reshape(-1, 2),
+                                          spheres[:, 3]])
+    step = hila_step(template, flat, None if hand is None else local(hand), forced=flat_forced,
+                     obstacles=flat_obstacles, **options)
+
+    def lift(points):
+        points = np.asarray(points, dtype=float)
+        return np.asarray(surface.to_world(points[..., 0], points[..., 1]), dtype=float)
+
+    return Step(lift(step.path), {k: lift(v) for k, v in step.icps.items()}, step.start_bound, step.result,
+                step.notes)
+
+
+def check_coincident(template: Template, icps: dict[str, np.ndarray], given: Mapping[str, Any],
+                     threshold: float | None = None) -> list[str]:
+    """ICPs that are one point of the template but bound to different task points.
+
+    OSILA keeps one pair per template point (:func:`hila_lang.osila.tps.merge_pairs`), so one of
+    the bindings would be dropped and the path would ignore it -- never in silence here:
+
+    - ``start`` bound to the hand by default wins (a step begins where the hand is): the other
+      ICP is taken out of ``icps`` and a note says so (returned, for the trace);
+    - any other pair (both bound by the caller) is an :class:`InputError` naming both.
+
+    Points closer than the distortion threshold (given, else 1 % of the template path's size,
+    OSILA's default scale) are one point for the route anyway and pass.  ``given``: what the
+    caller bound by name (a ``start`` missing from it is the hand).
+    """
+    from .osila.tps import MERGE_TOL
+
+    names = list(icps)
+    notes: list[str] = []
+    if len(names) < 2:
+        return notes
+    src = np.array([template.icps[k] for k in names], dtype=float)
+    same = MERGE_TOL * float(np.ptp(src, axis=0).max())
+    tol = threshold if threshold else 0.01 * float(np.linalg.norm(np.ptp(template.path, axis=0)))
+    hand_start = START in icps and START not in given
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            a, b = names[i], names[j]
+            if a not in icps or b not in icps or np.linalg.norm(src[i] - src[j]) > same:
+                continue
+            gap = float(np.linalg.norm(icps[a] - icps[b]))
+            if gap <= tol:
+                continue
+            if hand_start and START in (a, b):
+                other = b if a == START else a
+                notes.append(f"'{other}' is where '{template.name}' starts in the demonstration; the step starts "
+                             f"where the hand is, {gap:.3g} from {other} = {_fmt(icps[other])}, so that binding is "
+                             f"not used (bind {other} = none to say so)")
+                del icps[other]
+                continue
+            raise InputError(
+                f"ICPs '{a}' and '{b}' of '{template.name}' are one point in the demonstration but are bound "
+                f"{gap:.3g} apart: {a} = {_fmt(icps[a])}, {b} = {_fmt(icps[b])}; the warp maps one point to one "
+                "place only", hint=f"bind one of them to none (e.g. {b} = none), or both to the same point")
+    return notes
+
+
+def explain_blocked(exc, template: Template, icps: Mapping[str, np.ndarray], obstacles: Any, options) -> Exception:
+    """``exc`` (OSILA's ConstraintError) with what can help when an obstacle covers an ICP the
+    path passes through (its start, a touched object): no threshold or number of rounds gets
+    the route out, the obstacle or the binding has to change."""
+    from .errors import ConstraintError
+    from .osila import _obstacles
+
+    if obstacles is None or not len(icps):
+        return exc
+    spheres = _obstacles(obstacles, template.dim)
+    margin = float(options.get("margin") or 0.0)
+    size = float(np.linalg.norm(np.ptp(template.path, axis=0)))
+    covered = []
+    for name, point in icps.items():
+        on_path = float(np.linalg.norm(template.path - template.icps[name], axis=1).min()) <= 0.01 * size
+        for o, sphere in enumerate(spheres):
+            if on_path and np.linalg.norm(point - sphere[:-1]) < sphere[-1] + margin:
+                covered.append(f"ICP '{name}' at {_fmt(point)} lies inside obstacle {o} "
+                               f"(centre {_fmt(sphere[:-1])}, radius {sphere[-1]:.4g})")
+    if not covered:
+        return exc
+    return ConstraintError(
+        f"the path must pass through ICPs that an obstacle covers: {'; '.join(covered)}",
+        hint="move or shrink the obstacle, or bind that ICP elsewhere (or to none); raising 'rounds' or "
+             "'threshold' cannot help")
 
 
 def start_at(path: np.ndarray, start: np.ndarray, fraction: float = 0.25) -> np.ndarray:

@@ -340,16 +340,25 @@ class Interpreter:
         return out
 
     def bind(self, st) -> dict[str, np.ndarray]:
-        """Task ICPs of a run state: name -> point (3,), in the template's ICP order."""
+        """Task ICPs of a run state: name -> point (3,), in the template's ICP order (a 2-D
+        template's as bound in the scene, before they are projected onto the drawing surface)."""
         from ..hierarchy import bind
 
-        return bind(self.template(st), self.scene_binding(st), self.hand())
+        t, binding = self.template(st), self.scene_binding(st)
+        if t.dim == 2 and self.surface() is not None:
+            given = {START: self.hand(), **binding}
+            return {k: given[k] for k in t.icps if given.get(k) is not None}
+        return bind(t, binding, self.hand())
+
+    def surface(self):
+        """The world's drawing surface (its scene's), where 2-D templates run; or None."""
+        return getattr(getattr(self.world, "scene", None), "surface", None)
 
     def exec_run(self, st, n: int) -> TraceEntry:
         from ..hierarchy import hila_step
 
         t = self.template(st)
-        step = hila_step(t, self.scene_binding(st), self.hand(), **self.osila_options)
+        step = hila_step(t, self.scene_binding(st), self.hand(), surface=self.surface(), **self.osila_options)
         path, icps = step.path, step.icps
         executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         executed = None if executed is None else np.asarray(executed, dtype=float)
@@ -360,6 +369,7 @@ class Interpreter:
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()))
+        text += "".join(f"; note: {n}" for n in step.notes)
         self.last_run = TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
                                    icps=icps, pen_down=bool(st.pen_down))
         return self.last_run
