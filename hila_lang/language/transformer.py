@@ -334,6 +334,23 @@ def _ast_parser(start: str):
     return lark
 
 
+_NAME = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
+
+
+def usable_as_tag(tag: str) -> bool:
+    """Whether a program can write ``tag`` as a sub-template's tag: ``run t.TAG(...)`` parses
+    and names it (the grammar decides, keywords and all)."""
+    from lark.exceptions import UnexpectedInput
+
+    if not _NAME.fullmatch(tag):
+        return False
+    try:
+        items = parse_items(f"main {{ run t.{tag}() }}")
+    except UnexpectedInput:
+        return False
+    return items[-1].body[0].tag == tag
+
+
 def parse_items(text: str, start: str = "start"):
     """Parse ``text`` straight to AST items (or one expression for ``start="expr"``); lark's
     ``UnexpectedInput`` propagates."""
