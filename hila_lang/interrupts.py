@@ -85,3 +85,29 @@ def start_ignoring_sigint(start_workers):
     finally:
         signal.signal(signal.SIGINT, previous)
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a pending Ctrl-C is delivered here
+
+
+def joblib_workers_ignoring_sigint(jobs: int) -> None:
+    """Start joblib's worker processes now, ignoring SIGINT (:func:`start_ignoring_sigint`);
+    the next ``joblib.Parallel(n_jobs=jobs)`` reuses them (loky keeps one pool).  Then Ctrl-C
+    reaches this process only: it stops the work and the pool, with no traceback from the
+    workers, and never while the pool is half-started (loky then hung).
+
+    Call it before numpy is imported: threads started before (numpy's BLAS pool) would take a
+    Ctrl-C pressed meanwhile and drop it; threads started inside inherit the block and leave it
+    pending for this one.
+    """
+
+    def start() -> None:
+        import os
+
+        from joblib import Parallel, delayed
+
+        Parallel(n_jobs=jobs)(delayed(os.getpid)() for _ in range(max(jobs, 2)))
+
+    from multiprocessing import resource_tracker
+
+    # started first: starting it unblocks SIGINT (bpo-33613's SIG_UNBLOCK), which would drop a
+    # Ctrl-C pressed meanwhile instead of keeping it pending
+    resource_tracker.ensure_running()
+    start_ignoring_sigint(start)

@@ -78,6 +78,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..fileio import OutputFolder
+    from ..interrupts import joblib_workers_ignoring_sigint
+
+    OutputFolder(args.out, "eval")  # made and proved writable before any data is made
+    if args.jobs != 1 and args.dask is None:  # first, before numpy starts its threads
+        joblib_workers_ignoring_sigint(args.jobs)  # Ctrl-C: exit 130, no worker tracebacks, no hang
     from ..errors import InputError
     from ..evaluation import dataset as ds
     from ..evaluation.report import write_report
@@ -85,8 +91,6 @@ def run(args: argparse.Namespace) -> int:
     from ..evaluation.tables import render
 
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError("expected --out to be a folder, got a file", file=str(out))
     if args.dask is not None:
         check_scheduler(args.dask)  # before any data is made or written
     if args.dataset is not None:
