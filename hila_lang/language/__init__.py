@@ -18,14 +18,19 @@ def load_program(path, text: str | None = None, *, settings: dict[str, str] | No
                  backend: str | None = None):
     """Read, parse, check and compile a program: returns (CheckedProgram, FSM).
 
-    ``settings`` and ``backend``: what it will run with (see :func:`.checker.check`)."""
+    ``settings`` and ``backend``: what it will run with (see :func:`.checker.check`).  A
+    relative path that does not exist is looked up along the search path
+    (:func:`hila_lang.resources.find_program`: ``HILA_PATH``, then the programs hila ships)."""
     from .checker import check
     from .compiler import compile_program
     from .parser import read_source
     from .transformer import parse_program
 
-    file = str(path)
-    if text is None:
+    if text is None:  # a program named as people type it: found along the search path
+        from ..resources import find_program
+
+        path = find_program(path)
         text = read_source(path)
+    file = str(path)
     checked = check(parse_program(text, file), settings=settings, backend=backend)
     return checked, compile_program(checked)

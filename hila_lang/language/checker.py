@@ -3,7 +3,9 @@
 :func:`check` raises :class:`~hila_lang.errors.CheckError` (exit 2) at the first mistake, with
 the source position, the source line and a "did you mean" where one helps.  What it checks:
 
-- the world is a registered plug-in (:mod:`hila_lang.plugins.registry`); each import resolves to a readable template; aliases, tasks,
+- the world is a registered plug-in (:mod:`hila_lang.plugins.registry`); each import resolves to
+  a readable template (``import NAME`` along :func:`hila_lang.resources.template_search_path`:
+  ``HILA_PATH``, the program's folder, the package's own); aliases, tasks,
   points and parameters are unique; there is exactly one ``main``;
 - ``run T.TAG(...)``: ``T`` is imported, ``TAG`` is one of its tags, every bound name is an ICP
   of that sub-template (or a group prefix: ``cell`` binds ``cell.tl``, ``cell.tr``, ...), no
@@ -26,6 +28,7 @@ from pathlib import Path
 from . import ast as A
 from ..errors import CheckError, HilaError
 from ..plugins import registry
+from ..resources import template_search_path
 from .parser import source_line
 from .worldcheck import WorldCheck
 
@@ -49,20 +52,6 @@ class CheckedProgram:
     #: the ``--set`` pairs it was checked with, parsed: (OSILA options, world settings,
     #: back-end settings); None when checked without them
     run_settings: tuple | None = None
-
-
-def template_search_path(program_file: str) -> list[Path]:
-    """Folders ``import NAME`` looks in for ``NAME.yaml``, in order."""
-    here = Path(program_file).resolve().parent if program_file and not program_file.startswith("<") else Path.cwd()
-    package_root = Path(__file__).resolve().parents[2]
-    candidates = [here, here / "primitives", here.parent / "primitives", Path.cwd() / "primitives",
-                  package_root / "primitives"]
-    seen, result = set(), []
-    for c in candidates:
-        if c not in seen:
-            seen.add(c)
-            result.append(c)
-    return result
 
 
 def did_you_mean(name: str, choices) -> str | None:
@@ -172,9 +161,10 @@ class _Checker(A.Visitor):
         if found is None:
             known = sorted({f.stem for d in template_search_path(self.p.file) if d.is_dir() for f in d.glob("*.yaml")})
             hint = did_you_mean(imp.source, known) if not imp.is_path else None
-            where = str(candidates[0]) if imp.is_path else ", ".join(str(c.parent) for c in candidates[:3])
+            where = str(candidates[0]) if imp.is_path else ", ".join(str(c.parent) for c in candidates)
             raise self.error(f"template '{imp.source}' not found (looked in {where})", imp.pos,
-                             hint or (f"templates found: {', '.join(known)}" if known else None))
+                             hint or (f"templates found: {', '.join(known)}" if known else
+                                      "add the folder that holds it to HILA_PATH"))
         try:
             return found, load_template(found)
         except HilaError as exc:
