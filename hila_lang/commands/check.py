@@ -39,5 +39,5 @@ def run(args) -> int:
         for warning in checked.warnings:
             print(warning, file=sys.stderr)
         runs = sum(1 for s in fsm.states.values() if s.kind == "run")
-        print(f"{path}: ok ({len(fsm.states)} states, {runs} run states, world {fsm.world})")
+        print(f"{fsm.file}: ok ({len(fsm.states)} states, {runs} run states, world {fsm.world})")
     return status
