@@ -200,6 +200,15 @@ class UnknownNameError(HilaRuntimeError):
         self.kind, self.name, self.known = kind, name, known
 
 
+def did_you_mean(name: str, choices) -> str | None:
+    """``"did you mean 'x'?"`` for the choice closest to ``name`` (difflib, cutoff 0.6), or None:
+    the one "did you mean" of every message."""
+    import difflib
+
+    close = difflib.get_close_matches(name, sorted(set(choices)), n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else None
+
+
 def internal_error_message(exc: BaseException) -> str:
     """What the CLI prints for an exception that is not a :class:`HilaError`: that it is a bug,
     where it was raised (the innermost frame) and whom to report it to -- hila's maintainers, or

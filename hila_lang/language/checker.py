@@ -21,12 +21,11 @@ Unreachable statements are found by the compiler on the FSM graph (also a CheckE
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import ast as A
-from ..errors import CheckError, HilaError
+from ..errors import CheckError, HilaError, did_you_mean
 from ..plugins import registry
 from ..resources import template_search_path
 from .parser import source_line
@@ -52,11 +51,6 @@ class CheckedProgram:
     #: the ``--set`` pairs it was checked with, parsed: (OSILA options, world settings,
     #: back-end settings); None when checked without them
     run_settings: tuple | None = None
-
-
-def did_you_mean(name: str, choices) -> str | None:
-    close = difflib.get_close_matches(name, sorted(set(choices)), n=1, cutoff=0.6)
-    return f"did you mean '{close[0]}'?" if close else None
 
 
 class _Defined(set):

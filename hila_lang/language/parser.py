@@ -76,13 +76,6 @@ def parser():
     return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 
 
-def _lark():
-    """The parser the language parses with (for terminal names and for matching slips)."""
-    from .transformer import ast_parser
-
-    return ast_parser()
-
-
 def read_source(path: str | os.PathLike) -> str:
     """Read a program file; OS failures are InputError, bad UTF-8 a syntax error at its line and column."""
     return decode_source(read_bytes(path, "program"), str(path))
@@ -112,11 +105,11 @@ def source_line(text: str, line: int) -> str | None:
     return lines[line - 1] if 1 <= line <= len(lines) else None
 
 
-def _describe(term: str) -> str:
+def _describe(term: str, lark) -> str:
     if term in _FRIENDLY:
         return _FRIENDLY[term]
     try:
-        pattern = _lark().get_terminal(term).pattern
+        pattern = lark.get_terminal(term).pattern
     except KeyError:
         return term
     if type(pattern).__name__ == "PatternStr":
@@ -124,16 +117,16 @@ def _describe(term: str) -> str:
     return term.lower()
 
 
-def _expected(names) -> str:
+def _expected(names, lark) -> str:
     """Readable list of what the parser would have accepted ("" when it is too long to help)."""
-    shown = sorted({_describe(n) for n in names})
+    shown = sorted({_describe(n, lark) for n in names})
     if len(shown) > 7:
         return ""
     return shown[0] if len(shown) == 1 else ", ".join(shown[:-1]) + " or " + shown[-1]
 
 
-def _with_expected(message: str, names) -> str:
-    expected = _expected(names)
+def _with_expected(message: str, names, lark) -> str:
+    expected = _expected(names, lark)
     return f"{message}; expected {expected}" if expected else message
 
 
@@ -183,9 +176,11 @@ def _unclosed_block(text: str):
     return stack[-1] if stack else None
 
 
-def syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
+def syntax_error(exc, text: str, file: str, lark) -> HilaSyntaxError:
     """lark's ``UnexpectedInput`` for ``text`` as a :class:`HilaSyntaxError`: what was found,
-    what was expected, the innermost block left open, a common slip named when recognised."""
+    what was expected, the innermost block left open, a common slip named when recognised.
+    ``lark`` is the parser that raised it (its terminals name what was expected, and the slips
+    are matched against its states)."""
     from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
 
     line = getattr(exc, "line", None)
@@ -207,7 +202,7 @@ def syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
         lines = text.splitlines() or [""]
         line, column = len(lines), len(lines[-1]) + 1
         expected = getattr(exc, "expected", None) or []
-        message = _with_expected("unexpected end of file", expected)
+        message = _with_expected("unexpected end of file", expected, lark)
     elif isinstance(exc, UnexpectedCharacters):
         ch = exc.char
         shown = repr(ch) if not ch.isprintable() or ch.isspace() else f"'{ch}'"
@@ -221,12 +216,12 @@ def syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
         if tok.type == "RBRACE" and _unclosed_block(text[: tok.start_pos]) is None:
             message = "unmatched '}': no block is open here"
         else:
-            message = _with_expected(f"unexpected {found}", exc.expected)
+            message = _with_expected(f"unexpected {found}", exc.expected, lark)
     else:  # pragma: no cover - lark's other errors are not raised by an LALR parse
         message = str(exc).splitlines()[0]
     if not at_end:
         try:
-            label = exc.match_examples(_lark().parse, COMMON_SLIPS, use_accepts=True)
+            label = exc.match_examples(lark.parse, COMMON_SLIPS, use_accepts=True)
         except Exception:  # noqa: BLE001 - a failed guess must never hide the real error
             label = None
         if label:
@@ -244,4 +239,4 @@ def parse_text(text: str, file: str = "<program>"):
     try:
         return parser().parse(text.removeprefix("\ufeff"))
     except UnexpectedInput as exc:
-        raise syntax_error(exc, text, file) from None
+        raise syntax_error(exc, text, file, parser()) from None

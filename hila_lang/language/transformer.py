@@ -444,7 +444,7 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
     try:
         items = parse_items(text)
     except UnexpectedInput as exc:
-        raise syntax_error(exc, text, file) from None
+        raise syntax_error(exc, text, file, ast_parser()) from None
     error = _nesting_error(items, text, file)
     if error is not None:
         raise error

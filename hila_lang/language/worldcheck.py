@@ -20,6 +20,7 @@ from its settings is not checked by name: only the running world knows.
 from __future__ import annotations
 
 from . import ast as A
+from ..errors import did_you_mean
 from ..plugins import registry
 
 
@@ -43,8 +44,6 @@ class WorldCheck:
 
     # ------------------------------------------------------------------ names
     def _known(self, kind: str, name: str, pos: A.Pos) -> None:
-        from .checker import did_you_mean
-
         d = self.declared
         if d is None:
             return
@@ -64,8 +63,6 @@ class WorldCheck:
 
     def point(self, name: str, pos: A.Pos) -> None:
         """A world point written out in full (not a program point or a variable)."""
-        from .checker import did_you_mean
-
         d = self.declared
         if d is None or d.points is None or name in d.points:
             return
