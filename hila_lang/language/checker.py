@@ -57,9 +57,11 @@ class _Defined(set):
     """The names defined at a point of a body, and the dimension of the points some hold
     (``let p = (0.3, 0.1)``: 2; None when it is not a point or not known before the run)."""
 
-    def __init__(self, names=()) -> None:
+    def __init__(self, names=(), task: str | None = None) -> None:
         super().__init__(names)
         self.dims: dict[str, int | None] = {}
+        self.task = task  # the task whose body this is (its parameters are the names given)
+        self.params = set(names)
 
     def let(self, name: str, dim: int | None) -> None:
         if name in self.dims and self.dims[name] != dim:
@@ -136,9 +138,12 @@ class _Checker(A.Visitor):
                              hint="add 'main { ... }' with the statements to run")
         if len(mains) > 1:
             raise self.error(f"'main' is defined twice (first at line {mains[0].pos.line})", mains[1].pos)
+        self.param_uses: dict[tuple[str, str], list] = {}
+        self.call_dims: list = []
         for t in self.tasks.values():
-            self.body(t.body, _Defined(t.params))
+            self.body(t.body, _Defined(t.params, t.name))
         self.body(mains[0].body, _Defined())
+        self.arguments()
         self.recursion(mains[0])
         return CheckedProgram(p, world, self.templates, self.files, self.tasks, mains[0], self.points,
                               hands[0].value if hands else None, self.warnings, self.world.run_settings)
@@ -188,6 +193,16 @@ class _Checker(A.Visitor):
                 f"task '{s.task}' takes {len(task.params)} argument(s) ({', '.join(task.params) or 'none'}), "
                 f"got {len(s.args)}", s.pos, f"defined at line {task.pos.line}")
         self.expr(s.args, defined, s.pos)
+        self.call_dims.append((s, [self.dim(a, defined) for a in s.args]))
+
+    def arguments(self) -> None:
+        """A point passed to a task parameter that the task binds to an ICP has the ICP's size."""
+        for call, dims in self.call_dims:
+            task = self.tasks[call.task]
+            for param, dim, arg in zip(task.params, dims, call.args):
+                for ref, template_dim, icp in self.param_uses.get((call.task, param), []) if dim else ():
+                    self.world.binding(ref, template_dim, icp, dim, arg.pos if arg.pos.line else call.pos,
+                                       f" (through parameter '{param}' of task '{call.task}')")
 
     def visit_LetStmt(self, s: A.LetStmt, defined: set[str]) -> None:
         if s.name in RESERVED:
@@ -269,6 +284,10 @@ class _Checker(A.Visitor):
             self.expr(b.value, defined, b.pos)
             if b.icp in icps:  # one ICP bound to one point (not a group bound to a group)
                 self.world.binding(s.ref, dim, b.icp, self.dim(b.value, defined), b.pos)
+                value = b.value
+                if (isinstance(value, A.Name) and len(value.parts) == 1 and value.parts[0] in getattr(defined, "params", ())
+                        and value.parts[0] not in defined.dims):  # a parameter: checked at each call
+                    self.param_uses.setdefault((defined.task, value.parts[0]), []).append((s.ref, dim, b.icp))
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
         if unbound:
             raise self.error(
@@ -282,6 +301,10 @@ class _Checker(A.Visitor):
         literal, a program point, a world point, ``hand``, a ``let`` of one); None otherwise."""
         if isinstance(e, A.Vector):
             return len(e.items)
+        if isinstance(e, A.Ask):
+            return self.world.value_dim("question", e.name)
+        if isinstance(e, A.Wait):
+            return self.world.value_dim("event", e.event)
         if isinstance(e, A.Unary) and e.op == "-":
             return self.dim(e.operand, defined)
         if isinstance(e, A.Binary) and e.op in ("+", "-", "*", "/"):

@@ -76,15 +76,22 @@ class WorldCheck:
         raise self.error(f"unknown scene point '{name}' ({d.source or 'the world'} does not name it)", pos, hint)
 
     # ------------------------------------------------------------------ dimensions
-    def binding(self, ref: str, dim: int, icp: str, value_dim: int | None, pos: A.Pos) -> None:
+    def value_dim(self, kind: str, name: str) -> int | None:
+        """The size of the point a question (``kind="question"``) or event always answers, or None."""
+        d = self.declared
+        if d is None:
+            return None
+        return (d.question_dims if kind == "question" else d.event_dims).get(name)
+
+    def binding(self, ref: str, dim: int, icp: str, value_dim: int | None, pos: A.Pos, via: str = "") -> None:
         """ICP ``icp`` of the ``dim``-D template ``ref`` bound to a point of ``value_dim``
-        coordinates (None: not known before the run)."""
+        coordinates (None: not known before the run); ``via``: how it got there (a parameter)."""
         if dim == 2 and value_dim is not None and value_dim != 3:
-            raise self.error(f"ICP '{icp}' of the 2-D template '{ref}' is bound to a {value_dim}-D point", pos,
+            raise self.error(f"ICP '{icp}' of the 2-D template '{ref}' is bound to a {value_dim}-D point{via}", pos,
                              "bind it to a point of the world (x, y, z): a 2-D template runs on the world's "
                              "drawing surface, and the points bound to it are projected onto the surface")
         if dim == 3 and value_dim is not None and value_dim != 3:
-            raise self.error(f"ICP '{icp}' of the 3-D template '{ref}' is bound to a {value_dim}-D point", pos,
+            raise self.error(f"ICP '{icp}' of the 3-D template '{ref}' is bound to a {value_dim}-D point{via}", pos,
                              "give the point 3 coordinates (x, y, z), metres")
 
     def template(self, ref: str, dim: int, pos: A.Pos) -> None:

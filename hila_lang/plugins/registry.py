@@ -67,6 +67,8 @@ class Declared:
         Who answers, for messages ("the tictactoe world", "the scripted world (s.yaml)").
     advice : str or None
         What to do when a name is missing and the world has none of its kind.
+    question_dims, event_dims : mapping name -> 2 or 3
+        The answers that are always points of one size (a script's); others are not known.
     """
 
     questions: Mapping[str, str]
@@ -75,6 +77,8 @@ class Declared:
     drawing_surface: bool = False
     source: str = ""
     advice: str | None = None
+    question_dims: Mapping[str, int] = field(default_factory=dict)
+    event_dims: Mapping[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -114,7 +114,24 @@ def declared(settings):
                         "--set script=FILE.yaml (points, answers, events)")
     world = load_script(script)
     return Declared({k: "from the script" for k in world.answers}, {k: "from the script" for k in world.events},
-                    frozenset(world.points()), False, f"the scripted world ({script})")
+                    frozenset(world.points()), False, f"the scripted world ({script})",
+                    question_dims=_point_sizes(world.answers), event_dims=_point_sizes(world.events))
+
+
+def _point_sizes(values: dict) -> dict[str, int]:
+    """name -> 2 or 3 for the names whose every value (in turn) is a point of that size."""
+    out = {}
+    for name, given in values.items():
+        sizes = {_point_size(v) for v in (given if isinstance(given, list) else [given])}
+        if len(sizes) == 1 and None not in sizes:
+            out[name] = sizes.pop()
+    return out
+
+
+def _point_size(value) -> int | None:
+    numbers = isinstance(value, (list, tuple)) and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+    return len(value) if numbers and len(value) in (2, 3) else None
 
 
 def make_world(options, settings) -> ScriptedWorld:
