@@ -320,3 +320,13 @@ def test_unknown_name_error_is_a_run_error_with_a_hint():
     exc = UnknownNameError("event", "opponent_move", ["opponent_moved"], owner="the tictactoe world")
     assert exc.exit_code == 1 and str(exc).startswith("error: the tictactoe world has no event 'opponent_move'")
     assert exc.hint == "did you mean 'opponent_moved'?"
+
+
+def test_help_lists_an_installed_plugins_settings(toy_distribution, capsys):
+    """--help reads the settings from the registry: a world installed by another distribution
+    appears with its settings, nothing hard-coded."""
+    with pytest.raises(SystemExit):
+        cli.main(["exec", "--help"])
+    text = capsys.readouterr().out
+    assert "world toy: a world from a throwaway distribution" in text
+    assert "height=METRES  how high the target is (default: 0.6)" in text
