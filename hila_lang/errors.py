@@ -27,8 +27,9 @@ EXIT_INTERRUPTED = 130
 
 #: widest source line shown under an error; a longer one is clipped around the column
 SHOWN_WIDTH = 100
-#: longest line of a message; a longer one (a giant token echoed back) is clipped in the middle
-MESSAGE_WIDTH = 400
+#: longest line of a message; a longer one (a giant name echoed back) is clipped in the middle.
+#: Generous: a message that lists what it tried (constraint pairs) is long on purpose.
+MESSAGE_WIDTH = 2000
 
 #: where a user reports an internal error of hila itself
 REPORT_TO = "the hila maintainers (the issue tracker of the project hila-lang)"

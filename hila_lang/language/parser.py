@@ -212,7 +212,8 @@ def syntax_error(exc, text: str, file: str, lark) -> HilaSyntaxError:
     elif isinstance(exc, UnexpectedToken):
         tok = exc.token
         kinds = {"NAME": "name", "NUMBER": "number", "STRING": "string"}
-        found = f"{kinds[tok.type]} '{tok}'" if tok.type in kinds else f"'{tok}'"
+        shown = str(tok) if len(tok) <= 60 else f"{tok[:28]}...{tok[-28:]}"  # a giant string or name
+        found = f"{kinds[tok.type]} '{shown}'" if tok.type in kinds else f"'{shown}'"
         if tok.type == "RBRACE" and _unclosed_block(text[: tok.start_pos]) is None:
             message = "unmatched '}': no block is open here"
         else:

@@ -13,30 +13,26 @@ from pathlib import Path
 from .limits import DEFAULT_STEP_LIMIT
 
 
-def _seed(text: str) -> int:
-    """argparse type for --seed: a whole number >= 0 (numpy's generators refuse negative seeds)."""
-    import argparse
+def _whole(note: str = ""):
+    """argparse type: a whole number >= 0 (``note`` says what 0 means, if anything)."""
 
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
-    return value
+    def parse(text: str) -> int:
+        import argparse
+
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < 0:
+            got = repr(text) if value is None else value
+            raise argparse.ArgumentTypeError(f"expected a whole number >= 0{note}, got {got}")
+        return value
+
+    return parse
 
 
-def _steps(text: str) -> int:
-    """argparse type for --max-steps: a whole number >= 0 (0: no limit)."""
-    import argparse
-
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0 (0: no limit), got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0 (0: no limit), got {value}")
-    return value
+_seed = _whole()  # --seed: numpy's generators refuse negative seeds
+_steps = _whole(" (0: no limit)")  # --max-steps
 
 
 def _aliases() -> dict[str, tuple[str, list[str]]]:
