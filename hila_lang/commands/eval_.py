@@ -81,7 +81,6 @@ def run(args: argparse.Namespace) -> int:
     from ..fileio import OutputFolder
     from ..interrupts import joblib_workers_ignoring_sigint
 
-    OutputFolder(args.out, "eval")  # made and proved writable before any data is made
     if args.jobs != 1 and args.dask is None:  # first, before numpy starts its threads
         joblib_workers_ignoring_sigint(args.jobs)  # Ctrl-C: exit 130, no worker tracebacks, no hang
     from ..errors import InputError
@@ -91,8 +90,11 @@ def run(args: argparse.Namespace) -> int:
     from ..evaluation.tables import render
 
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("expected a folder, got a file", file=str(out))
     if args.dask is not None:
         check_scheduler(args.dask)  # before any data is made or written
+    OutputFolder(out, "eval")  # made and proved writable before any data is made
     if args.dataset is not None:
         if args.trials_per_setup is not None:
             raise InputError("--trials-per-setup applies to the generated stand-in, not to --dataset")
