@@ -125,7 +125,7 @@ class Interpreter:
         Most steps one :meth:`run` may take (None or 0: no limit); default
         :data:`DEFAULT_STEP_LIMIT`.
     trace_keep : int, optional
-        Trace entries kept in memory (:class:`Trace`); default :data:`TRACE_KEEP`.
+        Trace entries kept in memory (:class:`Trace`; 0: all of them); default :data:`TRACE_KEEP`.
     """
 
     def __init__(self, checked, fsm: FSM, world, backend, osila_options: dict | None = None, *,
@@ -242,7 +242,7 @@ class Interpreter:
             entry = self.step()
             taken += 1
             done.append(entry)
-            if len(done) >= 2 * self.trace_keep:
+            if self.trace_keep and len(done) >= 2 * self.trace_keep:
                 del done[: len(done) - self.trace_keep]
             if each is not None:
                 each(entry)
