@@ -70,11 +70,12 @@ def test_exec_stops_at_the_limit_with_exit_1_and_max_steps_moves_it(tmp_path, ca
 def test_the_trace_in_memory_is_bounded_and_counts_everything(tmp_path):
     interp = engine(tmp_path, LOOP, step_limit=None)
     seen = []
-    interp.listeners.append(lambda entry: seen.append(entry.step))
+    interp.observers.append(lambda entry: seen.append(entry.step))
     interp.run(max_steps=5 * TRACE_KEEP)
-    assert interp.trace.total == 5 * TRACE_KEEP and seen == list(range(1, 5 * TRACE_KEEP + 1))
-    assert TRACE_KEEP <= len(interp.trace) < 2 * TRACE_KEEP
-    assert interp.trace[-1].step == 5 * TRACE_KEEP  # the newest are kept
+    assert len(interp.trace) == interp.trace.total == 5 * TRACE_KEEP and seen == list(range(1, 5 * TRACE_KEEP + 1))
+    kept = list(interp.trace)
+    assert TRACE_KEEP <= len(kept) < 2 * TRACE_KEEP
+    assert kept[-1].step == 5 * TRACE_KEEP and [e.step for e in kept] == list(range(kept[0].step, 5 * TRACE_KEEP + 1))
     assert interp.trace.kinds == {"branch": 5 * TRACE_KEEP // 2, "set": 5 * TRACE_KEEP // 2}
 
 
@@ -84,7 +85,8 @@ def test_runs_keep_memory_flat_in_the_back_end_and_the_world(tmp_path, monkeypat
     monkeypatch.chdir(ROOT)
     interp = engine(tmp_path, text, world, step_limit=None)
     interp.run(max_steps=3 * TRACE_KEEP)
-    assert len(interp.backend.moves) <= 1000 and len(world.log) <= 1000
+    assert len(list(interp.backend.moves)) < 2000 and len(list(world.log)) < 2000  # kept
+    assert len(interp.backend.moves) == len(world.log) == 1000  # 1000 run states, counted
     assert world.finish(interp.trace)["states"] == 3 * TRACE_KEEP  # counted, not just the kept ones
 
 
@@ -105,6 +107,27 @@ def test_memory_stays_flat_to_the_default_step_limit(tmp_path):
     assert out.returncode == 1 and "stopped after 100000 steps" in out.stderr
     assert peak_mb <= 300, f"peak {peak_mb:.0f} MB"
     assert sum(1 for _ in trace.open()) == DEFAULT_STEP_LIMIT  # every step streamed to the file
+
+
+def test_a_bounded_log_counts_everything_and_cuts_its_end_like_a_list():
+    from hila_lang.bounded import BoundedLog
+
+    log = BoundedLog(3)
+    log.extend(range(10))
+    kept = list(log)
+    assert len(log) == 10 and 3 <= len(kept) < 6 and kept == list(range(10))[-len(kept):]
+    assert log[-1] == 9 and log.dropped == 10 - len(kept)
+    saved = len(log)  # a snapshot keeps the length ...
+    log.append(10)
+    log.append(11)
+    del log[saved:]  # ... and going back cuts the log to it
+    assert len(log) == 10 and list(log) == kept
+    del log[8:]  # the items appended after the 8th go, kept or not
+    assert len(log) == 8 and list(log) == [k for k in kept if k < 8]
+    with pytest.raises(TypeError):
+        del log[0]
+    everything = BoundedLog(0, range(5000))
+    assert len(everything) == 5000 and list(everything)[0] == 0
 
 
 # --------------------------------------------------------------------------- failed steps are recorded

@@ -34,7 +34,7 @@ def run(args) -> int:
             trace.discard()
         raise
     if trace is not None:  # streamed: memory stays flat however long the run
-        interp.listeners.append(lambda entry: trace.write(f"{entry}\n"))
+        interp.observers.append(lambda entry: trace.write(f"{entry}\n"))
     show = None if args.quiet else (lambda entry: print(entry, file=options.stdout, flush=True))
     try:
         with finishing(interp):

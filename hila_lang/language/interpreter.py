@@ -23,7 +23,7 @@ Bounded and interruptible (see :meth:`Interpreter.step` and :meth:`Interpreter.r
 - a failed or interrupted step is recorded in the trace too (its text says what happened), so a
   trace file of a failed run ends with the failing state;
 - memory stays flat however long a run is: :attr:`Interpreter.trace` keeps the newest
-  :data:`TRACE_KEEP` entries (``trace.total`` counts them all; ``listeners`` see every entry as it
+  :data:`TRACE_KEEP` entries (``len(trace)`` counts them all; ``observers`` see every entry as it
   is recorded, e.g. to stream a trace file);
 - :meth:`Interpreter.run` stops a run after ``step_limit`` steps (default
   :data:`DEFAULT_STEP_LIMIT`) with :class:`~hila_lang.errors.StepLimitError`;
@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from . import ast as A
+from ..bounded import BoundedLog
 from ..errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError
 from ..interrupts import guarded
 from .fsm import FSM, SetState, State
@@ -74,23 +75,27 @@ class TraceEntry:
         return f"{self.step:>3}  {self.state}  [{where}]  {self.text}"
 
 
-class Trace(list):
-    """The newest trace entries: at least ``keep`` of them and never more than twice that, so a
-    run of any length keeps memory flat.  ``total`` counts every entry recorded since the reset
-    (the step number of the last one), ``kinds`` how many of each kind."""
+class Trace(BoundedLog):
+    """The trace: the newest entries (:class:`~hila_lang.bounded.BoundedLog`), so a run of any
+    length keeps memory flat.  ``total`` (= ``len()``) counts every entry recorded since the
+    reset (the step number of the last one); ``kinds`` how many of each kind."""
 
     def __init__(self, keep: int = TRACE_KEEP) -> None:
-        super().__init__()
-        self.keep = keep
-        self.total = 0
+        super().__init__(keep)
         self.kinds: dict[str, int] = {}
+
+    @property
+    def total(self) -> int:
+        return len(self)
 
     def record(self, entry: "TraceEntry") -> None:
         self.append(entry)
-        self.total += 1
         self.kinds[entry.kind] = self.kinds.get(entry.kind, 0) + 1
-        if self.keep and len(self) >= 2 * self.keep:
-            del self[: len(self) - self.keep]
+
+    def __delitem__(self, index) -> None:
+        for entry in self.removed_after(index.start or 0) if isinstance(index, slice) else ():
+            self.kinds[entry.kind] -= 1
+        super().__delitem__(index)
 
 
 def fmt_point(p) -> str:
@@ -135,7 +140,7 @@ class Interpreter:
         self.step_limit = step_limit
         self.trace_keep = trace_keep
         #: called with every trace entry as it is recorded (failed and interrupted ones too)
-        self.listeners: list = []
+        self.observers: list = []
         self._subs: dict[tuple[str, str | None], Any] = {}
         self._eval = _Eval(self)
         self._guard_now = None
@@ -204,8 +209,8 @@ class Interpreter:
 
     def _record(self, entry: TraceEntry) -> None:
         self.trace.record(entry)
-        for listener in self.listeners:
-            listener(entry)
+        for observer in self.observers:
+            observer(entry)
 
     def _failed(self, state: State, text: str, why: str) -> None:
         self._record(TraceEntry(self.trace.total + 1, state.name, state.kind, state.line,

@@ -17,10 +17,10 @@ Frames: world frame, metres, z up; the root is at (0, 0, 0.62) and the robot fac
 from __future__ import annotations
 
 import time
-from collections import deque
 
 import numpy as np
 
+from ..bounded import BoundedLog
 from ..errors import InputError
 from ..sim.camera import RenderStyle
 from ..sim.scene import SimScene, _check_point
@@ -76,8 +76,8 @@ class PyBulletBackend:
     eyes : Eyes
     ink : Paper
     overview : TopView
-    traces : deque of Trace
-        The newest :data:`KEEP_TRACES` moves.
+    traces : BoundedLog of Trace
+        Every move; the newest :data:`KEEP_TRACES` kept.
         Every executed move.
     stats : dict
         Counters for benchmarks: IK solves and their wall time, simulation steps and the wall
@@ -92,7 +92,7 @@ class PyBulletBackend:
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
         if arm not in ("auto", "ready", "rest"):
             raise InputError(f"arm must be 'auto', 'ready' or 'rest', got {arm!r}")
-        self.traces: deque[Trace] = deque(maxlen=KEEP_TRACES)  # the newest: memory stays flat
+        self.traces: BoundedLog = BoundedLog(KEEP_TRACES)  # the newest kept: memory stays flat
         self.stats = dict.fromkeys(("ik_solves", "ik_seconds", "steps", "step_seconds", "renders", "render_seconds"), 0)
         self.sim = SimScene(gui=gui, time_step=1.0 / SIM_RATE, solver_iterations=SOLVER_ITERATIONS, style=EYE_LIGHT)
         try:

@@ -8,10 +8,9 @@ It has no eyes, no ink and no overview camera (those capabilities are None).
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 
+from ..bounded import BoundedLog
 from ..errors import InputError
 from ..validation import check_path
 
@@ -30,8 +29,8 @@ class DryBackend:
 
     def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
-        #: the newest moves (label, path, pen_down); older ones are dropped so memory stays flat
-        self.moves: deque[tuple[str, np.ndarray, bool]] = deque(maxlen=KEEP_MOVES)
+        #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.bounded.BoundedLog`)
+        self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
 
     def hand_position(self) -> np.ndarray:
         return self._hand.copy()

@@ -16,11 +16,11 @@ A question or event the script does not name is an :class:`~hila_lang.errors.Unk
 
 from __future__ import annotations
 
-from collections import deque
 from typing import Any
 
 import numpy as np
 
+from ...bounded import BoundedLog
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
 from ...sim.surface import Scene
 
@@ -38,7 +38,7 @@ class ScriptedWorld:
         self.events = {k: list(v) for k, v in (events or {}).items()}
         self.home = None if home is None else _point(home, "home")
         self.scene = None if self.home is None else Scene(home=self.home)
-        self.log: deque[tuple[str, dict]] = deque(maxlen=KEEP_LOG)  # the newest: memory stays flat
+        self.log: BoundedLog = BoundedLog(KEEP_LOG)  # every notification; the newest kept
 
     def attach(self, backend) -> None:
         pass
@@ -72,7 +72,7 @@ class ScriptedWorld:
         kinds = getattr(trace, "kinds", None)
         if kinds is None:  # a plain list of entries
             kinds = {"run": sum(1 for t in trace if t.kind == "run")}
-        return {"states": getattr(trace, "total", len(trace)), "runs": kinds.get("run", 0)}
+        return {"states": len(trace), "runs": kinds.get("run", 0)}
 
 
 def _point(value, what: str) -> np.ndarray:
