@@ -237,20 +237,23 @@ class Interpreter:
         stop = until if callable(until) or until is None else (lambda name: name == until)
         done: list[TraceEntry] = []
         taken = 0
-        while not self.done and (max_steps is None or taken < max_steps):
-            if stop is not None and taken and stop(self.current):
-                break
-            if self.step_limit and taken >= self.step_limit:
-                raise self._locate(StepLimitError(
-                    f"stopped after {taken} steps without finishing (the step limit)",
-                    hint="a loop that never ends? raise the limit with --max-steps N (0 for none)"), self.state)
-            entry = self.step()
-            taken += 1
-            done.append(entry)
-            if self.trace_keep and len(done) >= 2 * self.trace_keep:
-                del done[: len(done) - self.trace_keep]
-            if each is not None:
-                each(entry)
+        try:
+            while not self.done and (max_steps is None or taken < max_steps):
+                if stop is not None and taken and stop(self.current):
+                    break
+                if self.step_limit and taken >= self.step_limit:
+                    raise self._locate(StepLimitError(
+                        f"stopped after {taken} steps without finishing (the step limit)",
+                        hint="a loop that never ends? raise the limit with --max-steps N (0 for none)"), self.state)
+                entry = self.step()
+                taken += 1
+                done.append(entry)
+                if self.trace_keep and len(done) >= 2 * self.trace_keep:
+                    del done[: len(done) - self.trace_keep]
+                if each is not None:
+                    each(entry)
+        except KeyboardInterrupt:  # between two steps (inside one, step() raises Interrupted)
+            raise self._locate(Interrupted("interrupted (Ctrl-C) between two states"), self.state) from None
         return done
 
     def _guard(self, state: State, action):
