@@ -6,7 +6,8 @@ Each sub-command lives in ``hila_lang/commands/<name>.py`` and exposes
 - ``add_arguments(parser)``: its options (module top level imports nothing heavy);
 - ``run(args) -> int``: the work; heavy imports (pybullet, sklearn, cv2) happen in here.
 
-Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input, 3 an internal error.
+Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input, 3 an internal error,
+130 interrupted (Ctrl-C).
 Any :class:`~hila_lang.errors.HilaError` is printed as a message, never as a traceback.  Any
 other exception (raised by hila, a plug-in or OSILA) is a bug: it is reported as an internal
 error that says where it was raised and whom to report it to, with exit status 3; ``--debug``
@@ -21,7 +22,7 @@ import sys
 import textwrap
 
 from . import __version__
-from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_RUN_FAILED, HilaError
+from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, HilaError, printable
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
@@ -66,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         epilog="Run 'hila COMMAND --help' for a command's options. "
         "Exit status: 0 ok, 1 run failed, 2 bad input, 3 internal error (a bug in hila or a "
-        "plug-in: the message says where to report it; add --debug for the traceback).",
+        "plug-in: the message says where to report it; add --debug for the traceback), "
+        "130 interrupted (Ctrl-C).",
     )
     parser.add_argument("--version", action="version", version=f"hila {__version__}")
     parser.add_argument("--debug", action="store_true",
@@ -98,11 +100,11 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(exc, BrokenPipeError):
             return 0
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"{where}error: {exc.strerror or exc}", file=sys.stderr)
+        print(printable(f"{where}error: {exc.strerror or exc}"), file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl-C outside a run the engine could stop cleanly
         print("interrupted", file=sys.stderr)
-        return EXIT_RUN_FAILED
+        return EXIT_INTERRUPTED
     except Exception as exc:  # noqa: BLE001 - a bug: say so, say where, exit 3
         from .errors import internal_error_message
 

@@ -61,13 +61,15 @@ def warp_reason(warp, dim: int) -> str:
     return f"a similarity transform (fallback): {why}"
 
 
-def explain_run(template, binding, hand=None, constraints=(), options=None, *, title: str = "") -> list[str]:
+def explain_run(template, binding, hand=None, constraints=(), options=None, *, surface=None,
+                title: str = "") -> list[str]:
     """Lines explaining the HILA step of ``template`` with ``binding`` (ICP name -> point or None),
-    ``hand``, ``constraints`` and OSILA ``options``, as :func:`hila_lang.hierarchy.hila_step` runs
-    it (deterministic: the same as the run it explains).  A step whose constraints cannot be met
-    is explained up to its last round, then OSILA's error."""
+    ``hand``, ``constraints``, OSILA ``options`` and the drawing ``surface`` a 2-D template runs
+    on, as :func:`hila_lang.hierarchy.hila_step` runs it (deterministic: the same as the run it
+    explains).  A step whose constraints cannot be met is explained up to its last round, then
+    OSILA's error."""
     from .errors import ConstraintError
-    from .hierarchy import bind, hila_step, name_constraints, violations
+    from .hierarchy import bind, hila_step, name_constraints, surface_points, three_d, violations
 
     options = dict(options or {})
     forced = [c for c in constraints if c.radius is None]
@@ -75,12 +77,17 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, t
 
     def rounds_violated(k: int) -> str | None:
         try:
-            hila_step(template, binding, hand, constraints=constraints, **{**options, "rounds": k})
+            hila_step(template, binding, hand, constraints=constraints, surface=surface, **{**options, "rounds": k})
         except ConstraintError as exc:
             return violations(name_constraints(exc.message, forced, obstacles))
         return None
 
-    icps = bind(template, binding, hand)
+    if template.dim == 2 and three_d(binding, hand):  # the pairs as OSILA sees them, on the surface
+        local = surface_points(template, surface)
+        icps = bind(template, {k: None if v is None else local(v) for k, v in binding.items()},
+                    None if hand is None else local(hand))
+    else:
+        icps = bind(template, binding, hand)
     lines = [f"{title}: {template.name}" if title else template.name]
     lines.append(f"  ICP pairs (template -> task), {len(icps)}:")
     for k, q in icps.items():
@@ -88,10 +95,10 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, t
     for group in _coincide(template, list(icps)):
         lines.append(f"    {', '.join(group)} coincide in the template: one pair, {group[-1]}'s, is kept")
     try:
-        step = hila_step(template, binding, hand, constraints=constraints, **options)
+        step = hila_step(template, binding, hand, constraints=constraints, surface=surface, **options)
     except ConstraintError as exc:
         rounds = int(options.get("rounds", 10))
-        lines.append(f"  plan adjustment: failed")
+        lines.append("  plan adjustment: failed")
         for k in range(1, rounds + 1):
             why = rounds_violated(k)
             if why is None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import tempfile
 from pathlib import Path
@@ -16,32 +18,88 @@ def _umask() -> int:
     return mask
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, then rename.
-
-    A crash leaves either the old file or the new one, never half of one.  Parent folders are
-    created.  Returns the path written.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+def _make_folder(folder: Path, path: Path) -> None:
+    """Create ``folder`` and its parents for writing ``path``; an OSError names ``path`` (the
+    user's), and a file in the way says which."""
     try:
-        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual mode
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException as exc:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        blocker = next((p for p in [folder, *folder.parents] if p.exists() and not p.is_dir()), folder)
+        raise NotADirectoryError(errno.ENOTDIR, f"cannot make its folder: {blocker} is a file", str(path)) from None
+    except OSError as exc:
+        raise OSError(exc.errno, f"cannot make its folder {folder}: {exc.strerror}", str(path)) from None
+
+
+class AtomicFile:
+    """A file written in pieces and published whole: the pieces go to a temporary file beside
+    ``path``; :meth:`commit` renames it over ``path`` (a crash leaves the old file or the new
+    one, never half of one), :meth:`discard` drops it.
+
+    Opening it creates the folder and the temporary file, so a destination that cannot be
+    written fails at once (before any work), with an ``OSError`` naming ``path`` -- never the
+    temporary file.  A long run streams its trace through one, so memory stays flat.
+    """
+
+    def __init__(self, path: str | os.PathLike, *, binary: bool = False) -> None:
+        self.path = Path(path)
+        _make_folder(self.path.parent, self.path)
+        if self.path.is_dir():
+            raise IsADirectoryError(errno.EISDIR, "is a folder, expected a file", str(self.path))
         try:
-            os.unlink(tmp)
+            fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(self.path)) from None
+        self._fh = os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8"}))
+
+    def write(self, data) -> None:
+        with self._named():
+            self._fh.write(data)
+
+    def commit(self) -> Path:
+        """Publish what was written at ``path``; returns it."""
+        with self._named():
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
+            os.fchmod(self._fh.fileno(), 0o666 & ~_umask())  # mkstemp makes 0600; the usual mode
+            self._fh.close()
+            os.replace(self._tmp, self.path)
+        return self.path
+
+    def discard(self) -> None:
+        """Drop what was written; ``path`` keeps what it held."""
+        if not self._fh.closed:
+            self._fh.close()
+        try:
+            os.unlink(self._tmp)
         except FileNotFoundError:
             pass
-        if isinstance(exc, OSError) and not isinstance(exc, BrokenPipeError):
-            # name the file the user asked for, not the temporary one (e.g. a directory in the way)
-            raise OSError(exc.errno, exc.strerror, str(path)) from None
-        raise
-    return path
+
+    @contextlib.contextmanager
+    def _named(self):
+        """Any failure discards the temporary file; an OSError names the destination."""
+        try:
+            yield
+        except BaseException as exc:
+            self.discard()
+            if isinstance(exc, OSError) and not isinstance(exc, BrokenPipeError):
+                raise OSError(exc.errno, exc.strerror, str(self.path)) from None
+            raise
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (:class:`AtomicFile`); parent folders are created.
+    Returns the path written."""
+    f = AtomicFile(path, binary=True)
+    f.write(data)
+    return f.commit()
+
+
+def ensure_writable(path: str | os.PathLike) -> Path:
+    """Prove now that ``path`` can be written later: its folder is made and a file can be created
+    in it.  Commands that write at the end of long work call this first, so a bad ``-o`` is
+    refused before the work (``OSError`` naming ``path``)."""
+    AtomicFile(path).discard()
+    return Path(path)
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
@@ -162,23 +220,70 @@ def cache_folders(name: str) -> list[Path]:
     return [root / "hila" / name, Path(tempfile.gettempdir()) / f"hila-{os.getuid()}" / name]
 
 
+class OutputFolder:
+    """A run's output folder, made ready before the run starts.
+
+    ``out`` as given, or a fresh ``runs/<name>`` (``{time}`` in ``name`` becomes the UTC time; a
+    suffix ``-2``, ``-3`` ... when it exists): created with its parents and proved writable at
+    once, so a run never plays for minutes and then fails to save (an ``OSError`` naming the
+    folder, exit status 2, before anything runs).  Files go in atomically (:meth:`write_text`,
+    :meth:`write_png`).  ``owned`` names every file the run may write: :meth:`close` removes those
+    this run did not write, so a folder reused by ``--out`` holds one run, not a mixture (a dry
+    run's report beside an earlier PyBullet run's ``eye.png``).  Files it does not own are left
+    alone.
+    """
+
+    def __init__(self, out, name: str, owned=()) -> None:
+        import time
+
+        if out is not None:
+            folder = Path(out)
+        else:
+            stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+            base = Path("runs") / name.replace("{time}", stamp)
+            folder, k = base, 1
+            while folder.exists():
+                k += 1
+                folder = base.with_name(f"{base.name}-{k}")
+        probe = folder / ".hila-write-test"
+        if folder.exists() and not folder.is_dir():
+            raise NotADirectoryError(errno.ENOTDIR, "expected a folder, got a file", str(folder))
+        _make_folder(folder, folder)
+        try:
+            AtomicFile(probe).discard()
+        except OSError as exc:
+            raise OSError(exc.errno, f"cannot write in this folder: {exc.strerror}", str(folder)) from None
+        self.path = folder
+        self.owned = set(owned)
+        self.written: list[str] = []
+
+    def file(self, name: str) -> Path:
+        """The path of ``name`` inside the folder, recorded as written by this run."""
+        if name not in self.written:
+            self.written.append(name)
+        return self.path / name
+
+    def write_text(self, name: str, text: str) -> Path:
+        return atomic_write_text(self.file(name), text)
+
+    def write_png(self, name: str, image, *, bgr: bool = False) -> Path:
+        return write_png(self.file(name), image, bgr=bgr)
+
+    def close(self) -> list[str]:
+        """Remove owned files this run did not write; returns the names written, sorted."""
+        for name in sorted(self.owned - set(self.written)):
+            try:
+                (self.path / name).unlink()
+            except FileNotFoundError:
+                pass
+        return sorted(self.written)
+
+
 def output_folder(out, name: str) -> Path:
-    """``out`` as given (created), or a fresh ``runs/<name>-<UTC time>[-k]`` folder (created).
+    """``out`` as given (created), or a fresh ``runs/<name>-<UTC time>[-k]`` folder (created),
+    proved writable (:class:`OutputFolder`).
 
     A run that writes files by default writes them where the user will find them and never over
     an earlier run's.
     """
-    import time
-
-    if out is not None:
-        folder = Path(out)
-        folder.mkdir(parents=True, exist_ok=True)
-        return folder
-    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
-    base = Path("runs") / name.replace("{time}", stamp)
-    folder, k = base, 1
-    while folder.exists():
-        k += 1
-        folder = base.with_name(f"{base.name}-{k}")
-    folder.mkdir(parents=True)
-    return folder
+    return OutputFolder(out, name).path

@@ -27,7 +27,7 @@ The paper's example: demonstrate A-B-C once, segment it, then
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -209,6 +209,8 @@ class Step:
         What OSILA did (warp kind, threshold, rounds, added constraint pairs).
     constraints : tuple of Constraint
         The named constraints it met (forced waypoints, obstacles).
+    notes : list of str
+        What a user should know about the step: a binding not used (:func:`check_coincident`).
     """
 
     path: np.ndarray
@@ -217,6 +219,7 @@ class Step:
     result: Any
     constraints: tuple = ()
     options: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     def met(self) -> list[tuple[Constraint, float]]:
         """Each named constraint with :meth:`Constraint.achieved` on the path."""
@@ -257,7 +260,8 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
 
 
 def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None, *, forced: Any = None,
-              obstacles: Any = None, constraints: Sequence[Constraint] = (), **options: Any) -> Step:
+              obstacles: Any = None, constraints: Sequence[Constraint] = (), surface: Any = None,
+              **options: Any) -> Step:
     """THE HILA step: bind a (sub-)template to scene points and the hand, run OSILA.
 
     The interpreter (every ``run`` state of ``hila exec``/``hila repl``), ``hila imitate`` and
@@ -268,6 +272,18 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     bound ``"end"`` the last (OSILA's ``pin={0: start, -1: end}``; a pin wins over another
     template ICP at the same template point, so a sub-template that begins at an object it
     touched still begins exactly at the hand).  A caller's own ``pin`` replaces these.
+
+    Two ICPs at the same template point bound to different task points cannot both hold (OSILA
+    keeps one pair per template point): the hand's ``start`` wins with a note in ``Step.notes``,
+    any other pair is an :class:`InputError` naming both (:func:`check_coincident`); a binding is
+    never dropped in silence.  When OSILA cannot avoid an
+    obstacle because it covers a bound ICP the path passes through, the
+    :class:`~hila_lang.errors.ConstraintError` says so (:func:`explain_blocked`).
+
+    A 2-D template on a 3-D scene runs on ``surface`` (a drawing surface: ``to_local`` and
+    ``to_world``, e.g. :class:`hila_lang.sim.surface.Surface`): the bound points and the hand are
+    projected onto it, OSILA runs in its plane, and the path is lifted back onto it (see
+    :func:`on_surface`).
 
     Parameters
     ----------
@@ -283,23 +299,45 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
         Named forced waypoints and obstacles (a program's ``via`` and ``avoid``), given to OSILA's
         plan adjustment before ``forced`` and ``obstacles``.  When they cannot be met, the
         :class:`~hila_lang.errors.ConstraintError` names them as the user wrote them.
+    surface : drawing surface, optional
+        Where a 2-D template runs when the scene is 3-D.
 
     Returns
     -------
     Step
     """
     from .errors import ConstraintError
-    from .osila import imitate_detailed
 
     named_forced = [c for c in constraints if c.radius is None]
     named_obstacles = [c for c in constraints if c.radius is not None]
+    flat = template.dim == 2 and three_d(task_icps, hand)
+    dim = 3 if flat else template.dim  # a 2-D template on a 3-D scene: constraints are scene points
     if named_forced:
-        forced = _named(named_forced, forced, "forced", template)
+        forced = _named(named_forced, forced, "forced", template, dim)
     if named_obstacles:
-        obstacles = _named(named_obstacles, obstacles, "obstacles", template)
+        obstacles = _named(named_obstacles, obstacles, "obstacles", template, dim)
+    try:
+        if flat:
+            step = on_surface(template, task_icps, hand, surface, forced=forced, obstacles=obstacles, **options)
+        else:
+            step = _step(template, task_icps, hand, forced, obstacles, options)
+    except ConstraintError as exc:
+        if constraints:
+            exc.message = name_constraints(exc.message, named_forced, named_obstacles)
+            exc.args = (exc.message,)
+        raise
+    return replace(step, constraints=tuple(constraints))
+
+
+def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: Any, obstacles: Any,
+          options: dict) -> Step:
+    """Bind, then OSILA with the bound start and end pinned (the plain step of :func:`hila_step`)."""
+    from .errors import ConstraintError
+    from .osila import imitate_detailed
+
     icps = bind(template, task_icps, hand)
+    notes = check_coincident(template, icps, task_icps, options.get("threshold"))
     names = list(icps)
-    start_bound = START in icps
     src = np.array([template.icps[k] for k in names], dtype=float)
     dst = np.array([icps[k] for k in names], dtype=float)
     options = dict(options)
@@ -309,23 +347,147 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     try:
         res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
     except ConstraintError as exc:
-        if constraints:
-            exc.message = name_constraints(exc.message, named_forced, named_obstacles)
-            exc.args = (exc.message,)
-        raise
+        raise explain_blocked(exc, template, icps, obstacles, options) from None
     given = {k: v for k, v in options.items() if k != "pin"}
-    return Step(np.asarray(res.path, dtype=float), icps, start_bound, res, tuple(constraints), given)
+    return Step(np.asarray(res.path, dtype=float), icps, START in icps, res, options=given, notes=notes)
 
 
-def _named(constraints: list, given: Any, what: str, template: Template) -> np.ndarray:
-    """Named constraints as OSILA's array: points (N, D), or spheres (N, D + 1) for obstacles."""
+def three_d(task_icps: Mapping[str, Any], hand: Any) -> bool:
+    """Whether any bound point (or the hand) has 3 coordinates."""
+    points = [v for v in task_icps.values() if v is not None] + ([] if hand is None else [hand])
+    return any(np.asarray(p, dtype=float).size == 3 for p in points)
+
+
+def surface_points(template: Template, surface: Any):
+    """``local(point)``: a scene point (3,) projected onto the drawing surface where a 2-D
+    template runs, in the surface's plane (2,) (InputError for a missing surface or a point that
+    is not (x, y, z))."""
+    if surface is None:
+        raise InputError(f"'{template.name}' is a 2-D template, and this world has no drawing surface to run "
+                         "it on: run it in a world with paper, or learn the demonstration in 3-D")
+
+    def local(p):
+        arr = np.asarray(p, dtype=float).reshape(-1)
+        if arr.size != 3:
+            raise InputError(f"the 2-D template '{template.name}' runs on the drawing surface: bind its ICPs to "
+                             f"points of the world (x, y, z), got the {arr.size}-D point {_fmt(arr)}")
+        return np.asarray(surface.to_local(arr), dtype=float)
+
+    return local
+
+
+def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surface: Any, *,
+               forced: Any = None, obstacles: Any = None, **options: Any) -> Step:
+    """A 2-D template run on a drawing surface of a 3-D scene.
+
+    The bound points, the hand, forced waypoints and obstacle centres (3-D, metres) are
+    projected straight down onto the surface (``surface.to_local``: its right and far axes);
+    OSILA warps the template in that plane; the path is lifted back onto the surface
+    (``surface.to_world``), so it lies on the paper, z = the surface's top.  The step's ICPs are
+    the projected points, on the paper.  A 2-D template is a drawing: it has no height to warp.
+    """
+    local = surface_points(template, surface)
+    flat = {k: None if v is None else local(v) for k, v in task_icps.items()}
+    flat_forced = None if forced is None else np.array([local(f) for f in np.asarray(forced, float).reshape(-1, 3)])
+    flat_obstacles = None
+    if obstacles is not None:
+        from .osila import _obstacles  # the one reader of obstacle specs (3-D here)
+
+        spheres = _obstacles(obstacles, 3)
+        flat_obstacles = np.column_stack([np.array([local(c) for c in spheres[:, :3]]).reshape(-1, 2),
+                                          spheres[:, 3]])
+    step = _step(template, flat, None if hand is None else local(hand), flat_forced, flat_obstacles, options)
+
+    def lift(points):
+        points = np.asarray(points, dtype=float)
+        return np.asarray(surface.to_world(points[..., 0], points[..., 1]), dtype=float)
+
+    return replace(step, path=lift(step.path), icps={k: lift(v) for k, v in step.icps.items()})
+
+
+def check_coincident(template: Template, icps: dict[str, np.ndarray], given: Mapping[str, Any],
+                     threshold: float | None = None) -> list[str]:
+    """ICPs that are one point of the template but bound to different task points.
+
+    OSILA keeps one pair per template point (:func:`hila_lang.osila.tps.merge_pairs`), so one of
+    the bindings would be dropped and the path would ignore it -- never in silence here:
+
+    - ``start`` bound to the hand by default wins (a step begins where the hand is): the other
+      ICP is taken out of ``icps`` and a note says so (returned, for the trace);
+    - any other pair (both bound by the caller) is an :class:`InputError` naming both.
+
+    Points closer than the distortion threshold (given, else 1 % of the template path's size,
+    OSILA's default scale) are one point for the route anyway and pass.  ``given``: what the
+    caller bound by name (a ``start`` missing from it is the hand).
+    """
+    from .osila.tps import MERGE_TOL
+
+    names = list(icps)
+    notes: list[str] = []
+    if len(names) < 2:
+        return notes
+    src = np.array([template.icps[k] for k in names], dtype=float)
+    same = MERGE_TOL * float(np.ptp(src, axis=0).max())
+    tol = threshold if threshold else 0.01 * float(np.linalg.norm(np.ptp(template.path, axis=0)))
+    hand_start = START in icps and START not in given
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            a, b = names[i], names[j]
+            if a not in icps or b not in icps or np.linalg.norm(src[i] - src[j]) > same:
+                continue
+            gap = float(np.linalg.norm(icps[a] - icps[b]))
+            if gap <= tol:
+                continue
+            if hand_start and START in (a, b):
+                other = b if a == START else a
+                notes.append(f"'{other}' is where '{template.name}' starts in the demonstration; the step starts "
+                             f"where the hand is, {gap:.3g} from {other} = {_fmt(icps[other])}, so that binding is "
+                             f"not used (bind {other} = none to say so)")
+                del icps[other]
+                continue
+            raise InputError(
+                f"ICPs '{a}' and '{b}' of '{template.name}' are one point in the demonstration but are bound "
+                f"{gap:.3g} apart: {a} = {_fmt(icps[a])}, {b} = {_fmt(icps[b])}; the warp maps one point to one "
+                "place only", hint=f"bind one of them to none (e.g. {b} = none), or both to the same point")
+    return notes
+
+
+def explain_blocked(exc, template: Template, icps: Mapping[str, np.ndarray], obstacles: Any, options) -> Exception:
+    """``exc`` (OSILA's ConstraintError) with what can help when an obstacle covers an ICP the
+    path passes through (its start, a touched object): no threshold or number of rounds gets
+    the route out, the obstacle or the binding has to change."""
+    from .errors import ConstraintError
+    from .osila import _obstacles
+
+    if obstacles is None or not len(icps):
+        return exc
+    spheres = _obstacles(obstacles, template.dim)
+    margin = float(options.get("margin") or 0.0)
+    size = float(np.linalg.norm(np.ptp(template.path, axis=0)))
+    covered = []
+    for name, point in icps.items():
+        on_path = float(np.linalg.norm(template.path - template.icps[name], axis=1).min()) <= 0.01 * size
+        for o, sphere in enumerate(spheres):
+            if on_path and np.linalg.norm(point - sphere[:-1]) < sphere[-1] + margin:
+                covered.append(f"ICP '{name}' at {_fmt(point)} lies inside obstacle {o} "
+                               f"(centre {_fmt(sphere[:-1])}, radius {sphere[-1]:.4g})")
+    if not covered:
+        return exc
+    return ConstraintError(
+        f"the path must pass through ICPs that an obstacle covers: {'; '.join(covered)}",
+        hint="move or shrink the obstacle, or bind that ICP elsewhere (or to none); raising 'rounds' or "
+             "'threshold' cannot help")
+
+
+def _named(constraints: list, given: Any, what: str, template: Template, dim: int) -> np.ndarray:
+    """Named constraints as OSILA's array: points (N, dim), or spheres (N, dim + 1) for obstacles."""
     if given is not None:
         raise InputError(f"expected {what} either as named constraints or as the '{what}' argument, got both")
     rows = []
     for c in constraints:
         point = np.asarray(c.point, dtype=float).reshape(-1)
-        if point.shape != (template.dim,):
-            raise InputError(f"template '{template.name}' is {template.dim}-D but {c.name or c.kind} is the "
+        if point.shape != (dim,):
+            raise InputError(f"template '{template.name}' runs in {dim}-D but {c.name or c.kind} is the "
                              f"{point.size}-D point {_fmt(point)}")
         rows.append(point if c.radius is None else np.append(point, c.radius))
     return np.array(rows, dtype=float)
@@ -367,8 +529,6 @@ def generate(
     -------
     Generated
     """
-    from .osila import imitate_detailed
-
     if not steps:
         raise InputError("expected at least one step, got an empty sequence")
     if isinstance(task_icps, Mapping):

@@ -241,7 +241,7 @@ def test_trials_per_setup_is_for_the_stand_in_only(hila, good_folder, tmp_path):
 def test_out_must_be_a_folder(hila, tmp_path):
     (tmp_path / "file").write_text("x")
     status, _, err = hila("eval", "--out", str(tmp_path / "file"), "--trials-per-setup", "1")
-    assert status == 2 and "expected --out to be a folder" in err
+    assert status == 2 and f"{tmp_path / 'file'}: error: expected a folder, got a file" in err
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -211,7 +211,7 @@ def test_out_on_a_file_is_refused_before_the_game(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     code = cli.main(["exec", str(PROGRAM), "--backend", "dry", "--out", str(tmp_path / "file"), "--quiet"])
     captured = capsys.readouterr()
-    assert code == 2 and "expected --out to be a folder, got a file" in captured.err
+    assert code == 2 and f"{tmp_path / 'file'}: error: expected a folder, got a file" in captured.err
     assert "plays cell" not in captured.out and "Traceback" not in captured.err
 
 

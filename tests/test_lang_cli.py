@@ -25,7 +25,9 @@ def test_language_commands_are_registered():
 def test_check_ok_and_warning(tmp_path, capsys):
     prog = tmp_path / "p.hila"
     prog.write_text("task unused() { wait e }\nmain { wait e }\n")
-    assert cli.main(["check", "programs/abc.hila", str(prog)]) == 0
+    script = tmp_path / "s.yaml"
+    script.write_text("events: {e: [1]}\n")  # the scripted world's events come from its script
+    assert cli.main(["check", "programs/abc.hila", str(prog), "--set", f"script={script}"]) == 0
     out, err = capsys.readouterr()
     assert "programs/abc.hila: ok (6 states, 5 run states, world scripted)" in out
     assert f"{prog}:1:1: warning: task 'unused' is never called" in err

@@ -187,12 +187,22 @@ def test_cli_check_prints_error_and_exits_2(tmp_path, capsys):
 
 def test_runtime_error_names_state_and_line(tmp_path, capsys):
     prog = tmp_path / "p.hila"
-    prog.write_text("import reach\nmain {\n    run reach.reach(object = shelf.top, home = hand)\n}\n")
+    prog.write_text("import reach\nmain {\n    run reach.reach(object = (0.3, -0.1, 0.6) / 0, home = hand)\n}\n")
     assert cli.main(["exec", str(prog), "--quiet"]) == 1
     err_text = capsys.readouterr().err
-    assert err_text.startswith(f"{prog}:3:5: error: unknown scene point 'shelf.top' (in state main/reach)\n")
-    assert "    run reach.reach(object = shelf.top, home = hand)\n" in err_text
+    assert err_text.startswith(f"{prog}:3:5: error: division by zero in '(0.3, -0.1, 0.6) / 0' (in state main/reach)\n")
+    assert "    run reach.reach(object = (0.3, -0.1, 0.6) / 0, home = hand)\n" in err_text
     assert "Traceback" not in err_text
+
+
+def test_an_unknown_world_point_is_found_by_check(tmp_path, capsys):
+    prog = tmp_path / "p.hila"
+    prog.write_text("import reach\nmain {\n    run reach.reach(object = shelf.top, home = hand)\n}\n")
+    for command in ("check", "exec"):
+        assert cli.main([command, str(prog)]) == 2
+        err_text = capsys.readouterr().err
+        assert err_text.startswith(f"{prog}:3:30: error: unknown scene point 'shelf.top' (the scripted world "
+                                   "(no --set script=FILE.yaml) does not name it)\n")
 
 
 def test_runtime_error_from_world_question(tmp_path):

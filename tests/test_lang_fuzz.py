@@ -124,8 +124,9 @@ def test_one_megabyte_program():
 
 def test_deep_nesting_is_reported_not_crashed():
     front_end(("main { let x = " + "(" * 5000 + "1" + ")" * 5000 + " }").encode())  # parentheses fold away
+    front_end(("main { let x = " + "-(" * 3000 + "1" + ")" * 3000 + " }").encode())  # so does -(-(1))
     for text in ("main { let x = " + "not " * 5000 + "true }",
-                 "main { let x = " + "-(" * 3000 + "1" + ")" * 3000 + " }",
+                 "main { let x = " + "-(" * 3000 + "x" + ")" * 3000 + " }",
                  "main { " + "if true { " * 3000 + "} " * 3000 + "}"):
         with pytest.raises(HilaError, match="nests too deeply"):
             front_end(text.encode())

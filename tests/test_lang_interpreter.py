@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.errors import HilaRuntimeError, InputError
+from hila_lang.errors import CheckError, HilaRuntimeError, InputError
 from hila_lang.language import load_program
 from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions, parse_pairs
-from hila_lang.language.runner import split_settings
+from hila_lang.plugins.options import split_settings
 from hila_lang.robot.dry import DryBackend
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.worlds.scripted.world import ScriptedWorld
@@ -165,6 +165,10 @@ def test_a_bad_hand_at_point_names_its_line(tmp_path):
 
 
 def test_a_point_of_the_wrong_size_names_the_icp(tmp_path):
-    interp, _ = make(tmp_path, "import reach\nmain { run reach.reach(object = (0.3, 0), home = hand) }")
+    with pytest.raises(CheckError, match=r"ICP 'object' of the 3-D template 'reach.reach' is bound to a 2-D point"):
+        make(tmp_path, "import reach\nmain { run reach.reach(object = (0.3, 0), home = hand) }")
+    # a size only the run knows (a world's answer) is caught when it runs
+    world = ScriptedWorld(answers={"where": [[0.3, 0.0]]})
+    interp, _ = make(tmp_path, "import reach\nmain { run reach.reach(object = ask where, home = hand) }", world)
     with pytest.raises(HilaRuntimeError, match=r"'reach.reach' is 3-D but ICP 'object' is bound to the 2-D point"):
         interp.step()

@@ -114,12 +114,15 @@ def test_a_failed_run_is_recorded_and_verifies_as_failing_the_same_way(tmp_path)
     prog = tmp_path / "p.hila"
     prog.write_text("import reach\nhand at (0.18, -0.25, 0.75)\nmain {\n"
                     "  run reach.reach(object = (0.3, -0.18, 0.6), home = hand)\n"
-                    "  run reach.back(object = shelf.top, home = hand)\n}\n")
+                    "  run reach.back(object = (0.3, -0.18, 0.6), home = hand) via (0.25, -0.2, 0.7) "
+                    "avoid (0.25, -0.2, 0.7) radius 0.02\n}\n")  # a contradiction: only the run finds it
     proc = hila("exec", str(prog), "--record", str(tmp_path / "f.hilarec"), "--quiet")
-    assert proc.returncode == 1 and "unknown scene point 'shelf.top'" in proc.stderr
+    assert proc.returncode == 1 and "contradictory constraints" in proc.stderr
     record = read_record(tmp_path / "f.hilarec")
     assert record["result"]["status"] == "failed" and record["result"]["exit"] == 1
-    assert "unknown scene point 'shelf.top'" in record["result"]["error"] and len(record["steps"]) == 1
+    assert "contradictory constraints" in record["result"]["error"]
+    assert [s["state"] for s in record["steps"]] == ["main/reach"]  # the failing state is in the result
+    assert record["result"]["state"] == "main/back"
     out = io.StringIO()
     Repl(ReplayEngine(record), stdin=io.StringIO("step\nstep\nquit\n"), stdout=out).cmdloop()
     assert "the recorded run failed here:" in out.getvalue()
@@ -151,3 +154,17 @@ def test_bad_recordings_and_record_paths_are_refused_with_exit_2(tmp_path, capsy
     assert "expected --record to name a file, got a folder" in err.err and err.out == ""  # refused before running
     assert cli.main(["exec", "programs/abc.hila", "--record-eyes"]) == 2
     assert "--record-eyes needs --record FILE.hilarec" in capsys.readouterr().err
+
+
+def test_a_replay_offers_every_member_the_repl_reads_from_its_engine(game):
+    """The REPL drives an Interpreter or a ReplayEngine alike: every ``it.NAME`` /
+    ``self.interp.NAME`` it reads must exist on a replay too (a new engine member used by a REPL
+    command, missing from the replay, fails here instead of in a user's session)."""
+    import re
+
+    from hila_lang.language import repl
+
+    used = set(re.findall(r"\b(?:it|self\.interp)\.([a-z_]+)", Path(repl.__file__).read_text()))
+    engine = ReplayEngine(read_record(game))
+    engine.step()
+    assert used and not sorted(name for name in used if not hasattr(engine, name))

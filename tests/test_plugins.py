@@ -26,7 +26,8 @@ import pytest
 
 from hila_lang import cli
 from hila_lang.errors import InputError, UnknownNameError, internal_error_message
-from hila_lang.language.runner import finish, prepare, split_settings
+from hila_lang.language.runner import finish, prepare
+from hila_lang.plugins.options import split_settings
 from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions
 from hila_lang.plugins.protocols import CAPABILITIES, WORLD_CAPABILITIES, Backend, World, conformance
@@ -276,13 +277,14 @@ def test_a_plugin_bug_is_an_internal_error_that_names_the_plugin(toy_distributio
     assert "Traceback (most recent call last)" in err and "internal error" in err
 
 
-def test_an_unknown_question_is_a_located_run_error(toy_distribution, capsys):
+def test_an_unknown_question_is_found_by_check_from_the_declaration(toy_distribution, capsys):
     _, program = toy_distribution
     program.write_text(PROGRAM.replace("ask target", "ask targte"))
-    assert cli.main(["exec", str(program)]) == 1
-    err = capsys.readouterr().err
-    assert "toy.hila:4:5: error: the toy world has no question 'targte'" in err
-    assert "hint: did you mean 'target'?" in err
+    for command in ("check", "exec"):  # the world's declaration is enough: nothing is built
+        assert cli.main([command, str(program)]) == 2
+        err = capsys.readouterr().err
+        assert "toy.hila:4:13: error: the toy world has no question 'targte'" in err
+        assert "hint: did you mean 'target'?" in err
 
 
 # --------------------------------------------------------------------------- settings and errors
@@ -340,3 +342,13 @@ def test_unknown_name_error_is_a_run_error_with_a_hint():
     exc = UnknownNameError("event", "opponent_move", ["opponent_moved"], owner="the tictactoe world")
     assert exc.exit_code == 1 and str(exc).startswith("error: the tictactoe world has no event 'opponent_move'")
     assert exc.hint == "did you mean 'opponent_moved'?"
+
+
+def test_help_lists_an_installed_plugins_settings(toy_distribution, capsys):
+    """--help reads the settings from the registry: a world installed by another distribution
+    appears with its settings, nothing hard-coded."""
+    with pytest.raises(SystemExit):
+        cli.main(["exec", "--help"])
+    text = capsys.readouterr().out
+    assert "world toy: a world from a throwaway distribution" in text
+    assert "height=METRES  how high the target is (default: 0.6)" in text

@@ -164,6 +164,11 @@ def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..fileio import OutputFolder
+    from ..interrupts import joblib_workers_ignoring_sigint
+
+    if args.jobs != 1 and args.dask is None:  # first, before numpy starts its threads
+        joblib_workers_ignoring_sigint(args.jobs)  # Ctrl-C: exit 130, no worker tracebacks, no hang
     from ..errors import InputError
     from ..evaluation.protocols import segments_for
     from ..evaluation.report import write_report
@@ -172,9 +177,10 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise InputError("expected --out to be a folder, got a file", file=str(out))
+        raise InputError("expected a folder, got a file", file=str(out))
     if args.dask is not None:
         check_scheduler(args.dask)  # before any data is made or written
+    OutputFolder(out, "eval")  # made and proved writable before any data is made
     trials, source, protocol, mask, threshold = _data(args, out)
     methods = _chosen_methods(args, protocol)
     segments = segments_for(protocol)

@@ -7,16 +7,17 @@ from ..language.runopts import add_run_arguments, run_options
 HELP = "run a .hila program (dry kinematic back end or the PyBullet iCub)"
 DESCRIPTION = (
     "Run a program: each FSM state warps one sub-template onto the scene with OSILA and moves the "
-    "hand. Prints one line per state (unless --quiet); exit 1 if the run fails."
+    "hand. Prints one line per state (unless --quiet); exit 1 if the run fails, 130 if Ctrl-C "
+    "stops it. Output paths (--out, --trace) are checked before anything runs; the world saves "
+    "what was done and --trace is written even when the run fails or is stopped (its last line "
+    "is the state that failed)."
 )
 
 
 def add_arguments(parser) -> None:
-    from ..plugins.registry import settings_help
-
     add_run_arguments(parser)
-    parser.epilog = settings_help()
-    parser.add_argument("--trace", default=None, metavar="FILE", help="write the state trace to FILE")
+    parser.add_argument("--trace", default=None, metavar="FILE",
+                        help="write the state trace to FILE (also when the run fails: its last line is the failing state)")
     parser.add_argument("--quiet", action="store_true", help="do not print the state trace")
     parser.add_argument("--record", default=None, metavar="FILE.hilarec",
                         help="record the run in one file (program, templates, settings, every step with its "
@@ -26,28 +27,31 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..fileio import atomic_write_text
-    from ..language.runner import finish, prepare
+    import sys
 
+    from ..fileio import AtomicFile
     from ..language.recording import start_recording
+    from ..language.runner import finishing, prepare
 
     options = run_options(args)
-    record = start_recording(args, options)  # before the world takes stdin: a person's moves are kept
-    interp = prepare(args.program, options, args.backend)
-    recorder = record(interp) if record else None
-    lines: list[str] = []
+    trace = AtomicFile(args.trace) if args.trace else None  # a bad --trace path: refused now
     try:
-        while not interp.done:
-            entry = interp.step()
-            lines.append(str(entry))
-            if not args.quiet:
-                print(lines[-1], file=options.stdout, flush=True)
+        record = start_recording(args, options)  # before the world takes stdin: a person's moves are kept
+        interp = prepare(args.program, options, args.backend, step_limit=args.max_steps)
+    except BaseException:
+        if trace is not None:
+            trace.discard()
+        raise
+    recorder = record(interp) if record else None
+    if trace is not None:  # streamed: memory stays flat however long the run
+        interp.observers.append(lambda entry: trace.write(f"{entry}\n"))
+    show = None if args.quiet else (lambda entry: print(entry, file=options.stdout, flush=True))
+    try:
+        with finishing(interp):
+            interp.run(each=show)
     finally:
-        if args.trace:
-            atomic_write_text(args.trace, "\n".join(lines) + "\n")
+        if trace is not None:
+            trace.commit()
         if recorder is not None:
-            import sys
-
             recorder.close(sys.exc_info()[1])
-    finish(interp)
     return 0

@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..errors import InputError
-    from ..fileio import atomic_write_text
+    from ..fileio import atomic_write_text, ensure_writable
     from ..hierarchy import generate
     from ..template import END, START, load_template
     from ..validation import check_int, check_positive
@@ -105,6 +105,8 @@ def run(args: argparse.Namespace) -> int:
             )
         step = template.sub(args.sub)
     task = load_task(args.task, step.dim)
+    if args.output:
+        ensure_writable(args.output)  # a bad -o is refused before the work
     known = set(step.icps) | {START, END}
     for name in task["icps"]:
         if name not in known:

@@ -8,7 +8,6 @@ or a recording made in simulation (``--from-sim``).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
 DESCRIPTION = """\
@@ -61,8 +60,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="OUT.yaml", help="template file to write")
 
 
-def _split(text: str | None) -> list[str]:
-    return [t.strip() for t in text.split(",") if t.strip()] if text else []
+def _split(text: str | None, option: str = "--tags") -> list[str]:
+    """Comma-separated tags, each one a name a program can write (``run TEMPLATE.TAG(...)``)."""
+    from ..errors import InputError
+    from ..language.transformer import usable_as_tag
+
+    if not text:
+        return []
+    tags = [t.strip() for t in text.split(",")]
+    for i, tag in enumerate(tags, start=1):
+        if not tag:
+            raise InputError(f"{option} {text}: tag {i} is empty", hint="separate the tags with single commas")
+        if not usable_as_tag(tag):
+            fixed = "_".join(filter(None, "".join(c if c.isalnum() or c == "_" else " " for c in tag).split()))
+            fixed = fixed if fixed[:1].isalpha() or fixed[:1] == "_" else f"_{fixed}"
+            raise InputError(
+                f"{option} {text}: {tag!r} cannot be written in a program (run TEMPLATE.{tag}(...)): a tag is a "
+                "letter or '_' and then letters, digits or '_'",
+                hint=f"e.g. {fixed!r}" if fixed and usable_as_tag(fixed) else None)
+    return tags
 
 
 def _source(args: argparse.Namespace) -> str:
@@ -92,7 +108,6 @@ def _source(args: argparse.Namespace) -> str:
 
 def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
     """The template learned through the eye cameras (imports OpenCV and PyBullet)."""
-    from ..errors import InputError
     from ..perception.learn import template_from_frames
     from ..worlds.tictactoe.recording import learn_from_sim
     from ..worlds.tictactoe.vision import demonstration_icps
@@ -128,18 +143,19 @@ def _segmented(method: str, k: int) -> str:
 def run(args: argparse.Namespace) -> int:
     from ..demofile import load_icps, read_demo_csv
     from ..errors import InputError
+    from ..fileio import ensure_writable
     from ..segmentation import segment_template
     from ..template import Template, save_template
 
     source = _source(args)
     tags = _split(args.tags)
-    contact = _split(args.contact)
+    contact = _split(args.contact, "--contact")
     k = args.k if args.k is not None else max(len(tags), 1)
     if k < 1:
         raise InputError(f"expected -k >= 1, got {k}")
     if not tags and k > 1:
         tags = [f"s{i + 1}" for i in range(k)]
-    out = Path(args.output)
+    out = ensure_writable(args.output)  # before the work: learning by perception takes a minute
     name = args.name or out.stem
     if source != "DEMO.csv":
         template = _perceived(args, source, k, tags or ["s1"], contact, name)

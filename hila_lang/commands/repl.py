@@ -14,10 +14,7 @@ DESCRIPTION = (
 
 
 def add_arguments(parser) -> None:
-    from ..plugins.registry import settings_help
-
     add_run_arguments(parser)
-    parser.epilog = settings_help()
 
 
 def run(args) -> int:

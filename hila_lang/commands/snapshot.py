@@ -37,19 +37,16 @@ def circle_path(scene, cell: int, radius: float, n: int = 120):
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
 
     import numpy as np
 
     from ..errors import InputError
     from ..worlds.tictactoe.marks import cross_strokes
-    from ..fileio import write_png
+    from ..fileio import OutputFolder, write_png
     from ..robot.backend import PyBulletBackend
     from ..worlds.tictactoe.board import Grid, cell_center
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out must be a folder, got an existing file: {out}")
+    out = OutputFolder(args.out, "snapshot").path  # made and proved writable before the scene is built
     if not 1 <= args.cell <= 9 or not 0 <= args.opponent_cell <= 9 or args.cell == args.opponent_cell:
         raise InputError(
             f"--cell must be 1..9 and --opponent-cell 0..9 (0: none), different, got {args.cell} and {args.opponent_cell}"

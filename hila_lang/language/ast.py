@@ -243,7 +243,8 @@ class RepeatStmt:
 
 
 Stmt = Union[RunStmt, CallStmt, LetStmt, WaitStmt, IfStmt, WhileStmt, UntilStmt, RepeatStmt]
-_STMT_TYPES = get_args(Stmt)
+#: the statement classes (for ``isinstance``)
+STATEMENTS = _STMT_TYPES = get_args(Stmt)
 
 # --------------------------------------------------------------------------- top level
 
@@ -308,10 +309,23 @@ class Program:
 # --------------------------------------------------------------------------- visiting
 
 
-@functools.lru_cache(maxsize=None)
-def _part_fields(cls: type) -> tuple[str, ...]:
-    """Names of the fields of AST class ``cls`` that take part in equality (not positions)."""
-    return tuple(f.name for f in fields(cls) if f.compare)
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _compared_fields(cls: type) -> tuple[str, ...]:
+    """Names of the fields that take part in equality (the node's parts, not its position)."""
+    names = _FIELDS.get(cls)
+    if names is None:
+        names = _FIELDS[cls] = tuple(f.name for f in fields(cls) if f.compare)
+    return names
+
+
+def _add_nodes(value, out: list) -> None:
+    if type(value) is tuple:
+        for v in value:
+            _add_nodes(v, out)
+    elif hasattr(type(value), "__dataclass_fields__") and type(value) is not Pos:
+        out.append(value)
 
 
 def children(node) -> list:
@@ -319,17 +333,15 @@ def children(node) -> list:
     condition then body).  Every pass walks the tree through this one function, so a new node
     class needs no walking code of its own."""
     out: list = []
-
-    def add(value) -> None:
-        if isinstance(value, tuple):
-            for v in value:
-                add(v)
-        elif hasattr(type(value), "__dataclass_fields__") and not isinstance(value, Pos):
-            out.append(value)
-
-    for name in _part_fields(type(node)):
-        add(getattr(node, name))
+    for name in _compared_fields(type(node)):
+        value = getattr(node, name)
+        if value is None or type(value) in _LEAVES:
+            continue
+        _add_nodes(value, out)
     return out
+
+
+_LEAVES = {str, float, int, bool, Pos}
 
 
 class Visitor:

@@ -3,7 +3,9 @@
 :func:`check` raises :class:`~hila_lang.errors.CheckError` (exit 2) at the first mistake, with
 the source position, the source line and a "did you mean" where one helps.  What it checks:
 
-- the world is a registered plug-in (:mod:`hila_lang.plugins.registry`); each import resolves to a readable template; aliases, tasks,
+- the world is a registered plug-in (:mod:`hila_lang.plugins.registry`); each import resolves to
+  a readable template (``import NAME`` along :func:`hila_lang.resources.template_search_path`:
+  ``HILA_PATH``, the program's folder, the package's own); aliases, tasks,
   points and parameters are unique; there is exactly one ``main``;
 - ``run T.TAG(...)``: ``T`` is imported, ``TAG`` is one of its tags, every bound name is an ICP
   of that sub-template (or a group prefix: ``cell`` binds ``cell.tl``, ``cell.tr``, ...), no
@@ -19,14 +21,15 @@ Unreachable statements are found by the compiler on the FSM graph (also a CheckE
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import ast as A
-from ..errors import CheckError, HilaError
+from ..errors import CheckError, HilaError, did_you_mean
 from ..plugins import registry
+from ..resources import template_search_path
 from .parser import source_line
+from .worldcheck import WorldCheck
 
 START, END = "start", "end"
 RESERVED = {"hand", "main"}
@@ -45,32 +48,35 @@ class CheckedProgram:
     points: dict  # name -> Expr
     hand: A.Expr | None
     warnings: list[str] = field(default_factory=list)
+    #: the ``--set`` pairs it was checked with, parsed: (OSILA options, world settings,
+    #: back-end settings); None when checked without them
+    run_settings: tuple | None = None
 
 
-def template_search_path(program_file: str) -> list[Path]:
-    """Folders ``import NAME`` looks in for ``NAME.yaml``, in order."""
-    here = Path(program_file).resolve().parent if program_file and not program_file.startswith("<") else Path.cwd()
-    package_root = Path(__file__).resolve().parents[2]
-    candidates = [here, here / "primitives", here.parent / "primitives", Path.cwd() / "primitives",
-                  package_root / "primitives"]
-    seen, result = set(), []
-    for c in candidates:
-        if c not in seen:
-            seen.add(c)
-            result.append(c)
-    return result
+class _Defined(set):
+    """The names defined at a point of a body, and the dimension of the points some hold
+    (``let p = (0.3, 0.1)``: 2; None when it is not a point or not known before the run)."""
 
+    def __init__(self, names=(), task: str | None = None) -> None:
+        super().__init__(names)
+        self.dims: dict[str, int | None] = {}
+        self.task = task  # the task whose body this is (its parameters are the names given)
+        self.params = set(names)
 
-def did_you_mean(name: str, choices) -> str | None:
-    close = difflib.get_close_matches(name, sorted(set(choices)), n=1, cutoff=0.6)
-    return f"did you mean '{close[0]}'?" if close else None
+    def let(self, name: str, dim: int | None) -> None:
+        if name in self.dims and self.dims[name] != dim:
+            dim = None  # different sizes at different places: only the run knows
+        self.add(name)
+        self.dims[name] = dim
 
 
 class _Checker(A.Visitor):
-    def __init__(self, program: A.Program, load_template=None) -> None:
+    def __init__(self, program: A.Program, load_template=None, settings: dict[str, str] | None = None,
+                 backend: str | None = None) -> None:
         self.p = program
         self.warnings: list[str] = []
         self.load_template = load_template  # path -> Template; None: hila_lang.template.load_template
+        self.settings, self.backend = settings, backend
 
     def error(self, message: str, pos: A.Pos, hint: str | None = None) -> CheckError:
         line = pos.line or None
@@ -90,17 +96,22 @@ class _Checker(A.Visitor):
         if worlds and world not in known:
             raise self.error(f"unknown world '{world}'", worlds[0].pos,
                              did_you_mean(world, known) or f"known worlds: {', '.join(known)}")
+        self.world = WorldCheck(world, self.error, self.settings, self.backend)
         self.templates, self.files = {}, {}
         for imp in p.of(A.ImportDecl):
             if imp.alias in self.templates:
                 raise self.error(f"'{imp.alias}' is imported twice", imp.pos, "use 'import ... as OTHER'")
             self.files[imp.alias], self.templates[imp.alias] = self.load(imp)
         self.points = {}
+        self.point_dims: dict[str, int | None] = {}
+        self.point_depths: dict[str, int] = {}
         for pt in p.of(A.PointDecl):
             if pt.name in self.points:
                 raise self.error(f"point '{pt.name}' is declared twice", pt.pos)
             self.expr(pt.value, set(), pt.pos)
+            self.point_depth(pt)
             self.points[pt.name] = pt.value
+            self.point_dims[pt.name] = self.dim(pt.value, set())
         hands = p.of(A.HandDecl)
         if len(hands) > 1:
             raise self.error("'hand at' is given twice", hands[1].pos)
@@ -128,12 +139,15 @@ class _Checker(A.Visitor):
                              hint="add 'main { ... }' with the statements to run")
         if len(mains) > 1:
             raise self.error(f"'main' is defined twice (first at line {mains[0].pos.line})", mains[1].pos)
+        self.param_uses: dict[tuple[str, str], list] = {}
+        self.call_dims: list = []
         for t in self.tasks.values():
-            self.body(t.body, set(t.params))
-        self.body(mains[0].body, set())
+            self.body(t.body, _Defined(t.params, t.name))
+        self.body(mains[0].body, _Defined())
+        self.arguments()
         self.recursion(mains[0])
         return CheckedProgram(p, world, self.templates, self.files, self.tasks, mains[0], self.points,
-                              hands[0].value if hands else None, self.warnings)
+                              hands[0].value if hands else None, self.warnings, self.world.run_settings)
 
     def load(self, imp: A.ImportDecl):
         from ..template import load_template
@@ -148,9 +162,10 @@ class _Checker(A.Visitor):
         if found is None:
             known = sorted({f.stem for d in template_search_path(self.p.file) if d.is_dir() for f in d.glob("*.yaml")})
             hint = did_you_mean(imp.source, known) if not imp.is_path else None
-            where = str(candidates[0]) if imp.is_path else ", ".join(str(c.parent) for c in candidates[:3])
+            where = str(candidates[0]) if imp.is_path else ", ".join(str(c.parent) for c in candidates)
             raise self.error(f"template '{imp.source}' not found (looked in {where})", imp.pos,
-                             hint or (f"templates found: {', '.join(known)}" if known else None))
+                             hint or (f"templates found: {', '.join(known)}" if known else
+                                      "add the folder that holds it to HILA_PATH"))
         try:
             return found, load_template(found)
         except HilaError as exc:
@@ -181,14 +196,28 @@ class _Checker(A.Visitor):
                 f"got {len(s.args)}", s.pos, f"defined at line {task.pos.line}")
         self.expr(s.args, defined, s.pos)
         self.constraints(s.constraints, defined)
+        self.call_dims.append((s, [self.dim(a, defined) for a in s.args]))
+
+    def arguments(self) -> None:
+        """A point passed to a task parameter that the task binds to an ICP has the ICP's size."""
+        for call, dims in self.call_dims:
+            task = self.tasks[call.task]
+            for param, dim, arg in zip(task.params, dims, call.args):
+                for ref, template_dim, icp in self.param_uses.get((call.task, param), []) if dim else ():
+                    self.world.binding(ref, template_dim, icp, dim, arg.pos if arg.pos.line else call.pos,
+                                       f" (through parameter '{param}' of task '{call.task}')")
 
     def visit_LetStmt(self, s: A.LetStmt, defined: set[str]) -> None:
         if s.name in RESERVED:
             raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
         self.expr(s.value, defined, s.pos)
-        defined.add(s.name)
+        if isinstance(defined, _Defined):
+            defined.let(s.name, self.dim(s.value, defined))
+        else:
+            defined.add(s.name)
 
     def visit_WaitStmt(self, s: A.WaitStmt, defined: set[str]) -> None:
+        self.world.event(s.wait.event, s.wait.pos if s.wait.pos.line else s.pos)
         self.expr(s.wait.args, defined, s.pos)
 
     def visit_IfStmt(self, s: A.IfStmt, defined: set[str]) -> None:
@@ -236,6 +265,8 @@ class _Checker(A.Visitor):
 
     def run_stmt(self, s: A.RunStmt, defined: set[str]) -> None:
         icps = self.template_icps(s)
+        dim = self.templates[s.template].dim
+        self.world.template(s.ref, dim, s.ref_pos)
         covered: dict[str, A.Binding] = {}
         spread = [b for b in s.bindings if b.icp == A.SPREAD]
         if len(spread) > 1:
@@ -254,6 +285,12 @@ class _Checker(A.Visitor):
                     raise self.error(f"ICP '{m}' is bound twice", b.pos, f"first bound at column {covered[m].pos.column}")
                 covered[m] = b
             self.expr(b.value, defined, b.pos)
+            if b.icp in icps:  # one ICP bound to one point (not a group bound to a group)
+                self.world.binding(s.ref, dim, b.icp, self.dim(b.value, defined), b.pos)
+                value = b.value
+                if (isinstance(value, A.Name) and len(value.parts) == 1 and value.parts[0] in getattr(defined, "params", ())
+                        and value.parts[0] not in defined.dims):  # a parameter: checked at each call
+                    self.param_uses.setdefault((defined.task, value.parts[0]), []).append((s.ref, dim, b.icp))
         self.constraints(s.constraints, defined)
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
         if unbound:
@@ -284,6 +321,49 @@ class _Checker(A.Visitor):
                                      c.radius.pos if c.radius.pos.line else c.pos)
 
     # ------------------------------------------------------------------ expressions
+    def dim(self, e, defined) -> int | None:
+        """How many coordinates the point ``e`` has, when that is known before the run (a
+        literal, a program point, a world point, ``hand``, a ``let`` of one); None otherwise."""
+        if isinstance(e, A.Vector):
+            return len(e.items)
+        if isinstance(e, A.Ask):
+            return self.world.value_dim("question", e.name)
+        if isinstance(e, A.Wait):
+            return self.world.value_dim("event", e.event)
+        if isinstance(e, A.Unary) and e.op == "-":
+            return self.dim(e.operand, defined)
+        if isinstance(e, A.Binary) and e.op in ("+", "-", "*", "/"):
+            a, b = self.dim(e.left, defined), self.dim(e.right, defined)
+            return a if b is None or a == b else (b if a is None else None)
+        if not isinstance(e, A.Name):
+            return None
+        first = e.parts[0]
+        if first in defined:
+            return getattr(defined, "dims", {}).get(first) if len(e.parts) == 1 else None
+        if e.text == "hand":
+            return 3
+        if e.text in self.point_dims:
+            return self.point_dims[e.text]
+        if first == "hand" or e.parts[-1] in ("x", "y", "z") or any(p.startswith(e.text + ".") for p in self.points):
+            return None  # a coordinate, or a group of points
+        return 3 if len(e.parts) > 1 else None  # a world point: (x, y, z) by the World protocol
+
+    def point_depth(self, pt: A.PointDecl) -> None:
+        """A ``point`` defined through other points nests as deep as they do, all of it added up
+        when the run evaluates it: keep that within the nesting limit (no recursion here)."""
+        from .limits import MAX_NESTING
+        from .transformer import deepest
+
+        found = deepest([pt.value])
+        depth = 1 + (found[2] if found else 0)
+        for n in _names_in(pt.value):
+            depth = max(depth, 1 + self.point_depths.get(n.text, 0) + 1)
+        self.point_depths[pt.name] = depth
+        if depth > MAX_NESTING:
+            raise self.error(f"point '{pt.name}' is defined through points defined through points ... "
+                             f"{depth} levels deep (at most {MAX_NESTING})", pt.pos,
+                             "define it by its coordinates, or through fewer other points")
+
     def expr(self, e, defined: set[str], where: A.Pos) -> None:
         """Check the names in expression ``e`` (or a tuple of them); ``where`` locates a name
         that has no position of its own."""
@@ -291,40 +371,53 @@ class _Checker(A.Visitor):
             _Names(self, defined, where).visit(x)
 
     def recursion(self, main: A.MainDef) -> None:
-        def calls(body):
-            return [s for s in A.walk(body) if isinstance(s, A.CallStmt)]
+        """No task calls itself, the inlined program stays within bounds (:mod:`.calls`), and a
+        warning for each task main never calls."""
+        from .calls import check_calls
 
-        def visit(body, chain: list[str]):
-            for c in calls(body):
-                if c.task in chain:
-                    cycle = " -> ".join(chain[chain.index(c.task):] + [c.task])
-                    raise self.error(f"task '{c.task}' calls itself ({cycle})", c.pos,
-                                     "tasks are compiled inline into the FSM, so recursion is not allowed; use a loop")
-                visit(self.tasks[c.task].body, chain + [c.task])
+        for name in check_calls(self.tasks, main, self.error):
+            t = self.tasks[name]
+            self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
 
-        visit(main.body, [])
-        used = set()
 
-        def collect(body):
-            for c in calls(body):
-                if c.task not in used:
-                    used.add(c.task)
-                    collect(self.tasks[c.task].body)
-
-        collect(main.body)
-        for name, t in self.tasks.items():
-            if name not in used:
-                self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
+def _names_in(e) -> list:
+    """Every :class:`~hila_lang.language.ast.Name` in expression ``e`` (without recursion)."""
+    out, stack = [], [e]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, A.Name):
+            out.append(node)
+        stack.extend(A.children(node))
+    return out
 
 
 class _Names(A.Visitor):
-    """Every plain name in an expression is known; points have 2 or 3 coordinates."""
+    """Every plain name in an expression is known, and every question, event and world point
+    the world declares; points have 2 or 3 coordinates."""
 
     def __init__(self, checker: "_Checker", defined: set[str], where: A.Pos) -> None:
         self.c, self.defined, self.where = checker, defined, where
 
+    def _pos(self, e) -> A.Pos:
+        return e.pos if e.pos.line else self.where
+
+    def visit_Ask(self, e: A.Ask) -> None:
+        self.c.world.question(e.name, self._pos(e))
+        self.generic_visit(e)
+
+    def visit_Wait(self, e: A.Wait) -> None:
+        self.c.world.event(e.event, self._pos(e))
+        self.generic_visit(e)
+
     def visit_Name(self, e: A.Name) -> None:
         c, first = self.c, e.parts[0]
+        if len(e.parts) > 1 and first not in self.defined and first != "hand":
+            head, _, attr = e.text.rpartition(".")
+            program_point = (e.text in c.points or any(p.startswith(e.text + ".") for p in c.points)
+                             or (attr in ("x", "y", "z") and head in c.points))
+            if not program_point:
+                c.world.point(e.text, self._pos(e))
+            return
         if first in self.defined or first == "hand" or len(e.parts) > 1:
             return
         if first in c.points or any(p.startswith(first + ".") for p in c.points):
@@ -340,12 +433,18 @@ class _Names(A.Visitor):
         self.generic_visit(e)
 
 
-def check(program: A.Program, load_template=None) -> CheckedProgram:
+def check(program: A.Program, load_template=None, *, settings: dict[str, str] | None = None,
+          backend: str | None = None) -> CheckedProgram:
     """Check ``program``; raise :class:`CheckError` at the first mistake.
 
     ``load_template(path) -> Template`` reads an imported template (default
-    :func:`hila_lang.template.load_template`; the language server passes one that caches)."""
-    return _Checker(program, load_template).run()
+    :func:`hila_lang.template.load_template`; the language server passes one that caches).
+    ``settings`` (the ``--set`` pairs as typed) and ``backend`` are what the program will run
+    with: they are parsed here (a bad one is an InputError naming it) and the world's questions,
+    events and points are those it declares with them (:mod:`.worldcheck`).  Without settings
+    (None) a world whose names follow from its settings is not checked by name.
+    """
+    return _Checker(program, load_template, settings, backend).run()
 
 
 def resolve_import(program: A.Program, imp: A.ImportDecl, load_template=None):

@@ -23,6 +23,20 @@ Any hila error while a state runs (an unknown scene point, a question the world 
 target) is a :class:`HilaRuntimeError` naming the state and the program line (exit status 1).
 Any other exception raised by a world, a back end or OSILA is a bug and propagates unchanged
 (the CLI reports it as an internal error, exit status 3).
+
+Bounded and interruptible (see :meth:`Interpreter.step` and :meth:`Interpreter.run`):
+
+- a failed or interrupted step is recorded in the trace too (its text says what happened), so a
+  trace file of a failed run ends with the failing state;
+- memory stays flat however long a run is: :attr:`Interpreter.trace` keeps the newest
+  :data:`TRACE_KEEP` entries (``len(trace)`` counts them all; ``observers`` see every entry as it
+  is recorded, e.g. to stream a trace file);
+- :meth:`Interpreter.run` stops a run after ``step_limit`` steps (default
+  :data:`DEFAULT_STEP_LIMIT`) with :class:`~hila_lang.errors.StepLimitError`;
+- Ctrl-C stops the current step (:class:`~hila_lang.errors.Interrupted`, exit status 130): while
+  it computes or moves, at once (the state did not happen; ``step`` runs it again from where the
+  hand is); once it has started changing the world, after it is recorded
+  (:mod:`hila_lang.interrupts`).
 """
 
 from __future__ import annotations
@@ -33,12 +47,16 @@ from typing import Any
 import numpy as np
 
 from . import ast as A
-from ..errors import HilaError, HilaRuntimeError
+from ..bounded import BoundedLog
+from ..errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError
+from ..interrupts import guarded
 from .fsm import FSM, SetState, State
 from .history import History, Snapshot
+from .limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
 from .parser import source_line
 
 START, END = "start", "end"
+
 
 
 @dataclass
@@ -58,10 +76,34 @@ class TraceEntry:
     value: Any = None
     #: the HILA step of a run state (:class:`hila_lang.hierarchy.Step`: OSILA's result, constraints)
     step_result: Any = None
+    error: str | None = None  # why the step failed or stopped (its text says so too)
 
     def __str__(self) -> str:
         where = f"line {self.line}" if self.line else "-"
         return f"{self.step:>3}  {self.state}  [{where}]  {self.text}"
+
+
+class Trace(BoundedLog):
+    """The trace: the newest entries (:class:`~hila_lang.bounded.BoundedLog`), so a run of any
+    length keeps memory flat.  ``total`` (= ``len()``) counts every entry recorded since the
+    reset (the step number of the last one); ``kinds`` how many of each kind."""
+
+    def __init__(self, keep: int = TRACE_KEEP) -> None:
+        super().__init__(keep)
+        self.kinds: dict[str, int] = {}
+
+    @property
+    def total(self) -> int:
+        return len(self)
+
+    def record(self, entry: "TraceEntry") -> None:
+        self.append(entry)
+        self.kinds[entry.kind] = self.kinds.get(entry.kind, 0) + 1
+
+    def __delitem__(self, index) -> None:
+        for entry in self.removed_after(index.start or 0) if isinstance(index, slice) else ():
+            self.kinds[entry.kind] -= 1
+        super().__delitem__(index)
 
 
 def fmt_point(p) -> str:
@@ -92,16 +134,25 @@ class Interpreter(History):
     backend : Backend
     osila_options : dict, optional
         Extra keyword options for :func:`hila_lang.osila.imitate`.
+    step_limit : int, optional
+        Most steps one :meth:`run` may take (None or 0: no limit); default
+        :data:`DEFAULT_STEP_LIMIT`.
+    trace_keep : int, optional
+        Trace entries kept in memory (:class:`Trace`; 0: all of them); default :data:`TRACE_KEEP`.
     """
 
-    def __init__(self, checked, fsm: FSM, world, backend, osila_options: dict | None = None) -> None:
+    def __init__(self, checked, fsm: FSM, world, backend, osila_options: dict | None = None, *,
+                 step_limit: int | None = DEFAULT_STEP_LIMIT, trace_keep: int = TRACE_KEEP) -> None:
         self.checked, self.fsm, self.world, self.backend = checked, fsm, world, backend
         self.osila_options = dict(osila_options or {})
+        self.step_limit = step_limit
+        self.trace_keep = trace_keep
+        #: called with every trace entry as it is recorded (failed and interrupted ones too)
+        self.observers: list = []
         self._subs: dict[tuple[str, str | None], Any] = {}
         self._eval = _Eval(self)
         self.history: list[Snapshot] | None = None  # see keep_history
-        #: called with each step's TraceEntry once it has run (a recorder, the GUI's state text)
-        self.observers: list = []
+        self._guard_now = None
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -112,7 +163,8 @@ class Interpreter(History):
             self.history = []
         self.current: str = self.fsm.start
         self.env: dict[str, Any] = {}
-        self.trace: list[TraceEntry] = []
+        self.trace = Trace(self.trace_keep)
+        self.last_run: TraceEntry | None = None
         self.last_path: np.ndarray | None = None
         self.last_icps: dict[str, np.ndarray] = {}
         self.done = False
@@ -132,25 +184,88 @@ class Interpreter(History):
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> TraceEntry:
-        """Execute the current state; return what it did."""
+        """Execute the current state; return what it did.
+
+        A state that fails is recorded (its entry's ``error`` says why) and its error raised;
+        Ctrl-C raises :class:`~hila_lang.errors.Interrupted` (see the module docstring).
+        """
         if self.done:
             raise HilaRuntimeError("the program has finished; 'reset' to run it again", state=self.current)
         state = self.state
-        entry = self._guard(state, lambda: self._execute(state))
-        self.trace.append(entry)
-        if entry.next is None:
-            self.done = True
-        else:
-            self.current = entry.next
+        recorded = False
+        try:
+            with guarded() as guard:
+                self._guard_now = guard
+                try:
+                    entry = self._guard(state, lambda: self._execute(state))
+                except HilaRuntimeError as exc:
+                    self._failed(state, f"failed: {exc.message}", exc.message)
+                    raise
+                guard.hold()  # a Ctrl-C from here on waits until the step is recorded
+                self._record(entry)
+                recorded = True
+                if entry.next is None:
+                    self.done = True
+                else:
+                    self.current = entry.next
+        except KeyboardInterrupt:
+            raise self._interrupted(state, recorded) from None
+        finally:
+            self._guard_now = None
         return entry
 
-    def run(self, until: str | None = None, max_steps: int | None = None) -> list[TraceEntry]:
-        """Step until the end, ``max_steps`` steps, or just before entering state ``until``."""
+    def _hold(self) -> None:
+        """Called by a state before it changes the world: Ctrl-C waits for the step to finish."""
+        if self._guard_now is not None:
+            self._guard_now.hold()
+
+    def _record(self, entry: TraceEntry) -> None:
+        self.trace.record(entry)
+        for observer in self.observers:
+            observer(entry)
+
+    def _failed(self, state: State, text: str, why: str) -> None:
+        self._record(TraceEntry(self.trace.total + 1, state.name, state.kind, state.line,
+                                text.splitlines()[0], None, error=why))
+
+    def _interrupted(self, state: State, recorded: bool) -> Interrupted:
+        if recorded:  # held until the step was recorded: it happened
+            exc = Interrupted("interrupted (Ctrl-C) just after this state")
+        else:
+            exc = Interrupted("interrupted (Ctrl-C) before this state finished",
+                              hint="if the program goes on ('step' or 'run' in hila repl), the state runs "
+                                   "again from where the hand is")
+            self._failed(state, "interrupted", exc.message)
+        return self._locate(exc, state)
+
+    def run(self, until=None, max_steps: int | None = None, each=None) -> list[TraceEntry]:
+        """Step until the end, ``max_steps`` steps, or just before entering a state ``until``
+        (a state name, or a predicate on the name; not the state it starts at).
+
+        ``each(entry)`` is called after every step.  Returns this call's entries (the newest
+        :data:`TRACE_KEEP` when there are more).  More than ``step_limit`` steps raise
+        :class:`~hila_lang.errors.StepLimitError` at the state the run has reached.
+        """
+        stop = until if callable(until) or until is None else (lambda name: name == until)
         done: list[TraceEntry] = []
-        while not self.done and (max_steps is None or len(done) < max_steps):
-            if until is not None and done and self.current == until:
-                break
-            done.append(self.step())
+        taken = 0
+        try:
+            while not self.done and (max_steps is None or taken < max_steps):
+                if stop is not None and taken and stop(self.current):
+                    break
+                if self.step_limit and taken >= self.step_limit:
+                    raise self._locate(StepLimitError(
+                        f"stopped after {taken} steps without finishing (the step limit)",
+                        hint="a loop that never ends? raise the limit with --max-steps N (0 for none)"), self.state)
+                entry = self.step()
+                taken += 1
+                done.append(entry)
+                if self.trace_keep and len(done) >= 2 * self.trace_keep:
+                    del done[: len(done) - self.trace_keep]
+                if each is not None:
+                    each(entry)
+        except KeyboardInterrupt:  # between two steps (inside one, step() raises Interrupted)
+            raise self._locate(Interrupted("interrupted (Ctrl-C) between two states"), self.state) from None
         return done
 
     def _guard(self, state: State, action):
@@ -177,19 +292,18 @@ class Interpreter(History):
         :meth:`keep_history` is on."""
         saved = self.snapshot() if self.history is not None else None
         try:
-            entry = getattr(self, "exec_" + st.kind)(st, len(self.trace) + 1)
+            entry = getattr(self, "exec_" + st.kind)(st, self.trace.total + 1)
         except BaseException:
             if saved is not None:
                 self._discard([saved])
             raise
         if saved is not None:
             self._remember(saved)
-        for observer in self.observers:
-            observer(entry)
         return entry
 
     def exec_set(self, st, n: int) -> TraceEntry:
         values = [(slot, self.eval(e)) for slot, e in st.assign]
+        self._hold()
         self.env.update(values)
         head = "call " + st.task + (": " if values else "") if st.kind == "call" else "set "
         text = head + ", ".join(f"{slot.rsplit(':', 1)[1]} = {fmt_value(v)}" for slot, v in values)
@@ -200,6 +314,7 @@ class Interpreter(History):
     def exec_wait(self, st, n: int) -> TraceEntry:
         args = [self.eval(a) for a in st.args]
         value = _plain(self.world.wait(st.event, *args))
+        self._hold()
         if st.into:
             self.env[st.into] = value
         text = f"wait {st.event} -> {fmt_value(value)}"
@@ -215,6 +330,7 @@ class Interpreter(History):
         return TraceEntry(n, st.name, st.kind, st.line, text, nxt, value=bool(value))
 
     def exec_end(self, st, n: int) -> TraceEntry:
+        self._hold()
         self.world.notify("program_done")
         return TraceEntry(n, st.name, "end", st.line, "end", None)
 
@@ -254,28 +370,41 @@ class Interpreter(History):
         return out
 
     def bind(self, st) -> dict[str, np.ndarray]:
-        """Task ICPs of a run state: name -> point (3,), in the template's ICP order."""
+        """Task ICPs of a run state: name -> point (3,), in the template's ICP order (a 2-D
+        template's as bound in the scene, before they are projected onto the drawing surface)."""
         from ..hierarchy import bind
 
-        return bind(self.template(st), self.scene_binding(st), self.hand())
+        t, binding = self.template(st), self.scene_binding(st)
+        if t.dim == 2 and self.surface() is not None:
+            given = {START: self.hand(), **binding}
+            return {k: given[k] for k in t.icps if given.get(k) is not None}
+        return bind(t, binding, self.hand())
+
+    def surface(self):
+        """The world's drawing surface (its scene's), where 2-D templates run; or None."""
+        scene = self.world.scene
+        return None if scene is None else scene.surface
 
     def exec_run(self, st, n: int) -> TraceEntry:
         from ..hierarchy import hila_step
 
         t = self.template(st)
         step = hila_step(t, self.scene_binding(st), self.hand(), constraints=self.constraints(st),
-                         **self.osila_options)
+                         surface=self.surface(), **self.osila_options)
         path, icps = step.path, step.icps
         executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         executed = None if executed is None else np.asarray(executed, dtype=float)
+        self._hold()
         self.last_path, self.last_icps = path, icps
         self.world.notify("state_done", state=st.name, path=path, executed=executed, kind="run",
                           pen_down=bool(st.pen_down), icps=dict(icps), template=t)
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step))
-        return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
-                          icps=icps, pen_down=bool(st.pen_down), step_result=step)
+        text += "".join(f"; note: {n}" for n in step.notes)
+        self.last_run = TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
+                                   icps=icps, pen_down=bool(st.pen_down), step_result=step)
+        return self.last_run
 
     def explain(self) -> list[str]:
         """What OSILA does in the current run state (before it runs), or did in the last run:
@@ -287,7 +416,7 @@ class Interpreter(History):
             where = f"{st.name} (line {st.line}), about to run"
             return self._guard(st, lambda: explain_run(
                 self.template(st), self.scene_binding(st), self.hand(), self.constraints(st), self.osila_options,
-                title=where))
+                surface=self.surface(), title=where))
         done = [t for t in self.trace if t.step_result is not None]
         if not done:
             raise HilaRuntimeError("nothing to explain yet: no run state is current or has run")

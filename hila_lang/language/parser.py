@@ -68,19 +68,12 @@ _OPENERS = ("task", "main", "if", "else", "while", "until", "repeat")
 
 @functools.lru_cache(maxsize=1)
 def parser():
-    """The cached LALR parser for ``grammar/hila.lark``."""
+    """The cached LALR parser for ``grammar/hila.lark`` that returns lark's parse tree (for tools
+    that want the tree; the language itself parses straight to its AST:
+    :func:`hila_lang.language.transformer.parse_program`)."""
     from lark import Lark
 
     return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
-
-
-@functools.lru_cache(maxsize=1)
-def expr_parser():
-    """The same grammar parsing one expression (``expr``), for FSM dumps read back."""
-    from lark import Lark
-
-    return Lark.open(str(grammar_path()), parser="lalr", start="expr", propagate_positions=True,
-                     maybe_placeholders=True)
 
 
 def read_source(path: str | os.PathLike) -> str:
@@ -89,9 +82,10 @@ def read_source(path: str | os.PathLike) -> str:
 
 
 def decode_source(data: bytes, file: str = "<program>") -> str:
-    """UTF-8 bytes -> text; a bad byte is a :class:`HilaSyntaxError` with line and column."""
+    """UTF-8 bytes -> text; a bad byte is a :class:`HilaSyntaxError` with line and column.
+    A byte-order mark at the start (editors on Windows write one) is dropped."""
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         start = data.rfind(b"\n", 0, exc.start) + 1
         line = data.count(b"\n", 0, exc.start) + 1
@@ -111,11 +105,11 @@ def source_line(text: str, line: int) -> str | None:
     return lines[line - 1] if 1 <= line <= len(lines) else None
 
 
-def _describe(term: str) -> str:
+def _describe(term: str, lark) -> str:
     if term in _FRIENDLY:
         return _FRIENDLY[term]
     try:
-        pattern = parser().get_terminal(term).pattern
+        pattern = lark.get_terminal(term).pattern
     except KeyError:
         return term
     if type(pattern).__name__ == "PatternStr":
@@ -123,16 +117,16 @@ def _describe(term: str) -> str:
     return term.lower()
 
 
-def _expected(names) -> str:
+def _expected(names, lark) -> str:
     """Readable list of what the parser would have accepted ("" when it is too long to help)."""
-    shown = sorted({_describe(n) for n in names})
+    shown = sorted({_describe(n, lark) for n in names})
     if len(shown) > 7:
         return ""
     return shown[0] if len(shown) == 1 else ", ".join(shown[:-1]) + " or " + shown[-1]
 
 
-def _with_expected(message: str, names) -> str:
-    expected = _expected(names)
+def _with_expected(message: str, names, lark) -> str:
+    expected = _expected(names, lark)
     return f"{message}; expected {expected}" if expected else message
 
 
@@ -182,7 +176,11 @@ def _unclosed_block(text: str):
     return stack[-1] if stack else None
 
 
-def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
+def syntax_error(exc, text: str, file: str, lark) -> HilaSyntaxError:
+    """lark's ``UnexpectedInput`` for ``text`` as a :class:`HilaSyntaxError`: what was found,
+    what was expected, the innermost block left open, a common slip named when recognised.
+    ``lark`` is the parser that raised it (its terminals name what was expected, and the slips
+    are matched against its states)."""
     from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
 
     line = getattr(exc, "line", None)
@@ -204,7 +202,7 @@ def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
         lines = text.splitlines() or [""]
         line, column = len(lines), len(lines[-1]) + 1
         expected = getattr(exc, "expected", None) or []
-        message = _with_expected("unexpected end of file", expected)
+        message = _with_expected("unexpected end of file", expected, lark)
     elif isinstance(exc, UnexpectedCharacters):
         ch = exc.char
         shown = repr(ch) if not ch.isprintable() or ch.isspace() else f"'{ch}'"
@@ -214,16 +212,17 @@ def _syntax_error(exc, text: str, file: str) -> HilaSyntaxError:
     elif isinstance(exc, UnexpectedToken):
         tok = exc.token
         kinds = {"NAME": "name", "NUMBER": "number", "STRING": "string"}
-        found = f"{kinds[tok.type]} '{tok}'" if tok.type in kinds else f"'{tok}'"
+        shown = str(tok) if len(tok) <= 60 else f"{tok[:28]}...{tok[-28:]}"  # a giant string or name
+        found = f"{kinds[tok.type]} '{shown}'" if tok.type in kinds else f"'{shown}'"
         if tok.type == "RBRACE" and _unclosed_block(text[: tok.start_pos]) is None:
             message = "unmatched '}': no block is open here"
         else:
-            message = _with_expected(f"unexpected {found}", exc.expected)
+            message = _with_expected(f"unexpected {found}", exc.expected, lark)
     else:  # pragma: no cover - lark's other errors are not raised by an LALR parse
         message = str(exc).splitlines()[0]
     if not at_end:
         try:
-            label = exc.match_examples(parser().parse, COMMON_SLIPS, use_accepts=True)
+            label = exc.match_examples(lark.parse, COMMON_SLIPS, use_accepts=True)
         except Exception:  # noqa: BLE001 - a failed guess must never hide the real error
             label = None
         if label:
@@ -239,6 +238,6 @@ def parse_text(text: str, file: str = "<program>"):
     from lark.exceptions import UnexpectedInput
 
     try:
-        return parser().parse(text)
+        return parser().parse(text.removeprefix("\ufeff"))
     except UnexpectedInput as exc:
-        raise _syntax_error(exc, text, file) from None
+        raise syntax_error(exc, text, file, parser()) from None

@@ -127,7 +127,11 @@ class Recorder:
         interp.observers.append(self.observe)
 
     def observe(self, entry) -> None:
-        """Called by the interpreter after each step (see ``Interpreter.observers``)."""
+        """Called by the interpreter after each step (see ``Interpreter.observers``).  A step that
+        failed or was interrupted is not a step of the recording: how the run ended is its
+        ``result`` (the error and the state)."""
+        if entry.error is not None:
+            return
         it = self.interp
         changed = {k: plain(v) for k, v in it.env.items() if k not in self._env or not _same(self._env[k], v)}
         self._env = dict(it.env)
@@ -195,14 +199,18 @@ class Recorder:
 def start_recording(args, options):
     """For ``hila exec --record``: None, or a function that starts a :class:`Recorder` on the
     interpreter.  It wraps ``options.stdin`` now, before the world takes it, so the lines a
-    person types are kept; a folder given as the file is refused before anything runs."""
+    person types are kept; a folder given as the file, or a place that cannot be written, is refused
+    before anything runs."""
     if not getattr(args, "record", None):
         if getattr(args, "record_eyes", False):
             raise InputError("--record-eyes needs --record FILE.hilarec")
         return None
+    from ..fileio import ensure_writable
+
     path = Path(args.record)
     if path.is_dir():
         raise InputError("expected --record to name a file, got a folder", file=str(path))
+    ensure_writable(path)  # a recording that cannot be written is refused before the run, not after
     options.stdin = TeeInput(options.stdin)
     command = {"program": str(args.program), "backend": args.backend, "seed": options.seed,
                "settings": dict(options.settings), "record_eyes": bool(args.record_eyes)}

@@ -5,8 +5,10 @@ Commands: ``step [n]``, ``run`` / ``continue`` (until a breakpoint or the end), 
 [STATE]``, ``where``, ``icps``, ``explain``, ``vars``, ``path [--plot FILE.png]``, ``fsm``,
 ``back [n]`` (undo steps: world and simulator restored), ``reload`` (the edited program and
 templates, from the same state), ``reset``, ``help``, ``quit``.  An error in a command is
-reported and the session goes on.  Reading a pipe, each command is echoed after the prompt, so
-a transcript reads like a session; on a terminal,
+reported and the session goes on, and so does Ctrl-C: it stops a ``run`` (or any command) and
+returns to the prompt with the world, the simulator and the hand as they were; at the prompt it
+cancels the line.  Reading a pipe, each command is echoed after the prompt, so a transcript
+reads like a session; on a terminal,
 readline gives history (``~/.hila_history``) and tab completion of commands and state names.
 """
 
@@ -48,12 +50,23 @@ class Repl(cmd.Cmd):
                       f"at {interp.current}")
 
     # ------------------------------------------------------------------ plumbing
+    def cmdloop(self, intro=None) -> None:
+        """``cmd``'s loop, where Ctrl-C at the prompt cancels the line instead of ending the session."""
+        while True:
+            try:
+                super().cmdloop(intro)
+                return
+            except KeyboardInterrupt:
+                self.say("\ninterrupted: type 'quit' to leave")
+                intro = ""
+
     def say(self, text: str = "") -> None:
         self.stdout.write(text + "\n")
         self.stdout.flush()
 
     def preloop(self) -> None:
-        if self.use_rawinput:
+        if self.use_rawinput and not getattr(self, "_history_read", False):
+            self._history_read = True
             try:
                 import readline
 
@@ -84,6 +97,9 @@ class Repl(cmd.Cmd):
             self.say(str(exc))
         except (ValueError, OSError) as exc:
             self.say(f"error: {exc}")
+        except KeyboardInterrupt:  # Ctrl-C between two steps, or in another command (path --plot)
+            self.say("\ninterrupted")
+            self._at()
         return False
 
     def emptyline(self) -> bool:  # do not repeat the last command
@@ -122,17 +138,13 @@ class Repl(cmd.Cmd):
         self._at()
 
     def do_run(self, arg: str) -> None:
-        """run: execute until a breakpoint or the end."""
+        """run: execute until a breakpoint or the end (Ctrl-C stops it; the session goes on)."""
         if self.interp.done:
             self.say("the program has finished; 'reset' to run it again")
             return
-        first = True
-        while not self.interp.done:
-            if not first and self._hit():
-                self.say(f"breakpoint: {self.interp.current}")
-                break
-            self.say(str(self.interp.step()))
-            first = False
+        self.interp.run(until=self._hit, each=lambda entry: self.say(str(entry)))
+        if not self.interp.done and self._hit():
+            self.say(f"breakpoint: {self.interp.current}")
         self._at()
 
     def do_continue(self, arg: str) -> None:
@@ -141,8 +153,9 @@ class Repl(cmd.Cmd):
 
     do_c = do_continue
 
-    def _hit(self) -> bool:
-        return any(fnmatch.fnmatchcase(self.interp.current, b) for b in self.breakpoints)
+    def _hit(self, state: str | None = None) -> bool:
+        state = self.interp.current if state is None else state
+        return any(fnmatch.fnmatchcase(state, b) for b in self.breakpoints)
 
     def _at(self) -> None:
         self.say("finished" if self.interp.done else f"at {self.interp.current}")
@@ -172,7 +185,7 @@ class Repl(cmd.Cmd):
     def do_where(self, arg: str) -> None:
         """where: the current state, its program line and where the hand is."""
         it = self.interp
-        self.say(f"step {len(it.trace)}, hand at {fmt_point(it.hand())}")
+        self.say(f"step {it.trace.total}, hand at {fmt_point(it.hand())}")
         if it.done:
             self.say("finished")
             return
@@ -221,13 +234,13 @@ class Repl(cmd.Cmd):
         if words and (words[0] != "--plot" or len(words) != 2):
             raise ValueError("usage: path [--plot FILE.png]")
         p = it.last_path
-        runs = [t for t in it.trace if t.kind == "run"]
-        self.say(f"{runs[-1].state}: {len(p)} points, {fmt_point(p[0])} -> {fmt_point(p[-1])}, "
+        last = it.last_run
+        self.say(f"{last.state}: {len(p)} points, {fmt_point(p[0])} -> {fmt_point(p[-1])}, "
                  f"length {float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()):.3f} m")
         if words:
             from .plot import plot_path
 
-            out = plot_path(p, words[1], icps=it.last_icps, executed=runs[-1].executed, title=runs[-1].state)
+            out = plot_path(p, words[1], icps=it.last_icps, executed=last.executed, title=last.state)
             self.say(f"wrote {out}")
 
     def do_fsm(self, arg: str) -> None:

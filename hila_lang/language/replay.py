@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import HilaError, HilaRuntimeError
 from .fsm import FSM
-from .interpreter import TraceEntry, fmt_point
+from .interpreter import Trace, TraceEntry, fmt_point
 from .recording import sha256
 
 
@@ -52,12 +52,15 @@ class ReplayEngine:
 
     def _sync(self) -> None:
         done = self.steps[: self.index]
-        self.trace = [_entry(s) for s in done]
+        self.trace = Trace(0)  # the interpreter's trace type: 'where' and the rest read it alike
+        for s in done:
+            self.trace.record(_entry(s))
         self.env = {}
         for s in done:
             self.env.update(s["env"])
         runs = [s for s in done if s["kind"] == "run"]
         self.last_path = runs[-1]["path"] if runs else None
+        self.last_run = _entry(runs[-1]) if runs else None
         self.last_icps = dict(runs[-1]["icps"]) if runs else {}
         result = self.record["result"]
         if self.index < len(self.steps):
@@ -87,6 +90,19 @@ class ReplayEngine:
         self.index += 1
         self._sync()
         return _entry(s)
+
+    def run(self, until=None, max_steps: int | None = None, each=None) -> list[TraceEntry]:
+        """Replay steps until the end of the recording, ``max_steps`` steps, or just before a
+        state ``until`` (a name or a predicate on it), as :meth:`Interpreter.run` does."""
+        stop = until if callable(until) or until is None else (lambda name: name == until)
+        done: list[TraceEntry] = []
+        while not self.done and self.index < len(self.steps) and (max_steps is None or len(done) < max_steps):
+            if stop is not None and done and stop(self.current):
+                break
+            done.append(self.step())
+            if each is not None:
+                each(done[-1])
+        return done
 
     def _guard(self, state, action):
         return action()

@@ -10,18 +10,29 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .limits import DEFAULT_STEP_LIMIT
 
-def _seed(text: str) -> int:
-    """argparse type for --seed: a whole number >= 0 (numpy's generators refuse negative seeds)."""
-    import argparse
 
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
-    return value
+def _whole(note: str = ""):
+    """argparse type: a whole number >= 0 (``note`` says what 0 means, if anything)."""
+
+    def parse(text: str) -> int:
+        import argparse
+
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < 0:
+            got = repr(text) if value is None else value
+            raise argparse.ArgumentTypeError(f"expected a whole number >= 0{note}, got {got}")
+        return value
+
+    return parse
+
+
+_seed = _whole()  # --seed: numpy's generators refuse negative seeds
+_steps = _whole(" (0: no limit)")  # --max-steps
 
 
 def _aliases() -> dict[str, tuple[str, list[str]]]:
@@ -39,28 +50,67 @@ def _aliases() -> dict[str, tuple[str, list[str]]]:
     return flags
 
 
-def add_run_arguments(parser) -> None:
+def add_setting_arguments(parser) -> None:
+    """``--backend``, ``--set KEY=VALUE`` and the plug-ins' flags: what a program runs with, so
+    ``hila check`` can check it the way ``hila exec`` will run it.  ``--help`` lists every
+    registered world's and back end's settings (:func:`settings_help`)."""
     from ..plugins import registry
 
-    parser.add_argument("program", help="the .hila program")
     parser.add_argument("--backend", choices=registry.names("back end"), default=None,
                         help="who moves the hand (default: the world's choice)")
-    parser.add_argument("--seed", type=_seed, default=0, help="seed for every random choice (default 0)")
-    parser.add_argument("--out", type=Path, default=None, help="output folder for files the world writes")
     for flag, (name, owners) in sorted(_aliases().items()):
         parser.add_argument(flag, dest=f"alias:{name}", default=None, metavar=name.upper(),
                             help=f"same as --set {name}=VALUE ({'; '.join(owners)})")
-    parser.add_argument("--gui", action="store_true", help="open the PyBullet window")
     parser.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
-                        help="a setting of the world, the back end or OSILA (osila.threshold=0.002); repeatable")
+                        help="a setting of the world, the back end or OSILA (osila.threshold=0.002); "
+                             "repeatable; the settings are listed below")
+    parser.epilog = settings_help()
 
 
-def run_options(args):
-    from ..plugins.options import RunOptions, parse_pairs
+def settings_help() -> str:
+    """Every registered world's and back end's settings, and the OSILA options, for ``--help``
+    (read from the registry: a plug-in's settings appear as soon as it is installed)."""
+    import textwrap
+
+    from ..plugins import registry
+
+    lines = ["settings (--set KEY=VALUE), by the world (world NAME in the program) and the back end:"]
+    for kind in ("world", "back end"):
+        for info in registry.declarations(kind):
+            lines.append(f"  {kind} {info.name}: {info.doc}")
+            for s in info.settings:
+                lines.extend(textwrap.wrap(s.help(), 96, initial_indent="    ", subsequent_indent="      "))
+            if not info.settings:
+                lines.append("    (no settings)")
+    lines.extend(textwrap.wrap("OSILA: osila.threshold, osila.rounds, osila.smoothing, osila.distortion, "
+                               "osila.margin, osila.shells, osila.directions (see 'hila imitate --help')",
+                               96, initial_indent="  ", subsequent_indent="    "))
+    return "\n".join(lines)
+
+
+def settings_of(args) -> dict[str, str]:
+    """The ``--set`` pairs and plug-in flags of ``args`` as one dict (a bad pair: InputError)."""
+    from ..plugins.options import parse_pairs
 
     settings = parse_pairs(args.settings)
     for dest, value in vars(args).items():
         if dest.startswith("alias:") and value is not None:
             settings[dest[6:]] = value
-    return RunOptions(seed=args.seed, out=args.out, gui=args.gui, settings=settings,
+    return settings
+
+
+def add_run_arguments(parser) -> None:
+    parser.add_argument("program", help="the .hila program")
+    parser.add_argument("--seed", type=_seed, default=0, help="seed for every random choice (default 0)")
+    parser.add_argument("--out", type=Path, default=None, help="output folder for files the world writes")
+    parser.add_argument("--gui", action="store_true", help="open the PyBullet window")
+    parser.add_argument("--max-steps", type=_steps, default=DEFAULT_STEP_LIMIT, metavar="N",
+                        help=f"stop a run after N steps, a loop that never ends (default {DEFAULT_STEP_LIMIT}; 0: no limit)")
+    add_setting_arguments(parser)
+
+
+def run_options(args):
+    from ..plugins.options import RunOptions
+
+    return RunOptions(seed=args.seed, out=args.out, gui=args.gui, settings=settings_of(args),
                       stdin=sys.stdin, stdout=sys.stdout)

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import functools
 import re
 
-from lark import Token, Transformer, v_args
+from lark import Token, Transformer, Tree, v_args
 from lark.exceptions import VisitError
 
 from . import ast as A
 from ..errors import HilaError, HilaSyntaxError
-from .parser import parse_text, source_line
+from .limits import MAX_NESTING
+from .parser import source_line
 
 
 def _pos(meta) -> A.Pos:
@@ -202,7 +204,12 @@ def _is_expr(x) -> bool:
 
 
 def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
-    """Transform a parse tree to a :class:`~hila_lang.language.ast.Program` (VisitError unwrapped)."""
+    """Transform a lark parse tree (:func:`~hila_lang.language.parser.parse_text`) to a
+    :class:`~hila_lang.language.ast.Program` (VisitError unwrapped).
+
+    The reference path, a tree walk: :func:`parse_program` builds the same AST while parsing
+    (:func:`ast_parser`), without the tree, and ``tests/test_lang_parse.py`` holds the two equal.
+    """
     try:
         items = ToAst().transform(tree)
     except VisitError as exc:
@@ -211,6 +218,149 @@ def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
             raise inner from None
         raise
     return A.Program(items, file, text)
+
+
+# --------------------------------------------------------------------------- parsing to the AST
+#
+# The LALR parser calls a rule's callback as it reduces the rule, so the AST can be built while
+# parsing: no lark tree (with a position record per node) is ever held, and nothing recurses
+# however deep the program nests.  lark refuses ``v_args(meta=True)`` callbacks during parsing,
+# so positions are found here the way lark's ``propagate_positions`` finds them: a node spans
+# from its first child's start to its last child's end, keywords and brackets included (a
+# ``run`` statement starts at ``run``).  Each value on the parser's stack is a :class:`_Val`
+# carrying that span; lark's own child filter still drops keywords and inserts ``None`` for an
+# absent ``[optional]`` before a ``ToAst`` method sees the children, so ``ToAst`` is unchanged.
+
+
+class _Val:
+    """A value on the parser's stack and the span of source text it came from."""
+
+    __slots__ = ("value", "line", "column", "end_line", "end_column")
+
+    def __init__(self, value) -> None:
+        self.value = value
+
+
+class _Meta:
+    """What a ``ToAst`` method reads of lark's ``Meta``."""
+
+    __slots__ = ("line", "column", "end_line", "end_column", "empty")
+
+    def __init__(self, first=None, last=None) -> None:
+        self.empty = first is None
+        if first is not None:
+            self.line, self.column, self.end_line, self.end_column = (
+                first.line, first.column, last.end_line, last.end_column)
+
+
+_EMPTY = _Meta()
+#: (first, last) positioned child of the rule being reduced (reductions never nest)
+_span: list = [None, None]
+
+
+def _positioned(children):
+    """The first child with a position: a value, a token, or an inlined ``_rule`` about to be
+    spliced in (its meta); None when there is none."""
+    for c in children:
+        t = type(c)
+        if t is _Val or t is Token:
+            return c
+        if t is Tree and not c.meta.empty:
+            return c.meta
+    return None
+
+
+def _located(callback):
+    """``callback`` (lark's filter chain around a ``ToAst`` method) with the span of the raw
+    children (every token included) worked out first and handed on through :data:`_span`."""
+
+    def reduce(children):
+        first = _positioned(children)
+        last = first if first is None or len(children) == 1 else _positioned(reversed(children))
+        _span[0], _span[1] = first, last
+        out = callback(children)
+        if first is not None:
+            if type(out) is _Val:  # new, or a single child passed up: it spans this rule now
+                out.line, out.column, out.end_line, out.end_column = (
+                    first.line, first.column, last.end_line, last.end_column)
+            elif type(out) is Tree and out.meta.empty:
+                m = out.meta
+                m.line, m.column, m.end_line, m.end_column, m.empty = (
+                    first.line, first.column, last.end_line, last.end_column, False)
+        return out
+
+    return reduce
+
+
+def _calling(method, name: str):
+    """A lark callback for rule ``name``: unwrap the children and call the ``ToAst`` method."""
+    wrapper = method.visit_wrapper
+
+    def call(children):
+        values = [c.value if type(c) is _Val else c for c in children]
+        return _Val(wrapper(method, name, values, _Meta(*_span)))
+
+    return call
+
+
+class _Callbacks:
+    """The ``ToAst`` methods as lark inline callbacks (attributes named after the rules)."""
+
+    def __init__(self) -> None:
+        builder = ToAst()
+        for name in dir(ToAst):
+            method = getattr(builder, name)
+            if getattr(method, "visit_wrapper", None) is not None:
+                setattr(self, name, _calling(method, name))
+
+
+def ast_parser(start: str = "start"):
+    """The LALR parser of ``grammar/hila.lark`` that returns the AST of ``start`` (a
+    :class:`_Val`) instead of a tree: the one the language uses (see the comment above).
+    One instance per start rule (an error's parser state is matched against the same one)."""
+    return _ast_parser(start)
+
+
+@functools.lru_cache(maxsize=2)
+def _ast_parser(start: str):
+    from lark import Lark
+
+    from ..resources import grammar_path
+
+    lark = Lark.open(str(grammar_path()), parser="lalr", start=start, maybe_placeholders=True,
+                     transformer=_Callbacks())
+    callbacks = getattr(lark, "_callbacks", None)  # the dict the LALR parser calls (lark 1.x)
+    if not isinstance(callbacks, dict):  # pragma: no cover - a lark release that moved it
+        raise RuntimeError("this lark release keeps its parser callbacks elsewhere; hila needs lark 1.x")
+    for rule in [r for r in callbacks if not isinstance(r, str)]:
+        if rule.options.expand1 and not rule.alias and len(rule.expansion) == 1:
+            continue  # ``?a: b`` hands b up unchanged, span and all
+        callbacks[rule] = _located(callbacks[rule])
+    return lark
+
+
+_NAME = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
+
+
+def usable_as_tag(tag: str) -> bool:
+    """Whether a program can write ``tag`` as a sub-template's tag: ``run t.TAG(...)`` parses
+    and names it (the grammar decides, keywords and all)."""
+    from lark.exceptions import UnexpectedInput
+
+    if not _NAME.fullmatch(tag):
+        return False
+    try:
+        items = parse_items(f"main {{ run t.{tag}() }}")
+    except UnexpectedInput:
+        return False
+    return items[-1].body[0].tag == tag
+
+
+def parse_items(text: str, start: str = "start"):
+    """Parse ``text`` straight to AST items (or one expression for ``start="expr"``); lark's
+    ``UnexpectedInput`` propagates."""
+    out = ast_parser(start).parse(text)
+    return out.value if type(out) is _Val else out
 
 
 _SLOT_OR_STRING = re.compile(r'"[^"\n]*"|\{([^{}"]*)\}')
@@ -223,8 +373,6 @@ def parse_expr(text: str):
     :class:`~hila_lang.language.ast.Var`; anything that is not one expression is a
     :class:`HilaSyntaxError`.
     """
-    from .parser import expr_parser
-
     slots: dict[str, str] = {}
 
     def placeholder(m):
@@ -238,49 +386,71 @@ def parse_expr(text: str):
     from lark.exceptions import UnexpectedInput
 
     try:
-        tree = expr_parser().parse(source)
+        e = parse_items(source, "expr")
     except UnexpectedInput as exc:
         raise HilaSyntaxError(f"not an expression: {text!r}", line=getattr(exc, "line", None),
                               column=getattr(exc, "column", None)) from None
-    e = ToAst().transform(tree)
     return A.map_names(e, lambda n: A.Var(slots[n.parts[0]], n.parts[1:], n.pos) if n.parts[0] in slots else n)
 
 
-#: deepest parse tree accepted (an ``if`` inside an ``if`` adds two levels, a parenthesis one or two)
-MAX_DEPTH = 300
+
+_BLOCK_OWNERS = (A.TaskDef, A.MainDef, A.IfStmt, A.WhileStmt, A.UntilStmt, A.RepeatStmt)
 
 
-def _too_deep(tree):
-    """The first tree node deeper than :data:`MAX_DEPTH`, or None (iterative: no recursion)."""
-    from lark import Tree
-
-    stack = [(tree, 1)]
+def deepest(items):
+    """(node, blocks, expression levels) of the most deeply nested node of ``items``
+    (see :data:`MAX_NESTING`), walking without recursion; None for no items."""
+    stack = [(item, 0, 0) for item in reversed(items)]
+    best = None
     while stack:
-        node, depth = stack.pop()
-        if depth > MAX_DEPTH:
-            return node
-        stack.extend((c, depth + 1) for c in node.children if isinstance(c, Tree))
-    return None
+        node, blocks, exprs = stack.pop()
+        if best is None or blocks + exprs > best[1] + best[2]:
+            best = (node, blocks, exprs)
+        owner = isinstance(node, _BLOCK_OWNERS)
+        for child in reversed(A.children(node)):  # popped in source order
+            if isinstance(child, A.STATEMENTS):  # a statement in this node's block
+                stack.append((child, blocks + 1 if owner else blocks, 0))
+            else:  # an expression (a binding ``icp = value`` is not a level of its own)
+                stack.append((child, blocks, exprs + (0 if isinstance(child, A.Binding) else 1)))
+    return best
+
+
+def _nesting_error(items, text: str, file: str) -> HilaSyntaxError | None:
+    found = deepest(items)
+    if found is None or found[1] + found[2] <= MAX_NESTING:
+        return None
+    node, blocks, exprs = found
+    pos = getattr(node, "pos", A.NOPOS)
+    line, column = (pos.line, pos.column) if pos.line else (1, 1)
+    parts = [f"{blocks} blocks one inside another" if blocks > 1 else "1 block"] if blocks else []
+    if exprs:
+        parts.append(f"{exprs} expression level{'s' if exprs != 1 else ''}")
+    hint = ("compute part of the expression first with 'let': each operator of a chain like "
+            "a + b + c nests one level") if exprs > blocks else "move inner blocks into tasks"
+    return HilaSyntaxError(
+        f"the program nests too deeply here: {' and '.join(parts)}, {blocks + exprs} levels "
+        f"(at most {MAX_NESTING})", file=file, line=line, column=column,
+        source_line=source_line(text, line), hint=hint)
 
 
 def parse_program(text: str, file: str = "<program>") -> A.Program:
     """Text -> AST in one call; any failure is a :class:`HilaSyntaxError` with line and column.
 
-    Nesting deeper than :data:`MAX_DEPTH` tree levels is refused here, so no later stage
-    (checker, compiler, interpreter, all recursive) can run out of stack.
+    A byte-order mark at the start is skipped (editors on Windows write one).  Parsing builds
+    the AST directly (:func:`ast_parser`, no recursion), and nesting deeper than
+    :data:`MAX_NESTING` is refused here, so no later stage (checker, compiler, interpreter, all
+    recursive) can run out of stack.
     """
-    tree = parse_text(text, file)
-    deep = _too_deep(tree)
-    if deep is not None:
-        line = getattr(deep.meta, "line", 1) if not getattr(deep.meta, "empty", True) else 1
-        column = getattr(deep.meta, "column", 1) if not getattr(deep.meta, "empty", True) else 1
-        raise HilaSyntaxError(
-            f"the program nests too deeply (more than {MAX_DEPTH} levels of blocks and parentheses)",
-            file=file, line=line, column=column, source_line=source_line(text, line),
-            hint="split it into tasks",
-        )
+    from lark.exceptions import UnexpectedInput
+
+    from .parser import syntax_error
+
+    text = text.removeprefix("\ufeff")
     try:
-        return to_ast(tree, text, file)
-    except RecursionError:  # pragma: no cover - MAX_DEPTH keeps well inside the stack
-        raise HilaSyntaxError("the program nests too deeply", file=file, line=1, column=1,
-                              source_line=source_line(text, 1)) from None
+        items = parse_items(text)
+    except UnexpectedInput as exc:
+        raise syntax_error(exc, text, file, ast_parser()) from None
+    error = _nesting_error(items, text, file)
+    if error is not None:
+        raise error
+    return A.Program(items, file, text)

@@ -1,4 +1,11 @@
-"""What ``hila exec`` / ``hila repl`` pass to every world and back end."""
+"""What ``hila exec`` / ``hila repl`` pass to every world and back end, and how ``--set`` pairs
+are split among OSILA, the world and the back end and parsed -- before anything is built, by
+``hila check`` as by ``hila exec``: a bad value is exit status 2 naming the option.
+
+``osila.KEY`` goes to :func:`hila_lang.osila.imitate` (values read as YAML scalars: ``0.002``,
+``true``, ``[1, 2]``) and is validated by OSILA itself on a two-point path, so the rules live in
+one place; any other key goes to the world or the back end that declares it.
+"""
 
 from __future__ import annotations
 
@@ -33,6 +40,81 @@ class RunOptions:
     settings: dict[str, str] = field(default_factory=dict)
     stdin: TextIO = field(default_factory=lambda: sys.stdin)
     stdout: TextIO = field(default_factory=lambda: sys.stdout)
+
+
+def osila_options(settings: dict[str, str]) -> dict:
+    """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}`` (other keys are ignored);
+    an unknown option or a value OSILA refuses is an InputError naming ``--set KEY=VALUE``."""
+    import difflib
+
+    import yaml
+
+    from ..errors import InputError
+    from ..osila import OPTIONS, imitate
+
+    out = {}
+    for key, text in settings.items():
+        if not key.startswith("osila."):
+            continue
+        name = key[6:]
+        if name not in OPTIONS:
+            close = difflib.get_close_matches(name, OPTIONS, n=1)
+            raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(OPTIONS)}",
+                             hint=f"did you mean 'osila.{close[0]}'?" if close else None)
+        try:
+            out[name] = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise InputError(f"cannot read --set {key}={text}: expected a number, true/false or a list") from None
+        try:  # OSILA's own checks, on a path of two points
+            imitate([[0.0, 0.0], [1.0, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]], **{name: out[name]})
+        except InputError as exc:
+            raise InputError(f"bad value for --set {key}={text}: {exc.message}",
+                             hint="the OSILA options are described in 'hila imitate --help'") from None
+    return out
+
+
+def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict, dict]:
+    """``--set`` pairs -> (OSILA options, the world's settings, the back end's), each parsed
+    (``world`` a WorldInfo, ``backend`` a BackendInfo); any other key is an InputError that says
+    who has it (``--opponent`` on a world without an opponent) or suggests a near name."""
+    import difflib
+
+    from ..errors import InputError
+
+    world_keys = {s.name for s in world.settings}
+    backend_keys = {s.name for s in backend.settings}
+    mine: dict[str, dict[str, str]] = {"world": {}, "backend": {}}
+    for key, text in settings.items():
+        if key.startswith("osila."):
+            continue
+        if key in world_keys:
+            mine["world"][key] = text
+        elif key in backend_keys:
+            mine["backend"][key] = text
+        else:
+            known = sorted(world_keys | backend_keys)
+            owners, flag = _owners(key)
+            close = difflib.get_close_matches(key, known, n=1)
+            hint = (f"'{key}'{f' ({flag})' if flag else ''} is a setting of {', '.join(owners)}" if owners
+                    else f"did you mean {close[0]!r}?" if close else None)
+            raise InputError(
+                f"unknown setting {key!r} for world {world.name!r} and back end {backend.name!r}; known: "
+                + ", ".join([*known, "osila.OPTION"]), hint=hint)
+    return osila_options(settings), world.parse(mine["world"]), backend.parse(mine["backend"])
+
+
+def _owners(key: str) -> tuple[list[str], str | None]:
+    """(["world tictactoe", ...] that declare setting ``key``, its command-line flag or None)."""
+    from . import registry
+
+    owners, flag = [], None
+    for kind in ("world", "back end"):
+        for info in registry.declarations(kind):
+            for s in info.settings:
+                if s.name == key:
+                    owners.append(f"{kind} {info.name}")
+                    flag = flag or s.flag
+    return owners, flag
 
 
 def parse_pairs(pairs: list[str] | None) -> dict[str, str]:

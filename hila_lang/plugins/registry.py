@@ -51,6 +51,37 @@ def _check_conforms(obj: Any, protocol: type, what: str) -> None:
 
 
 @dataclass(frozen=True)
+class Declared:
+    """What a world answers, known before it is built: what ``hila check`` checks a program by.
+
+    Attributes
+    ----------
+    questions, events : mapping name -> one-line doc
+        Every name ``ask`` and ``wait`` may use.
+    points : frozenset of str, or None
+        Every scene point the world names, when it is known before the run (a script's);
+        None when the world makes them as it goes (a board it reads with its eyes).
+    drawing_surface : bool
+        The world's scene has a drawing surface (paper): a 2-D template runs on it.
+    source : str
+        Who answers, for messages ("the tictactoe world", "the scripted world (s.yaml)").
+    advice : str or None
+        What to do when a name is missing and the world has none of its kind.
+    question_dims, event_dims : mapping name -> 2 or 3
+        The answers that are always points of one size (a script's); others are not known.
+    """
+
+    questions: Mapping[str, str]
+    events: Mapping[str, str]
+    points: frozenset | None = None
+    drawing_surface: bool = False
+    source: str = ""
+    advice: str | None = None
+    question_dims: Mapping[str, int] = field(default_factory=dict)
+    event_dims: Mapping[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class WorldInfo:
     """A world plug-in's declaration.
 
@@ -68,8 +99,13 @@ class WorldInfo:
     default_backend : str
         The back end when ``--backend`` is not given.
     dynamic_names : bool
-        The world's questions and events are known only when it runs (a script names them), so
-        ``questions`` and ``events`` are not the whole list.
+        The world's questions and events are known only when it runs, so ``questions`` and
+        ``events`` are not the whole list (unless ``declare`` knows them from the settings).
+    drawing_surface : bool
+        Its scene has a drawing surface (paper) that 2-D templates run on.
+    declare : str or None
+        ``"module:callable"``; ``callable(settings: dict) -> Declared``, for a world whose names
+        follow from its settings (the scripted world's script); None: the fields above say it all.
     """
 
     name: str
@@ -80,9 +116,21 @@ class WorldInfo:
     events: Mapping[str, str] = field(default_factory=dict)
     default_backend: str = "dry"
     dynamic_names: bool = False
+    drawing_surface: bool = False
+    declare: str | None = None
 
     def parse(self, given: dict[str, str]) -> dict[str, Any]:
         return parse_settings(self.settings, given, f"world {self.name}")
+
+    def declared(self, settings: dict[str, Any] | None = None) -> Declared | None:
+        """What the world answers with these (parsed) settings, or None when only the running
+        world knows (``dynamic_names`` without ``declare``, or no settings to ask with)."""
+        if self.declare is not None:
+            return None if settings is None else _import(self.declare)(settings)
+        if self.dynamic_names:
+            return None
+        return Declared(dict(self.questions), dict(self.events), None, self.drawing_surface,
+                        f"the {self.name} world")
 
     def build(self, options, settings: dict[str, Any]):
         """The world for a run (``settings`` as :meth:`parse` returns them), checked to be a World."""
@@ -182,23 +230,6 @@ def declarations(kind: str) -> list:
         except Exception:  # noqa: BLE001 - a broken third-party plug-in must not break --help
             continue
     return out
-
-
-def settings_help(width: int = 100) -> str:
-    """Every ``--set`` a registered world or back end declares, for ``--help`` (one block per
-    plug-in, a line per setting: ``name=METAVAR  doc (default: ...)``)."""
-    import textwrap
-
-    lines = ["settings (--set KEY=VALUE, repeatable; a world's apply when a program names it,",
-             "a back end's with --backend; osila.OPTION goes to OSILA):"]
-    for kind in ("world", "back end"):
-        for info in declarations(kind):
-            if not info.settings:
-                continue
-            lines.append(f"  {kind} {info.name}:")
-            for s in info.settings:
-                lines += textwrap.wrap(s.help(), width, initial_indent="    ", subsequent_indent="        ")
-    return "\n".join(lines)
 
 
 def refresh() -> None:

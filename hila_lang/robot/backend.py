@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from ..bounded import BoundedLog
 from ..errors import InputError
 from ..sim.camera import RenderStyle
 from ..sim.scene import Lights, SimScene, _check_point
@@ -37,6 +38,9 @@ from .body import Body
 from .eyes import Eyes
 from .paper import Paper, TopView
 from .workspace import PAPER_THICKNESS, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z, default_surface
+
+#: moves kept in :attr:`PyBulletBackend.traces` (a 4 s move at 240 Hz is about 100 kB)
+KEEP_TRACES = 1000
 
 #: the hand's ready point above the paper's centre, metres
 READY_HEIGHT = 0.10
@@ -88,8 +92,8 @@ class PyBulletBackend:
     snapshots : SimSnapshots
     view : Window or None
         The window (``gui``): framed, paths drawn, the state written, the left eye's image.
-    traces : list of Trace
-        Every executed move.
+    traces : BoundedLog of Trace
+        Every executed move; the newest :data:`KEEP_TRACES` kept.
     stats : dict
         Counters for benchmarks: IK solves and their wall time, simulation steps and the wall
         time of the control loop, renders and their time.
@@ -104,7 +108,7 @@ class PyBulletBackend:
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
         if arm not in ("auto", "ready", "rest"):
             raise InputError(f"arm must be 'auto', 'ready' or 'rest', got {arm!r}")
-        self.traces: list[Trace] = []
+        self.traces: BoundedLog = BoundedLog(KEEP_TRACES)  # the newest kept: memory stays flat
         self.stats = dict.fromkeys(("ik_solves", "ik_seconds", "steps", "step_seconds", "renders", "render_seconds"), 0)
         self.sim = SimScene(gui=gui, time_step=1.0 / SIM_RATE, solver_iterations=SOLVER_ITERATIONS, style=EYE_LIGHT)
         try:

@@ -11,8 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bounded import BoundedLog
 from ..errors import InputError
 from ..validation import check_path
+
+
+#: moves kept in :attr:`DryBackend.moves`
+KEEP_MOVES = 1000
 
 
 class DryBackend:
@@ -29,7 +34,8 @@ class DryBackend:
         from ..plugins.snapshots import AttributeSnapshots
 
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
-        self.moves: list[tuple[str, np.ndarray, bool]] = []
+        #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.bounded.BoundedLog`)
+        self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
         self.snapshots = AttributeSnapshots(self, ("_hand",), append_only=("moves",))
 
     def hand_position(self) -> np.ndarray:

@@ -44,4 +44,5 @@ WORLD = WorldInfo(
         "word": "the word being written",
     },
     default_backend="dry",
+    drawing_surface=True,
 )

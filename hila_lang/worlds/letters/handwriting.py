@@ -40,7 +40,6 @@ write --name <L> -o <L>.yaml``.
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 import numpy as np

@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...errors import HilaRuntimeError, UnknownNameError
+from ...fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from .layout import PAPER, layout
@@ -34,20 +35,20 @@ from .layout import PAPER, layout
 CONTACT_TOLERANCE = 0.0005
 #: how often a program may ask for a letter without writing it
 MAX_ASKS = 3
+#: every file the world writes
+FILES = ("paper.png", "report.json")
 
 
 class LettersWorld:
     """Writing ``settings["word"]`` (see the module docstring)."""
 
     def __init__(self, options, settings: dict[str, Any]) -> None:
-        from pathlib import Path
-
         self.options = options
         self.word = settings["word"]
         self.write_report = settings["report"]
         self.layout = layout(self.word, settings["size"])
-        if self.write_report and options.out is not None and Path(options.out).exists() and not Path(options.out).is_dir():
-            raise InputError("expected --out to be a folder, got a file", file=str(options.out))
+        #: the output folder, made and proved writable now, before anything is written on the paper
+        self.outputs = OutputFolder(options.out, "write-{time}", owned=FILES) if self.write_report else None
         self.scene = Scene(surface=PAPER, home=self.layout.home)
         self.written: list[dict[str, Any]] = []
         self.backend = None
@@ -123,8 +124,6 @@ class LettersWorld:
 
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
         """Print what was written; write ``paper.png`` and ``report.json`` (unless report=no)."""
-        from ...fileio import atomic_write_text, output_folder, write_png
-
         where = [i for i, c in enumerate(self.word) if c != " "]
         text = self.word[: where[len(self.written) - 1] + 1] if self.written else ""
         report = {
@@ -140,12 +139,12 @@ class LettersWorld:
             "backend": None if self.backend is None else self.backend.name,
         }
         print(f"wrote {text!r}" + ("" if report["complete"] else f" of {self.word!r}"), file=self.options.stdout)
-        if self.write_report:
-            folder = output_folder(self.options.out, "write-{time}")
-            write_png(folder / "paper.png", self.paper_image())
-            atomic_write_text(folder / "report.json", json.dumps(report, indent=2) + "\n")
-            report["out"] = str(folder)
-            print(f"outputs written to {folder}", file=self.options.stdout)
+        if self.outputs is not None:
+            self.outputs.write_png("paper.png", self.paper_image())
+            self.outputs.write_text("report.json", json.dumps(report, indent=2) + "\n")
+            self.outputs.close()
+            report["out"] = str(self.outputs.path)
+            print(f"outputs written to {self.outputs.path}", file=self.options.stdout)
         return report
 
 

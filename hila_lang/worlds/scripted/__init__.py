@@ -1,7 +1,8 @@
 """The ``scripted`` world: scene points, answers and events read from a YAML script.
 
-See :mod:`hila_lang.worlds.scripted.world`.  Its questions and events are whatever the script
-names, so they are not declared here (``dynamic_names``).
+See :mod:`hila_lang.worlds.scripted.world`.  Its questions, events and points are whatever the
+script names, so ``hila check --set script=FILE.yaml`` checks a program against the script
+(``declare``); without a script the world is empty.
 """
 
 from ...plugins.registry import WorldInfo
@@ -11,6 +12,9 @@ WORLD = WorldInfo(
     name="scripted",
     factory="hila_lang.worlds.scripted.world:make_world",
     doc="fixed scene points, answers and events from a YAML script (tests, examples)",
-    settings=(Setting("script", "a YAML file with points, answers, events and home", text(), metavar="FILE.yaml"),),
+    settings=(Setting("script", "a YAML file: points (name: [x, y, z]), answers (question: value or "
+                      "[values in turn]), events (event: [values in turn]), home ([x, y, z])", text(),
+                      metavar="FILE.yaml"),),
     dynamic_names=True,
+    declare="hila_lang.worlds.scripted.world:declared",
 )

@@ -7,7 +7,7 @@
   that runs out is a runtime error, so a test fails loudly instead of looping;
 - ``events``: event -> list of values handed out in order by ``wait``.
 
-Every ``notify`` is kept in :attr:`log` as ``(event, data)``.  From the command line,
+Every ``notify`` is kept in :attr:`log` as ``(event, data)`` (the newest :data:`KEEP_LOG`).  From the command line,
 ``--set script=FILE.yaml`` loads a YAML mapping with the keys ``points``, ``answers``,
 ``events`` (and optionally ``home``: where the back end starts the hand, ``scene.home``); without
 a script the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
@@ -20,9 +20,14 @@ from typing import Any
 
 import numpy as np
 
+from ...bounded import BoundedLog
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
+
+
+#: notifications kept in :attr:`ScriptedWorld.log`
+KEEP_LOG = 1000
 
 
 class ScriptedWorld:
@@ -34,7 +39,7 @@ class ScriptedWorld:
         self.events = {k: list(v) for k, v in (events or {}).items()}
         self.home = None if home is None else _point(home, "home")
         self.scene = None if self.home is None else Scene(home=self.home)
-        self.log: list[tuple[str, dict]] = []
+        self.log: BoundedLog = BoundedLog(KEEP_LOG)  # every notification; the newest kept
         self.snapshots = AttributeSnapshots(self, ("answers", "events"), append_only=("log",))
 
     def attach(self, backend) -> None:
@@ -64,8 +69,12 @@ class ScriptedWorld:
         self.log.append((event, data))
 
     def finish(self, trace=None, *, fsm=None) -> dict:
-        runs = [t for t in (trace or []) if t.kind == "run"]
-        return {"states": len(trace or []), "runs": len(runs)}
+        """Counts of the states and run states executed (every one, not only those kept)."""
+        trace = trace or []
+        kinds = getattr(trace, "kinds", None)
+        if kinds is None:  # a plain list of entries
+            kinds = {"run": sum(1 for t in trace if t.kind == "run")}
+        return {"states": len(trace), "runs": kinds.get("run", 0)}
 
 
 def _point(value, what: str) -> np.ndarray:
@@ -94,6 +103,37 @@ def load_script(path) -> ScriptedWorld:
     except InputError as exc:
         exc.file = str(path)
         raise
+
+
+def declared(settings):
+    """What the world with these settings answers (for ``hila check``): its script's names."""
+    from ...plugins.registry import Declared
+
+    script = settings.get("script")
+    if not script:
+        return Declared({}, {}, frozenset(), False, "the scripted world (no --set script=FILE.yaml)",
+                        "the scripted world answers what its script names: give the script with "
+                        "--set script=FILE.yaml (points, answers, events)")
+    world = load_script(script)
+    return Declared({k: "from the script" for k in world.answers}, {k: "from the script" for k in world.events},
+                    frozenset(world.points()), False, f"the scripted world ({script})",
+                    question_dims=_point_sizes(world.answers), event_dims=_point_sizes(world.events))
+
+
+def _point_sizes(values: dict) -> dict[str, int]:
+    """name -> 2 or 3 for the names whose every value (in turn) is a point of that size."""
+    out = {}
+    for name, given in values.items():
+        sizes = {_point_size(v) for v in (given if isinstance(given, list) else [given])}
+        if len(sizes) == 1 and None not in sizes:
+            out[name] = sizes.pop()
+    return out
+
+
+def _point_size(value) -> int | None:
+    numbers = isinstance(value, (list, tuple)) and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+    return len(value) if numbers and len(value) in (2, 3) else None
 
 
 def make_world(options, settings) -> ScriptedWorld:

@@ -47,4 +47,5 @@ WORLD = WorldInfo(
     },
     events={"opponent_moved": "the opponent plays a cell (its cross is inked); the value is the cell"},
     default_backend="pybullet",
+    drawing_surface=True,
 )

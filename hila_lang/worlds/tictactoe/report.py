@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from ...fileio import atomic_write_text
 from . import rules as ttt
 
 PLANNED_BGR = (60, 170, 60)
@@ -139,11 +138,16 @@ def vision_summary(world) -> dict[str, Any]:
     }
 
 
-def output_folder(out: Path | str | None, seed: int) -> Path:
-    """``out`` as given, or a fresh ``runs/game-<UTC time>-seed<N>[-k]`` folder (created)."""
-    from ...fileio import output_folder as folder
+#: every file a game may write (a file of an earlier game that this one does not write is removed)
+FILES = ("eye.png", "fsm.dot", "paper.png", "report.json", "top.png", "traces.csv")
 
-    return folder(out, f"game-{{time}}-seed{seed}")
+
+def output_folder(out: Path | str | None, seed: int):
+    """``out`` as given, or a fresh ``runs/game-<UTC time>-seed<N>[-k]`` folder: an
+    :class:`~hila_lang.fileio.OutputFolder`, created and proved writable."""
+    from ...fileio import OutputFolder
+
+    return OutputFolder(out, f"game-{{time}}-seed{seed}", owned=FILES)
 
 
 def traces_csv(world) -> str:
@@ -234,20 +238,16 @@ def top_view(world) -> np.ndarray:
 
 
 def write_outputs(world, report: dict[str, Any]) -> Path:
-    """Write the output folder of ``world``'s game; returns the folder."""
-    from ...fileio import write_png
-
-    folder = output_folder(world.options.out, world.seed)
-    files = ["paper.png", "report.json", "traces.csv", "top.png"]
-    atomic_write_text(folder / "traces.csv", traces_csv(world))
-    write_png(folder / "top.png", top_view(world))
-    write_png(folder / "paper.png", paper_view(world))
+    """Write the output folder of ``world``'s game (made when the world was); returns the folder."""
+    folder = world.outputs if world.outputs is not None else output_folder(world.options.out, world.seed)
+    folder.write_text("traces.csv", traces_csv(world))
+    folder.write_png("top.png", top_view(world))
+    folder.write_png("paper.png", paper_view(world))
     if world.sees:
-        write_png(folder / "eye.png", world.backend.eyes.camera_image("left").rgb)
-        files.append("eye.png")
+        folder.write_png("eye.png", world.backend.eyes.camera_image("left").rgb)
     if world.fsm is not None:
-        atomic_write_text(folder / "fsm.dot", world.fsm.to_dot())
-        files.append("fsm.dot")
-    report = dict(report, files=sorted(files))
-    atomic_write_text(folder / "report.json", json.dumps(report, indent=2) + "\n")
-    return folder
+        folder.write_text("fsm.dot", world.fsm.to_dot())
+    folder.file("report.json")
+    report = dict(report, files=folder.close())
+    folder.write_text("report.json", json.dumps(report, indent=2) + "\n")
+    return folder.path

@@ -50,7 +50,6 @@ path of the program's pen-down sub-template.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -111,9 +110,12 @@ class TicTacToeWorld:
         self.scene = Scene(surface=layout.paper())
         self.first = self.settings["first"]
         self.write_report = self.settings["report"]
-        out = options.out
-        if self.write_report and out is not None and Path(out).exists() and not Path(out).is_dir():
-            raise InputError("expected --out to be a folder, got a file", file=str(out))
+        #: the output folder, made and proved writable now: a game is never played to be lost
+        self.outputs = None
+        if self.write_report:
+            from .report import output_folder
+
+            self.outputs = output_folder(options.out, self.seed)
         self.rng = np.random.default_rng([self.seed, 5])
         self.park = park_position(layout, self.rng)
         self.opponent = make_opponent(self.settings["opponent"], self.seed, options.stdin, options.stdout)
@@ -180,7 +182,7 @@ class TicTacToeWorld:
         needs = [name for name, on in (("board.bump", self.referee.bump > 0), ("light", self.referee.light != 1.0))
                  if on]
         missing = [cap for cap, on in (("eyes", True), ("ink", "board.bump" in needs),
-                                       ("lighting", "light" in needs)) if getattr(backend, cap, None) is None]
+                                       ("lighting", "light" in needs)) if getattr(backend, cap) is None]
         if needs and missing:
             raise InputError(f"--set {' and '.join(needs)} changes the scene between moves, which only a back end "
                              f"with eyes, a paper and lights can show; back end {backend.name!r} has no "

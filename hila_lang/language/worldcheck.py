@@ -1,0 +1,107 @@
+"""What a program asks of its world, checked against what the world declares -- before it runs.
+
+The checker (:mod:`.checker`) calls :class:`WorldCheck` wherever a program names something the
+world must answer:
+
+- ``ask NAME`` and ``wait NAME``: a question or event the world declares
+  (:class:`~hila_lang.plugins.registry.Declared`), or a :class:`CheckError` with "did you mean";
+- a world point written out (``board.cell5.tl``), when the world knows its points before it
+  runs (a script's);
+- the points bound to a template's ICPs: a 3-D template takes 3-D points; a 2-D template runs on
+  the world's drawing surface (the scene points bound to it are projected onto the surface, see
+  :func:`hila_lang.hierarchy.hila_step`), so a world without one refuses it, with the reason.
+
+The ``--set`` pairs are split and parsed here too (:func:`hila_lang.plugins.options.split_settings`),
+so ``hila check`` and ``hila exec`` refuse a bad value alike, before anything is built.  When the
+settings are not given (``settings=None``: the Python API, tools) a world whose names follow
+from its settings is not checked by name: only the running world knows.
+"""
+
+from __future__ import annotations
+
+from . import ast as A
+from ..errors import did_you_mean
+from ..plugins import registry
+
+
+class WorldCheck:
+    """The world of one program, as declared; ``error(message, pos, hint)`` makes a CheckError."""
+
+    def __init__(self, world: str, error, settings: dict[str, str] | None = None,
+                 backend: str | None = None) -> None:
+        self.world = world
+        self.error = error
+        self.info = registry.world(world)
+        self.run_settings = None  # (OSILA options, world settings, back-end settings), parsed
+        parsed = None
+        if settings is not None:
+            from ..plugins.options import split_settings
+
+            backend_info = registry.backend(backend or self.info.default_backend)
+            self.run_settings = split_settings(settings, self.info, backend_info)
+            parsed = self.run_settings[1]
+        self.declared = self.info.declared(parsed)
+
+    # ------------------------------------------------------------------ names
+    def _known(self, kind: str, name: str, pos: A.Pos) -> None:
+        d = self.declared
+        if d is None:
+            return
+        names = d.questions if kind == "question" else d.events
+        if name in names:
+            return
+        hint = did_you_mean(name, names)
+        if hint is None:
+            hint = f"its {kind}s: {', '.join(sorted(names))}" if names else (d.advice or f"it has no {kind}s")
+        raise self.error(f"{d.source or f'world {self.world!r}'} has no {kind} '{name}'", pos, hint)
+
+    def question(self, name: str, pos: A.Pos) -> None:
+        self._known("question", name, pos)
+
+    def event(self, name: str, pos: A.Pos) -> None:
+        self._known("event", name, pos)
+
+    def point(self, name: str, pos: A.Pos) -> None:
+        """A world point written out in full (not a program point or a variable)."""
+        d = self.declared
+        if d is None or d.points is None or name in d.points:
+            return
+        if any(p.startswith(name + ".") for p in d.points):  # a group: c.* or cell = board.cell5
+            return
+        head, _, attr = name.rpartition(".")
+        if attr in ("x", "y", "z") and head in d.points:
+            return
+        hint = did_you_mean(name, d.points) or (
+            f"it has {len(d.points)} point(s)" if d.points else d.advice or "it names no points")
+        raise self.error(f"unknown scene point '{name}' ({d.source or 'the world'} does not name it)", pos, hint)
+
+    # ------------------------------------------------------------------ dimensions
+    def value_dim(self, kind: str, name: str) -> int | None:
+        """The size of the point a question (``kind="question"``) or event always answers, or None."""
+        d = self.declared
+        if d is None:
+            return None
+        return (d.question_dims if kind == "question" else d.event_dims).get(name)
+
+    def binding(self, ref: str, dim: int, icp: str, value_dim: int | None, pos: A.Pos, via: str = "") -> None:
+        """ICP ``icp`` of the ``dim``-D template ``ref`` bound to a point of ``value_dim``
+        coordinates (None: not known before the run); ``via``: how it got there (a parameter)."""
+        if dim == 2 and value_dim is not None and value_dim != 3:
+            raise self.error(f"ICP '{icp}' of the 2-D template '{ref}' is bound to a {value_dim}-D point{via}", pos,
+                             "bind it to a point of the world (x, y, z): a 2-D template runs on the world's "
+                             "drawing surface, and the points bound to it are projected onto the surface")
+        if dim == 3 and value_dim is not None and value_dim != 3:
+            raise self.error(f"ICP '{icp}' of the 3-D template '{ref}' is bound to a {value_dim}-D point{via}", pos,
+                             "give the point 3 coordinates (x, y, z), metres")
+
+    def template(self, ref: str, dim: int, pos: A.Pos) -> None:
+        """A ``dim``-D template run in this world."""
+        if dim != 2:
+            return
+        d = self.declared
+        if not (d.drawing_surface if d is not None else self.info.drawing_surface):
+            worlds = [w.name for w in registry.declarations("world") if w.drawing_surface]
+            raise self.error(
+                f"'{ref}' is a 2-D template, and world '{self.world}' has no drawing surface to run it on", pos,
+                "a 2-D template is a drawing: run it in a world with paper"
+                + (f" ({', '.join(worlds)})" if worlds else "") + ", or learn the demonstration in 3-D")
