@@ -68,7 +68,7 @@ def load_task(path, dim: int) -> dict:
     for key in options:
         if key not in OPTIONS or key == "pin":
             raise InputError(f"unknown option {key!r} in field 'options'; expected: threshold, rounds, smoothing, "
-                             "distortion, margin, shells, directions", file=str(path))
+                             "distortion, margin, shells, directions, timing", file=str(path))
     return {"icps": icps, "forced": doc.get("forced"), "obstacles": doc.get("obstacles"), "options": dict(options)}
 
 
