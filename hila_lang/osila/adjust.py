@@ -204,7 +204,10 @@ def adjust(
             exact = np.arange(len(all_src)) >= len(pairs_src)
         else:
             all_src, all_dst, exact = pairs_src, pairs_dst, None
-        warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
+        if rnd == 1 and moved.warp is not None and not smoothing:
+            warp = moved.warp  # the exact warp re-timing fitted on these very pairs (nothing moved)
+        else:
+            warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
         mapped = warp.mapped
         if rnd == 1:
             # an ICP whose template point IS a waypoint (a boundary, a sub-template's start or end)

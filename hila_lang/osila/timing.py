@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tps import MERGE_TOL, _dist, _tol, affine_rank, fit_warp, kernel
+from .tps import MERGE_TOL, Warp, _dist, _tol, affine_rank, fit_warp, kernel
 
 #: default prior spread σ_t of when the task passes an on-path ICP, a fraction of the duration
 TIMING = 0.03
@@ -62,11 +62,15 @@ class Retimed:
         The template ICPs, moved pairs replaced by their new template points.
     stamps : dict of int to int
         Moved pairs: stamp t_k -> the template stamp t*_k now at t_k.
+    warp : Warp or None
+        When nothing moved but a warp was fitted to decide (exact, on ``path``): that warp, which
+        the caller may reuse.
     """
 
     path: np.ndarray
     src: np.ndarray
     stamps: dict
+    warp: Warp | None = None
 
 
 def on_path_pairs(path: np.ndarray, src: np.ndarray) -> dict[int, int]:
@@ -157,6 +161,7 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
     if not inner:
         return unchanged
     warp = fit_warp(src, dst, on=path)
+    unchanged = Retimed(path, src, {}, warp)
     K = len(warp.src)
     if warp.kind == "tps":
         dof = D * (K - D - 1)
