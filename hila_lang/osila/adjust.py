@@ -190,8 +190,7 @@ def adjust(
     pin_src = path[[t for t, _ in exact_pins]].reshape(-1, D)
     pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
     # which part of the template passes an on-path ICP: re-timed before the warp (pins never move)
-    moved = retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given),
-                   movable=np.arange(len(src) + len(pin_src)) < len(src))
+    moved = retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given))
     path, src = moved.path, moved.src[: len(src)]
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []

@@ -37,11 +37,12 @@ never move; with ``timing`` = 0 nothing does.
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
-from .tps import MERGE_TOL, Warp, _dist, _tol, affine_rank, fit_warp, kernel
+from .tps import Warp, _dist, _tol, affine_rank, fit_warp, kernel
 
 #: default prior spread σ_t of when the task passes an on-path ICP, a fraction of the duration
 TIMING = 0.03
@@ -71,15 +72,6 @@ class Retimed:
     src: np.ndarray
     stamps: dict
     warp: Warp | None = None
-
-
-def on_path_pairs(path: np.ndarray, src: np.ndarray) -> dict[int, int]:
-    """Pair index -> stamp, for pairs whose template point is a point of the path at one stamp only."""
-    hit = _dist(path, src) <= _tol(path, src)
-    out = {}
-    for k in np.flatnonzero(hit.sum(0) == 1):
-        out[int(k)] = int(np.flatnonzero(hit[:, k])[0])
-    return out
 
 
 def _similarity_ss(S: np.ndarray, Y: np.ndarray) -> np.ndarray:
@@ -128,7 +120,7 @@ def _bending(S: np.ndarray, Y: np.ndarray, mu: np.ndarray, sc: float) -> np.ndar
 
 
 def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
-           fixed: tuple[int, ...] = (), movable: np.ndarray | None = None) -> Retimed:
+           fixed: tuple[int, ...] = ()) -> Retimed:
     """Re-estimate the template stamps of on-path pairs (module docstring) and re-time the template.
 
     Parameters
@@ -141,27 +133,23 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
         σ_t, a fraction of the duration; 0 moves nothing.
     fixed : tuple of int
         Stamps that never move (pinned stamps); the first and last stamps never move either.
-    movable : ndarray of bool, shape (K,), optional
-        Pairs that may be re-timed (default: all; pins are not).
 
     Returns
     -------
     Retimed
-        The inputs themselves (not copies) when nothing moved.
+        The inputs themselves (not copies) when nothing moved, with the exact warp fitted to decide.
     """
     T, D = path.shape
-    unchanged = Retimed(path, src, {})
     if timing <= 0 or T < 3:
-        return unchanged
-    stamp_of = on_path_pairs(path, src)
-    movable = np.ones(len(src), bool) if movable is None else movable
-    blocked = {0, T - 1, *fixed}
-    shared = {t for t in stamp_of.values() if list(stamp_of.values()).count(t) > 1}
-    inner = sorted((t, k) for k, t in stamp_of.items() if movable[k] and t not in blocked and t not in shared)
-    if not inner:
-        return unchanged
+        return Retimed(path, src, {})
     warp = fit_warp(src, dst, on=path)
     unchanged = Retimed(path, src, {}, warp)
+    # pairs (rows of warp.src, after merging) whose template point is the path's point at one stamp
+    count = Counter(warp.at.values())
+    blocked = {0, T - 1, *fixed}
+    inner = sorted((t, k) for t, k in warp.at.items() if count[k] == 1 and t not in blocked)
+    if not inner:
+        return unchanged
     K = len(warp.src)
     if warp.kind == "tps":
         dof = D * (K - D - 1)
@@ -171,15 +159,6 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
         return unchanged
     if dof <= 0:
         return unchanged
-    # the pairs as the warp sees them (after merging); pair k of ``src`` -> row of ``warp.src``
-    rows = {}
-    for k, t in stamp_of.items():
-        hit = np.flatnonzero(np.all(np.abs(warp.src - src[k]) <= MERGE_TOL * warp.scale, axis=1))
-        if len(hit) == 1:
-            rows[k] = int(hit[0])
-    inner = [(t, k) for t, k in inner if k in rows]
-    if not inner:
-        return unchanged
     mu, sc = warp.src.mean(0), float(np.abs(warp.src - warp.src.mean(0)).max())
 
     def energies(current: np.ndarray, row: int, cand: np.ndarray) -> np.ndarray:
@@ -188,13 +167,13 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
         return _bending(S, warp.dst, mu, sc) if warp.kind == "tps" else _similarity_ss(S, warp.dst)
 
     current = warp.src.copy()
-    E0 = float(energies(current, rows[inner[0][1]], np.array([inner[0][0]]))[0])
+    E0 = float(energies(current, inner[0][1], np.array([inner[0][0]]))[0])
     if not np.isfinite(E0) or E0 <= 0:
         return unchanged
     lam = E0 / dof
     span = timing * (T - 1)
     reach = int(np.ceil(WINDOW * span))
-    knots = sorted(blocked | set(stamp_of.values()))  # stamps in time order; only ``inner`` ones move
+    knots = sorted(blocked | set(warp.at))  # stamps in time order; only ``inner`` ones move
     star = {t: t for t in knots}
     for _ in range(MAX_SWEEPS):
         changed = False
@@ -205,11 +184,11 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
             if hi <= lo:
                 continue
             cand = np.arange(lo, hi + 1)
-            cost = energies(current, rows[k], cand) / (2.0 * lam) + (cand - t) ** 2 / (2.0 * span * span)
+            cost = energies(current, k, cand) / (2.0 * lam) + (cand - t) ** 2 / (2.0 * span * span)
             best = int(cand[int(np.argmin(cost))])
             if best != star[t]:
                 star[t] = best
-                current[rows[k]] = path[best]
+                current[k] = path[best]
                 changed = True
         if not changed:
             break
@@ -220,9 +199,8 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
     phase = np.interp(stamps, np.array(knots, float), np.array([star[t] for t in knots], float))
     new_path = np.column_stack([np.interp(phase, stamps, path[:, d]) for d in range(D)])
     new_src = src.copy()
+    tol = _tol(path, src)
     for t, s in moved.items():
         new_path[t] = path[s]
-    for k, t in stamp_of.items():
-        if t in moved:
-            new_src[k] = path[moved[t]]
+        new_src[_dist(src, path[t : t + 1])[:, 0] <= tol] = path[s]  # every row the warp merged into it
     return Retimed(new_path, new_src, moved)
