@@ -68,6 +68,9 @@ def resample(path: Any, n: int) -> np.ndarray:
     ndarray, shape (n, D)
         ``scipy.interpolate.CubicSpline`` (not-a-knot) through the T points at u = 0..1; the
         first and last points are kept exactly.  T = 1 repeats the point; T = 2 is linear.
+        The spline is linear in the points: for T × n up to :data:`MATRIX_LIMIT` it is applied
+        as a cached (n, T) matrix (the same numbers to rounding, without building a spline per
+        call — ``hila eval`` resamples thousands of paths of a few dozen lengths).
     """
     from scipy.interpolate import CubicSpline
 
