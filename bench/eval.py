@@ -8,7 +8,7 @@
 Each runs as a fresh command (a new process, so joblib's workers start and load the compiled
 kernels as they would for a user) and must finish in <= 90 s on the 2-core project machine; the
 wall time is printed.  ``--paper`` also times ``--protocol paper`` (N = 1..4, four times the
-held-out work; no target).  Not a test.
+held-out work, same target).  Not a test.
 
     python bench/eval.py [--jobs 2] [--paper]
 """

@@ -5,7 +5,10 @@ with its amplification check, minimum-energy route, plan-adjustment check), of t
 (``fit_warp(src, dst)(path)``: the TPS alone, what the ``tps`` control of ``hila eval`` does) and
 of scipy's ``RBFInterpolator(kernel="thin_plate_spline")`` on the same points, and the ratio
 ``imitate / bare warp`` (target <= 3 in 2-D), for the compiled route kernel and, with
-``--numpy``, for the numpy fallback too.  Not a test.
+``--numpy``, for the numpy fallback too.  The path is clean, so OSILA's default ball (2 σ of the
+path's noise, :mod:`hila_lang.osila.noise`) would be almost nothing and the route trivial: the
+benchmark passes ``threshold`` = 1 % of the mapped path's size, a ball holding all 17 (2-D) / 29
+(3-D) candidates, so the route is timed at its full cost.  Not a test.
 
     python bench/osila.py [--repeat 200] [--numpy]
 """
@@ -45,7 +48,6 @@ def measure(repeat: int, label: str) -> None:
     from scipy.interpolate import RBFInterpolator
 
     from hila_lang.osila import imitate
-    from hila_lang.osila.adjust import default_threshold
     from hila_lang.osila.candidates import ball_offsets
     from hila_lang.osila.route import _compiled_route, min_energy_route
     from hila_lang.osila.tps import fit_warp
@@ -53,12 +55,13 @@ def measure(repeat: int, label: str) -> None:
     kernel = "numba kernel" if _compiled_route() is not None else "numpy"
     for dim in (2, 3):
         path, src, dst = case(dim)
-        offsets = ball_offsets(dim, default_threshold(fit_warp(src, dst)(path)))
         mapped = fit_warp(src, dst)(path)
+        threshold = 0.01 * float(np.linalg.norm(np.ptp(mapped, axis=0)))
+        offsets = ball_offsets(dim, threshold)
         # interleave the measurements so a busy moment hits all of them alike
         t_imitate, t_warp, t_rbf, t_route = [], [], [], []
         for _ in range(5):
-            t_imitate.append(median_ms(lambda: imitate(path, src, dst), repeat // 5 + 1))
+            t_imitate.append(median_ms(lambda: imitate(path, src, dst, threshold=threshold), repeat // 5 + 1))
             t_warp.append(median_ms(lambda: fit_warp(src, dst)(path), repeat // 5 + 1))
             t_rbf.append(median_ms(lambda: RBFInterpolator(src, dst, kernel="thin_plate_spline")(path),
                                    repeat // 5 + 1))

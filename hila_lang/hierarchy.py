@@ -458,17 +458,18 @@ def explain_blocked(exc, template: Template, icps: Mapping[str, np.ndarray], obs
     the route out, the obstacle or the binding has to change."""
     from .errors import ConstraintError
     from .osila import _obstacles
+    from .osila.adjust import on_path
 
     if obstacles is None or not len(icps):
         return exc
     spheres = _obstacles(obstacles, template.dim)
     margin = float(options.get("margin") or 0.0)
-    size = float(np.linalg.norm(np.ptp(template.path, axis=0)))
+    names = list(icps)
+    through = {names[k] for k in on_path(template.path, np.array([template.icps[n] for n in names], dtype=float))}
     covered = []
     for name, point in icps.items():
-        on_path = float(np.linalg.norm(template.path - template.icps[name], axis=1).min()) <= 0.01 * size
         for o, sphere in enumerate(spheres):
-            if on_path and np.linalg.norm(point - sphere[:-1]) < sphere[-1] + margin:
+            if name in through and np.linalg.norm(point - sphere[:-1]) < sphere[-1] + margin:
                 covered.append(f"ICP '{name}' at {_fmt(point)} lies inside obstacle {o} "
                                f"(centre {_fmt(sphere[:-1])}, radius {sphere[-1]:.4g})")
     if not covered:

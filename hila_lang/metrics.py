@@ -32,6 +32,7 @@ longer length by :func:`resample` (cubic spline), as in the paper.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -67,6 +68,9 @@ def resample(path: Any, n: int) -> np.ndarray:
     ndarray, shape (n, D)
         ``scipy.interpolate.CubicSpline`` (not-a-knot) through the T points at u = 0..1; the
         first and last points are kept exactly.  T = 1 repeats the point; T = 2 is linear.
+        The spline is linear in the points: for T × n up to :data:`MATRIX_LIMIT` it is applied
+        as a cached (n, T) matrix (the same numbers to rounding, without building a spline per
+        call — ``hila eval`` resamples thousands of paths of a few dozen lengths).
     """
     from scipy.interpolate import CubicSpline
 
@@ -77,9 +81,27 @@ def resample(path: Any, n: int) -> np.ndarray:
         return np.repeat(arr, n, axis=0)
     if n == T:
         return arr.copy()
-    u = np.linspace(0.0, 1.0, T)
-    out = CubicSpline(u, arr, axis=0)(np.linspace(0.0, 1.0, n))
+    if T * n <= MATRIX_LIMIT:
+        out = _resampling_matrix(T, n) @ arr
+    else:
+        u = np.linspace(0.0, 1.0, T)
+        out = CubicSpline(u, arr, axis=0)(np.linspace(0.0, 1.0, n))
     out[0], out[-1] = arr[0], arr[-1]
+    return out
+
+
+#: paths with T × n at most this resample through a cached matrix (:func:`_resampling_matrix`)
+MATRIX_LIMIT = 250_000
+
+
+@lru_cache(maxsize=4096)
+def _resampling_matrix(T: int, n: int) -> np.ndarray:
+    """The (n, T) matrix of :func:`resample`: the spline is linear in the points, so its columns
+    are the splines through the unit vectors (built once per pair of lengths, then a product)."""
+    from scipy.interpolate import CubicSpline
+
+    out = CubicSpline(np.linspace(0.0, 1.0, T), np.eye(T), axis=0)(np.linspace(0.0, 1.0, n))
+    out.flags.writeable = False
     return out
 
 
@@ -104,7 +126,10 @@ def correlation(a: Any, b: Any) -> float:
         Bad shapes, NaN/inf, different D, or a path with no spread (all points equal), for which
         R is undefined.
     """
-    a, b = _paired(a, b)
+    return _correlation(*_paired(a, b))
+
+
+def _correlation(a: np.ndarray, b: np.ndarray) -> float:
     da, db = a - a.mean(0), b - b.mean(0)
     va, vb = float((da * da).sum()), float((db * db).sum())
     if va == 0.0 or vb == 0.0:
@@ -115,13 +140,19 @@ def correlation(a: Any, b: Any) -> float:
 
 def msd(a: Any, b: Any) -> float:
     """Mean squared difference of two paths (eq. 2), in squared path units."""
-    a, b = _paired(a, b)
+    return _msd(*_paired(a, b))
+
+
+def _msd(a: np.ndarray, b: np.ndarray) -> float:
     return float(((a - b) ** 2).sum(1).mean())
 
 
 def axis_correlation(a: Any, b: Any) -> np.ndarray:
     """R (eq. 1) of each coordinate separately, shape (D,); NaN for a coordinate with no spread."""
-    a, b = _paired(a, b)
+    return _axis_correlation(*_paired(a, b))
+
+
+def _axis_correlation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     da, db = a - a.mean(0), b - b.mean(0)
     den = np.sqrt((da * da).sum(0) * (db * db).sum(0))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -193,12 +224,15 @@ def _diagonals(c: np.ndarray, combine: str) -> float:
 
 
 def _programme(kernel, combine: str, a: Any, b: Any) -> float:
-    from .jit import compiled
-
     a, b = _as_path(a, "a"), _as_path(b, "b")
     if a.shape[1] != b.shape[1]:
         raise InputError(f"expected paths of the same dimension, got D = {a.shape[1]} and D = {b.shape[1]}")
-    c = _costs(a, b)
+    return _run(kernel, combine, _costs(a, b))
+
+
+def _run(kernel, combine: str, c: np.ndarray) -> float:
+    from .jit import compiled
+
     fast = compiled(kernel, np.zeros((2, 3)))
     return float(fast(c)) if fast is not None else _diagonals(c, combine)
 
@@ -215,3 +249,21 @@ def dtw(a: Any, b: Any) -> float:
     """DTW distance per sample: the accumulated distance of the best alignment / max(T, S), in path units."""
     a_, b_ = _as_path(a, "a"), _as_path(b, "b")
     return _programme(_dtw_kernel, "sum", a_, b_) / max(len(a_), len(b_))
+
+
+def scores(a: Any, b: Any) -> np.ndarray:
+    """Every metric of a path ``a`` against a reference ``b``, after one check and one resampling.
+
+    Returns
+    -------
+    ndarray, shape (5 + D,)
+        R, MSD, Fréchet, DTW per sample, end-point error, then R of each coordinate: the same
+        numbers as :func:`correlation`, :func:`msd`, :func:`frechet`, :func:`dtw`,
+        :func:`endpoint_error` and :func:`axis_correlation` of the two paths resampled to equal
+        length (what ``hila eval`` scores; the Fréchet/DTW costs are computed once).
+    """
+    a, b = _paired(a, b)
+    c = _costs(a, b)
+    return np.array([_correlation(a, b), _msd(a, b), _run(_frechet_kernel, "max", c),
+                     _run(_dtw_kernel, "sum", c) / len(a), float(np.linalg.norm(a[-1] - b[-1])),
+                     *_axis_correlation(a, b)])

@@ -93,6 +93,7 @@ def test_learn_bad_csv(tmp_path, capsys, csv_text, message):
          r"expected obstacles of shape \(K, 4\) \(D = 3 centre coordinates, then the radius\), got \(1, 3\)"),
         ("icps: {cell.tl: [0, 0, 0]}\n", ["--threshold", "nan"], r"(?m)^error: expected --threshold >= 0, got nan"),
         ("icps: {cell.tl: [0, 0, 0]}\n", ["--rounds", "0"], r"(?m)^error: expected --rounds >= 1, got 0"),
+        ("icps: {cell.tl: [0, 0, 0]}\n", ["--timing", "-1"], r"(?m)^error: expected --timing >= 0, got -1"),
     ],
 )
 def test_imitate_bad_task(tmp_path, capsys, task_text, args, message):

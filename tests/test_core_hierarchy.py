@@ -31,11 +31,12 @@ def test_abc_to_cbaac():
     steps_len = np.linalg.norm(np.diff(g.path, axis=0), axis=1)
     template_step = np.linalg.norm(np.diff(t.path, axis=0), axis=1).max()
     assert steps_len.max() < 3 * template_step
-    # each piece after the first starts exactly where the previous one ended
+    # each piece after the first starts where the previous one ended, without a jump: the step
+    # across the join is about the piece's own next step (the warp stretches a piece smoothly to
+    # start at the hand, so both may be a few times the template's step)
     for p, q in zip(g.pieces, g.pieces[1:]):
         joint = g.path[q.start - 1]
-        seg = steps[g.pieces.index(q)]
-        assert np.linalg.norm(g.path[q.start] - joint) <= np.linalg.norm(seg.path[1] - seg.path[0]) * 3
+        assert np.linalg.norm(g.path[q.start] - joint) <= 1.2 * np.linalg.norm(g.path[q.start + 1] - g.path[q.start])
     # the first step (C, start unbound) reproduces the demonstrated C
     assert correlation(g.path[: g.pieces[0].stop], t.sub("C").path) >= 0.999
     # times continue monotonically

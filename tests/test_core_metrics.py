@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hila_lang.errors import InputError
-from hila_lang.metrics import correlation, msd, resample
+from hila_lang.metrics import correlation, frechet, msd, resample
 
 
 def test_correlation_matches_eq1_by_hand():
@@ -106,3 +106,29 @@ def test_axis_correlation_and_endpoint_error():
     r = axis_correlation(flat, b)
     assert r[0] == pytest.approx(1.0) and np.isnan(r[1])
     assert endpoint_error(a, b) == pytest.approx(np.linalg.norm(a[-1] - b[-1]))
+
+
+def test_resampling_through_the_cached_matrix_equals_the_spline():
+    from scipy.interpolate import CubicSpline
+
+    from hila_lang.metrics import MATRIX_LIMIT
+
+    rng = np.random.default_rng(11)
+    for T, n in ((2, 7), (5, 3), (40, 64), (64, 40), (700, 900)):
+        path = rng.normal(size=(T, 3)).cumsum(0)
+        want = CubicSpline(np.linspace(0, 1, T), path, axis=0)(np.linspace(0, 1, n))
+        got = resample(path, n)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(got[[0, -1]], path[[0, -1]])
+    assert 700 * 900 > MATRIX_LIMIT  # the last case took the direct spline
+
+
+def test_scores_equal_the_single_metrics():
+    from hila_lang.metrics import axis_correlation, dtw, endpoint_error, msd, scores
+
+    rng = np.random.default_rng(12)
+    a, b = rng.normal(size=(30, 2)).cumsum(0), rng.normal(size=(45, 2)).cumsum(0)
+    got = scores(a, b)
+    a45 = resample(a, 45)
+    want = [correlation(a, b), msd(a, b), frechet(a45, b), dtw(a45, b), endpoint_error(a, b), *axis_correlation(a, b)]
+    np.testing.assert_allclose(got, want, rtol=1e-12)

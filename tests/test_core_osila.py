@@ -422,3 +422,18 @@ def test_osila_without_numba_gives_the_same_path(monkeypatch):
     compiled = imitate(path, icps, task)
     monkeypatch.setattr(jit, "compiled", lambda func, *warm: None)
     np.testing.assert_allclose(imitate(path, icps, task), compiled, atol=1e-12)
+
+
+def test_an_obstacle_over_an_icp_the_path_passes_through_is_a_contradiction():
+    """The template passes through ICP 1 (it touches the object): an obstacle over the task's
+    object cannot be kept out of while going there, so it is reported before any round; the same
+    obstacle over an ICP the path only passes near (a corner beside it) is avoided."""
+    t = np.linspace(0.0, 1.0, 60)
+    path = np.column_stack([t, np.sin(np.pi * t) * 0.3])
+    src = np.array([path[0], path[30], path[-1], [0.5, -0.4]])
+    dst = src + np.array([0.1, 0.05])
+    with pytest.raises(ConstraintError, match=r"contradictory constraints: ICP 1 at \(0\.6\d*, 0\.3\d*\), which the "
+                                              r"template's path passes through, lies inside obstacle 0"):
+        imitate(path, src, dst, obstacles=[[*dst[1], 0.05]])
+    route = imitate(path, src, dst, obstacles=[[*dst[3], 0.05]])  # the corner below: not on the path
+    assert np.linalg.norm(route - dst[3], axis=1).min() >= 0.05

@@ -146,6 +146,12 @@ def test_none_passes_through_the_anchors_at_rest(trials):
     np.testing.assert_allclose(path[idx], points, atol=1e-9)
     steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
     assert steps[0] < 0.25 * steps.max() and steps[-1] < 0.25 * steps.max()  # starts and ends at rest
+    # the cached spline operator is scipy's clamped spline through the anchors
+    from scipy.interpolate import CubicSpline
+
+    T = len(template.path)
+    direct = CubicSpline(idx / (T - 1), points, axis=0, bc_type="clamped")(np.linspace(0, 1, T))
+    np.testing.assert_allclose(path, direct, rtol=1e-12, atol=1e-9)
 
 
 def test_similarity_control_is_the_least_squares_similarity(trials):

@@ -15,7 +15,8 @@ import pytest
 
 @pytest.mark.parametrize("delay", [0.3, 1.0, 2.0, 3.5])
 def test_sigint_ends_eval_with_130_and_no_traceback(tmp_path, delay):
-    argv = [sys.executable, "-m", "hila_lang", "eval", "--jobs", "2", "--trials-per-setup", "6",
+    # the paper protocol's whole grid (tens of seconds): still working when the signal comes
+    argv = [sys.executable, "-m", "hila_lang", "eval", "--jobs", "2", "--protocol", "paper",
             "--out", str(tmp_path / "ev"), "--no-progress"]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     time.sleep(delay)

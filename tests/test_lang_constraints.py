@@ -194,7 +194,7 @@ def test_a_contradicted_pair_is_a_located_error_naming_both(tmp_path):
     text = str(info.value)
     assert text.splitlines()[0] == (
         f"{prog}:5:5: error: contradictory constraints: via lamp at 5:79 lies inside "
-        "avoid lamp radius 0.02 at 5:88 deeper than the threshold 0.002046 (in state main/reach)")
+        "avoid lamp radius 0.02 at 5:88 deeper than the threshold 6.854e-05 (in state main/reach)")
     assert text.splitlines()[2] == "        ^"
     # the command line: exit status 1 (a run that failed), no traceback
     proc = subprocess.run([sys.executable, "-m", "hila_lang", "exec", str(prog)], capture_output=True, text=True,
@@ -213,7 +213,7 @@ def test_an_unmet_constraint_says_how_close_after_how_many_rounds(tmp_path):
     first = str(info.value).splitlines()[0]
     assert first.startswith(f"{prog}:5:5: error: the route could not conform after 1 round(s): "
                             "via (0.247, -0.177, 0.699) at 5:79 missed by 0.0")
-    assert "(threshold 0.002046)" in first and first.endswith("(in state main/reach)")
+    assert "(threshold 6.854e-05)" in first and first.endswith("(in state main/reach)")
 
 
 # ----------------------------------------------------------------------------- explain

@@ -57,13 +57,13 @@ def _jobs(text: str) -> int:
     return value
 
 
-def _threshold(text: str) -> float:
+def _non_negative(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
     if not value >= 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a threshold >= 0, got {text}")
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
     return value
 
 
@@ -103,9 +103,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trials-per-setup", type=_positive_int, default=None, metavar="N",
                         help="stand-in only: trials per set-up (default 15, as in the paper)")
     parser.add_argument("--seed", type=int, default=0, help="stand-in only: dataset seed (default 0)")
-    parser.add_argument("--threshold", type=_threshold, default=None, metavar="D",
+    parser.add_argument("--threshold", type=_non_negative, default=None, metavar="D",
                         help="OSILA distortion threshold in path units (default: 2 px for the stand-in as "
-                             "in the paper; OSILA's own default, 1%% of the path's size, otherwise)")
+                             "in the paper; OSILA's own default, 2 sigma of the template's position noise, "
+                             "otherwise)")
+    parser.add_argument("--timing", type=_non_negative, default=None, metavar="S",
+                        help="OSILA's prior spread of when the task passes an ICP on the template path, a "
+                             "fraction of the duration (default 0.03; 0 keeps the template's timing)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
 
 
@@ -185,6 +189,8 @@ def run(args: argparse.Namespace) -> int:
     methods = _chosen_methods(args, protocol)
     segments = segments_for(protocol)
     options = {} if threshold is None else {"threshold": threshold}
+    if args.timing is not None:
+        options["timing"] = args.timing
     print(f"hila eval: {len(trials)} trials from the {source}; {int(mask.sum())} pairs x N = "
           f"{','.join(map(str, segments))} x {len(methods)} methods", file=sys.stderr)
     result = run_grid(trials, segments=segments, methods=methods, options=options, protocol=protocol, mask=mask,
@@ -193,7 +199,8 @@ def run(args: argparse.Namespace) -> int:
             f"{', '.join(map(str, segments))}, {result.backend}, {result.wall_seconds:.1f} s\n\n"
             + render(result, tables=args.dataset != "lasa"))
     sys.stdout.write(text)
-    info = {"source": source, "threshold": threshold, "seed": args.seed if args.dataset is None else None}
+    info = {"source": source, "threshold": threshold, "timing": args.timing,
+            "seed": args.seed if args.dataset is None else None}
     written = write_report(result, text, out, info)
     for m in methods:
         if result.failures[m]:

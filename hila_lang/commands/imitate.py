@@ -28,7 +28,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--task", required=True, metavar="TASK.yaml", help="task scene: ICPs, forced waypoints, obstacles")
     parser.add_argument("--sub", metavar="TAG", default=None, help="imitate only the sub-template with this tag")
     parser.add_argument("-o", "--output", metavar="OUT.csv", default=None, help="CSV to write (default: stdout)")
-    parser.add_argument("--threshold", type=float, default=None, help="distortion threshold (task units)")
+    parser.add_argument("--threshold", type=float, default=None,
+                        help="distortion threshold (task units; default 2 sigma of the template's position noise)")
+    parser.add_argument("--timing", type=float, default=None,
+                        help="prior spread of when the task passes an ICP on the template path, a fraction "
+                             "of the duration (default 0.03; 0 keeps the template's timing)")
     parser.add_argument("--rounds", type=int, default=None, help="max plan-adjustment rounds")
     parser.add_argument("--smoothing", type=float, default=None, help="TPS regulariser (0 = exact)")
 
@@ -68,7 +72,7 @@ def load_task(path, dim: int) -> dict:
     for key in options:
         if key not in OPTIONS or key == "pin":
             raise InputError(f"unknown option {key!r} in field 'options'; expected: threshold, rounds, smoothing, "
-                             "distortion, margin, shells, directions", file=str(path))
+                             "distortion, margin, shells, directions, timing", file=str(path))
     return {"icps": icps, "forced": doc.get("forced"), "obstacles": doc.get("obstacles"), "options": dict(options)}
 
 
@@ -123,6 +127,8 @@ def run(args: argparse.Namespace) -> int:
         options["rounds"] = check_int(args.rounds, "--rounds", minimum=1)
     if args.smoothing is not None:
         options["smoothing"] = check_positive(args.smoothing, "--smoothing", allow_zero=True)
+    if args.timing is not None:
+        options["timing"] = check_positive(args.timing, "--timing", allow_zero=True)
     try:
         gen = generate(
             [step], task["icps"], forced={0: task["forced"]} if task["forced"] is not None else None,

@@ -45,6 +45,7 @@ roll-outs.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any, Callable
 
 import numpy as np
@@ -123,13 +124,28 @@ def anchors(path: np.ndarray, c: Constraints) -> tuple[np.ndarray, np.ndarray]:
 
 def no_template(path: np.ndarray, c: Constraints) -> np.ndarray:
     """The ``none`` control: a clamped cubic spline in time through the anchors, T points."""
-    from scipy.interpolate import CubicSpline
-
     idx, points = anchors(path, c)
     T = len(path)
     if T == 1 or len(idx) == 1:
         return np.repeat(points[:1], T, axis=0)
-    return CubicSpline(idx / (T - 1), points, axis=0, bc_type="clamped")(np.linspace(0.0, 1.0, T))
+    out = _spline_matrix(T, tuple(idx.tolist())) @ points
+    out[idx] = points  # through the anchors exactly (the product meets them to rounding)
+    return out
+
+
+@lru_cache(maxsize=4096)
+def _spline_matrix(T: int, idx: tuple[int, ...]) -> np.ndarray:
+    """(T, A): the clamped spline through anchors at template stamps ``idx``, sampled at every stamp.
+
+    The spline is linear in the anchor points, so its columns are the splines through the unit
+    vectors; a grid reuses the same anchor stamps for thousands of tasks.
+    """
+    from scipy.interpolate import CubicSpline
+
+    knots = np.array(idx, float) / (T - 1)
+    out = CubicSpline(knots, np.eye(len(idx)), axis=0, bc_type="clamped")(np.linspace(0.0, 1.0, T))
+    out.flags.writeable = False
+    return out
 
 
 # ----------------------------------------------------------------------------- DMPs

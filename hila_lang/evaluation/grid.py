@@ -46,16 +46,9 @@ def metric_names(dim: int) -> tuple[str, ...]:
 
 def score(generated: np.ndarray, target: np.ndarray) -> np.ndarray:
     """Every metric of :func:`metric_names` for a generated path against the human one."""
-    from ..metrics import axis_correlation, correlation, dtw, frechet, msd, resample
+    from ..metrics import scores
 
-    n = max(len(generated), len(target))
-    if len(generated) != n:
-        generated = resample(generated, n)
-    if len(target) != n:
-        target = resample(target, n)
-    return np.array([correlation(generated, target), msd(generated, target), frechet(generated, target),
-                     dtw(generated, target), float(np.linalg.norm(generated[-1] - target[-1])),
-                     *axis_correlation(generated, target)])
+    return scores(generated, target)
 
 
 @dataclass

@@ -1,10 +1,11 @@
 """OSILA: one-shot imitation of a template path in a new scene (DESIGN.md §1).
 
-:func:`imitate` is the contract: warp the template with a thin plate spline fitted on paired ICPs
+:func:`imitate` is the contract: re-estimate which part of the template passes an ICP that lies
+on its path (:mod:`.timing`), warp the template with a thin plate spline fitted on paired ICPs
 (:mod:`.tps`, with similarity/translation fallbacks in :mod:`.fallback`), choose the
-minimum-energy route through a ball of candidate waypoints around every mapped point
-(:mod:`.candidates`, :mod:`.route`), then adjust the plan until forced waypoints and obstacles
-are satisfied (:mod:`.adjust`).  :func:`imitate_detailed` returns the same route with its
+minimum-energy route through a ball of candidate waypoints around every mapped point, as large
+as the template's measurement noise (:mod:`.noise`, :mod:`.candidates`, :mod:`.route`), then
+adjust the plan until forced waypoints and obstacles are satisfied (:mod:`.adjust`).  :func:`imitate_detailed` returns the same route with its
 diagnostics.
 """
 
@@ -17,6 +18,7 @@ import numpy as np
 from ..errors import InputError
 from ..validation import check_int, check_path, check_points, check_positive
 from .adjust import OsilaResult, adjust
+from .timing import TIMING
 from .tps import Warp, fit_warp
 
 __all__ = ["imitate", "imitate_detailed", "OsilaResult", "Warp", "fit_warp", "OPTIONS"]
@@ -32,6 +34,7 @@ OPTIONS: dict[str, Any] = {
     "shells": 2,
     "directions": None,
     "pin": (),
+    "timing": TIMING,
 }
 
 
@@ -123,6 +126,7 @@ def imitate_detailed(
         shells=check_int(opts["shells"], "shells", minimum=0),
         directions=directions,
         pin=pin,
+        timing=check_positive(opts["timing"], "timing", allow_zero=True),
     )
 
 
@@ -151,11 +155,17 @@ def imitate(
         Spheres: rows ``[centre..., radius]`` or dicts ``{"centre": [...], "radius": r}``.  No
         route waypoint lies closer than ``radius + margin`` to a centre.
     **options
-        threshold : float, default 1 % of the mapped path's bounding-box diagonal
+        threshold : float, default 2 σ of the mapped path's position noise
             Radius of the candidate ball (task units); every waypoint stays within it of its
             mapped point, the first and last waypoints are the mapped start and goal, and an
             ICP whose template point is a waypoint is met exactly there.  0 returns the warped
-            path itself.
+            path itself.  The default is measured on the path (:mod:`.noise`): the route irons
+            out the template's noise and keeps its shape; on a clean recording it is nearly 0.
+        timing : float, default 0.03
+            Prior spread (a fraction of the template's duration) of when the task passes an ICP
+            whose template point lies on the template path: such a pair's template stamp is
+            re-estimated and the template re-timed so that the pair is still met exactly at its
+            own stamp (:mod:`.timing`).  0 keeps the template's timing.
         rounds : int, default 10
             Maximum plan-adjustment rounds.
         smoothing : float, default 0

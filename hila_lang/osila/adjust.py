@@ -1,6 +1,9 @@
 """Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (DESIGN.md §1.3).
 
-Each round fits the warp on the ICP pairs plus the pairs added so far (checked for amplification
+First, ICPs whose template point lies on the template path (a boundary, a point at a time
+fraction) are re-timed (:mod:`.timing`): which part of the template passes them is estimated
+again and the template re-timed so each is still met at its own stamp.  Then each round fits the
+warp on the ICP pairs plus the pairs added so far (checked for amplification
 on the template path, :mod:`.tps`), maps the template, picks the minimum-energy route through the
 candidate balls (candidates inside an obstacle are excluded up front), and checks the route:
 
@@ -20,9 +23,11 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
   between consecutive waypoints — comes closer than ``radius + margin`` to its centre.  For each
   run of consecutive violating segments the deepest one is repaired: if its nearest point to
   the centre is a waypoint, that waypoint's template point is paired with the point pushed
-  radially out to ``radius + margin + threshold`` (so its whole candidate ball is outside); if
-  the segment passes through between its waypoints, both waypoints are paired with themselves
-  moved out in parallel, past the sphere by ``threshold``.
+  radially out to ``radius + margin + clearance``; if the segment passes through between its
+  waypoints, both waypoints are paired with themselves moved out in parallel, past the sphere by
+  ``clearance``.  The clearance is the larger of the threshold (so the repaired waypoint's whole
+  candidate ball is outside) and :data:`CLEARANCE` × the mapped path's size (so the warp, bent by
+  the new pair, carries the neighbouring segments out too, even when the ball is tiny).
 
 A repaired stamp is pinned from then on (its waypoint is the pair's point), and template points
 already used by a pair (or pinned) are not reused, so a repair pair never merges with an
@@ -40,8 +45,17 @@ import numpy as np
 
 from ..errors import ConstraintError
 from .candidates import ball_offsets
+from .noise import default_threshold
 from .route import min_energy_route
+from .timing import retime
 from .tps import MERGE_TOL, Warp, fit_warp
+
+#: least clearance of an obstacle repair, a fraction of the mapped path's bounding-box diagonal
+CLEARANCE = 0.01
+#: the template's path passes through an ICP when it comes within this fraction of its
+#: bounding-box diagonal (the same 1 % as OSILA's former default ball): such an ICP is a place the
+#: route must go, so an obstacle over its task point contradicts it
+ON_PATH = 0.01
 
 
 @dataclass
@@ -64,6 +78,9 @@ class OsilaResult:
         Route energy Σ|q_{t+1} - q_t|² (+ distortion term).
     added : list[tuple[int, ndarray, str]]
         Repair pairs: (template index, task point, constraint that asked for it).
+    retimed : dict of int to int
+        On-path ICPs whose template stamp was re-estimated (:mod:`.timing`): stamp -> the template
+        stamp whose point the route now has there.
     """
 
     path: np.ndarray
@@ -73,6 +90,7 @@ class OsilaResult:
     rounds: int
     energy: float
     added: list = field(default_factory=list)
+    retimed: dict = field(default_factory=dict)
 
 
 def _fmt(p: np.ndarray) -> str:
@@ -99,15 +117,32 @@ def _contradictions(forced: np.ndarray, obstacles: np.ndarray, threshold: float,
     return out
 
 
+def on_path(path: np.ndarray, src: np.ndarray) -> np.ndarray:
+    """Indices of the ICPs ``src`` (K, D) that the template ``path`` (T, D) passes through
+    (within :data:`ON_PATH` of its size): the object a reach touches, a segment's boundary."""
+    if not len(src):
+        return np.zeros(0, int)
+    size = float(np.linalg.norm(span(path)))
+    gaps = np.sqrt(((path[None, :, :] - src[:, None, :]) ** 2).sum(-1)).min(1)
+    return np.flatnonzero(gaps <= ON_PATH * size)
+
+
+def _covered(path: np.ndarray, src: np.ndarray, dst: np.ndarray, obstacles: np.ndarray, margin: float) -> list[str]:
+    """ICPs the path passes through whose task point lies inside an obstacle: no route can both
+    go there and keep out (reported before any round, as a contradiction)."""
+    out = []
+    for k in on_path(path, src):
+        for o, ob in enumerate(obstacles):
+            if np.linalg.norm(dst[k] - ob[:-1]) < ob[-1] + margin:
+                out.append(f"ICP {k} at {_fmt(dst[k])}, which the template's path passes through, lies inside "
+                           f"obstacle {o} (centre {_fmt(ob[:-1])}, radius {ob[-1]:.4g}, margin {margin:.4g})")
+    return out
+
+
 def span(points: np.ndarray) -> np.ndarray:
     """Bounding-box side lengths (D,) of points (N, D) (``np.ptp`` along axis 0, reduced along rows)."""
     rows = np.ascontiguousarray(points.T)
     return rows.max(1) - rows.min(1)
-
-
-def default_threshold(mapped: np.ndarray, fraction: float = 0.01) -> float:
-    """``fraction`` of the bounding-box diagonal of the mapped path (0 for a single point)."""
-    return float(fraction * np.linalg.norm(span(mapped)))
 
 
 def _segment_depths(route: np.ndarray, centre: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -152,6 +187,7 @@ def adjust(
     shells: int,
     directions: int | None,
     pin: tuple[tuple[int, np.ndarray | None], ...] = (),
+    timing: float = 0.0,
 ) -> OsilaResult:
     """Run OSILA with plan adjustment on validated arrays (see the module docstring).
 
@@ -164,18 +200,27 @@ def adjust(
     obstacles : ndarray, shape (O, D+1)
         Sphere centres and radii.
     threshold : float or None
-        Distortion threshold; None = :func:`default_threshold` of the first mapped path.
+        Distortion threshold; None = :func:`~.noise.default_threshold` of the first mapped path.
     rounds : int
         Maximum number of rounds (>= 1).
     pin : tuple of (int, ndarray or None)
         Stamps in ``[0, T)`` whose waypoint is fixed: to the given point (D,) exactly, or, with
         None, to the stamp's mapped point.
+    timing : float
+        Prior spread of when the task passes an ICP on the template path (:mod:`.timing`); 0
+        keeps the template's timing.
     """
     T, D = path.shape
+    covered = _covered(path, src, dst, obstacles, margin) if len(obstacles) else []
+    if covered:
+        raise ConstraintError("contradictory constraints: " + "; ".join(covered))
     given = dict(pin)
     exact_pins = [(t, q) for t, q in pin if q is not None]
     pin_src = path[[t for t, _ in exact_pins]].reshape(-1, D)
     pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
+    # which part of the template passes an on-path ICP: re-timed before the warp (pins never move)
+    moved = retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given))
+    path, src = moved.path, moved.src[: len(src)]
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []
     offsets = None
@@ -187,7 +232,10 @@ def adjust(
             exact = np.arange(len(all_src)) >= len(pairs_src)
         else:
             all_src, all_dst, exact = pairs_src, pairs_dst, None
-        warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
+        if rnd == 1 and moved.warp is not None and not smoothing:
+            warp = moved.warp  # the exact warp re-timing fitted on these very pairs (nothing moved)
+        else:
+            warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
         mapped = warp.mapped
         if rnd == 1:
             # an ICP whose template point IS a waypoint (a boundary, a sub-template's start or end)
@@ -203,6 +251,7 @@ def adjust(
             if bad:
                 raise ConstraintError("contradictory constraints: " + "; ".join(bad))
             offsets = ball_offsets(D, threshold, shells, directions)
+            clearance = max(threshold, CLEARANCE * float(np.linalg.norm(span(mapped))))
         blocked = None
         if len(obstacles):
             cand = mapped[:, None, :] + offsets[None, :, :]  # (T, M, D)
@@ -214,7 +263,7 @@ def adjust(
         for t, q in exact_pins:
             route[t] = q  # the warp meets it up to rounding; make it exact
         if not len(forced) and not len(obstacles):
-            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added)
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps)
         # template indices already pinned by a pair (never reuse them)
         eps = MERGE_TOL * float(span(np.vstack([path, src])).max())
         used = np.zeros(T, bool)
@@ -254,19 +303,19 @@ def adjust(
                         if used[t]:
                             continue
                         used[t] = True
-                        new.append((t, c + _away(route[t], c, mapped[t]) * (r + threshold), label))
+                        new.append((t, c + _away(route[t], c, mapped[t]) * (r + clearance), label))
                         break
                     free = [t for t in ends if not used[t]]
                     if not free:
                         continue
                     # the segment passes through: move its ends out, parallel, past the sphere
-                    shift = _away(foot[k], c, mapped[k]) * (depth[k] + threshold)
+                    shift = _away(foot[k], c, mapped[k]) * (depth[k] + clearance)
                     for t in free:
                         used[t] = True
                         new.append((t, route[t] + shift, label))
                     break
         if not violations:
-            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added)
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps)
         if not new:
             break
         added.extend(new)
