@@ -91,6 +91,24 @@ def test_help_lists_every_registered_worlds_settings(capsys):
         assert "script=FILE.yaml" in text and "osila.threshold" in text
 
 
+@pytest.mark.parametrize("text, message", [
+    ("points: [1, 2]\n", "expected 'points' as a mapping name -> [x, y, z], got a list"),
+    ("answers: 5\n", "expected 'answers' as a mapping question -> value or [values in turn], got an int"),
+    ("answers: [a, b]\n", "expected 'answers' as a mapping question -> value or [values in turn], got a list"),
+    ("events: [go]\n", "expected 'events' as a mapping event -> [values in turn], got a list"),
+    ("events: {go: 5}\n", "expected 'events.go' as a list of values in turn, got 5"),
+    ("events: {go: abc}\n", "expected 'events.go' as a list of values in turn, got 'abc'"),
+    ("answers: {1: 2}\n", "expected the names in 'answers' as words, got 1"),
+])
+def test_a_malformed_script_is_bad_input_naming_the_file(tmp_path, capsys, text, message):
+    """A script is user data: a wrong shape is exit 2 naming the file, never an internal error (exit 3)."""
+    script = tmp_path / "s.yaml"
+    script.write_text(text)
+    for command in ("check", "exec"):
+        code, out, err = run_cli(tmp_path, capsys, "main { let x = 1 }\n", command, "--set", f"script={script}")
+        assert code == 2 and err == f"{script}: error: {message}\n", err
+
+
 def test_the_readme_documents_the_scripts_setting_and_the_search_path():
     readme = (ROOT / "README.md").read_text()
     assert "--set script=FILE.yaml" in readme and "HILA_PATH" in readme and "--max-steps" in readme

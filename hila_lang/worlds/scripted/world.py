@@ -99,10 +99,38 @@ def load_script(path) -> ScriptedWorld:
         raise InputError(f"unknown key {sorted(unknown)[0]!r} in world script; expected points, answers, events, home",
                          file=str(path))
     try:
+        _check_shape(doc)
         return ScriptedWorld(doc.get("points"), doc.get("answers"), doc.get("events"), doc.get("home"))
     except InputError as exc:
         exc.file = str(path)
         raise
+
+
+#: what each mapping of a script holds, for messages
+_SCRIPT_MAPPINGS = {"points": "name -> [x, y, z]", "answers": "question -> value or [values in turn]",
+                    "events": "event -> [values in turn]"}
+
+
+def _kind(value) -> str:
+    name = type(value).__name__
+    return {"list": "a list", "int": "an int", "str": "a string", "float": "a number", "bool": "true/false"}.get(
+        name, f"a {name}")
+
+
+def _check_shape(doc: dict) -> None:
+    """A script's mappings are mappings of names (and an event's values a list): anything else is
+    an InputError saying which key, not a crash further on (a string of events would be its letters)."""
+    for key, what in _SCRIPT_MAPPINGS.items():
+        value = doc.get(key)
+        if value is None:
+            continue
+        if not isinstance(value, dict):
+            raise InputError(f"expected {key!r} as a mapping {what}, got {_kind(value)}")
+        for name, given in value.items():
+            if not isinstance(name, str):
+                raise InputError(f"expected the names in {key!r} as words, got {name!r}")
+            if key == "events" and not isinstance(given, list):
+                raise InputError(f"expected 'events.{name}' as a list of values in turn, got {given!r}")
 
 
 def declared(settings):
