@@ -109,6 +109,25 @@ def test_a_malformed_script_is_bad_input_naming_the_file(tmp_path, capsys, text,
         assert code == 2 and err == f"{script}: error: {message}\n", err
 
 
+def test_help_lists_every_osila_option_a_run_can_set(capsys):
+    from hila_lang.osila import OPTIONS
+
+    with pytest.raises(SystemExit):
+        cli.main(["exec", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in OPTIONS:
+        if name not in ("pin", "seed"):  # pin: stamps of one path, set by each step; seed: no effect
+            assert f"osila.{name}" in text, name
+
+
+def test_a_pin_is_the_steps_own_and_cannot_be_set_for_a_run(capsys):
+    """``osila.pin`` would replace every step's exact start/end pins (and was checked against a
+    two-point path: 'stamps in [-2, 1] for a path of 2 points')."""
+    code = cli.main(["check", str(ROOT / "programs" / "abc.hila"), "--set", "osila.pin=[5]"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("error: --set osila.pin: a pin fixes stamps of one path; each step pins")
+
+
 def test_the_readme_documents_the_scripts_setting_and_the_search_path():
     readme = (ROOT / "README.md").read_text()
     assert "--set script=FILE.yaml" in readme and "HILA_PATH" in readme and "--max-steps" in readme

@@ -82,8 +82,9 @@ def settings_help() -> str:
                 lines.extend(textwrap.wrap(s.help(), 96, initial_indent="    ", subsequent_indent="      "))
             if not info.settings:
                 lines.append("    (no settings)")
-    lines.extend(textwrap.wrap("OSILA: osila.threshold, osila.rounds, osila.smoothing, osila.distortion, "
-                               "osila.margin, osila.shells, osila.directions (see 'hila imitate --help')",
+    lines.extend(textwrap.wrap("OSILA: osila.threshold, osila.timing, osila.rounds, osila.smoothing, "
+                               "osila.distortion, osila.margin, osila.shells, osila.directions (see 'hila "
+                               "imitate --help')",
                                96, initial_indent="  ", subsequent_indent="    "))
     return "\n".join(lines)
 

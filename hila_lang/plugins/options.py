@@ -57,9 +57,14 @@ def osila_options(settings: dict[str, str]) -> dict:
         if not key.startswith("osila."):
             continue
         name = key[6:]
+        if name == "pin":
+            raise InputError("--set osila.pin: a pin fixes stamps of one path; each step pins its own bound "
+                             "start and end, so a pin cannot be set for a whole run",
+                             hint="bind the sub-template's 'start' or 'end' ICP in the program instead")
         if name not in OPTIONS:
-            close = difflib.get_close_matches(name, OPTIONS, n=1)
-            raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(OPTIONS)}",
+            settable = [o for o in OPTIONS if o != "pin"]
+            close = difflib.get_close_matches(name, settable, n=1)
+            raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(settable)}",
                              hint=f"did you mean 'osila.{close[0]}'?" if close else None)
         try:
             out[name] = yaml.safe_load(text)
