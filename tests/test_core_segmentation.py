@@ -51,6 +51,18 @@ def test_kmeans_is_deterministic_and_finds_phases():
     assert abs(a[0][1] - 40) <= 30 and abs(a[1][1] - 160) <= 30, a
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_kmeans_finds_unequal_phases_where_an_equal_split_does_not(seed):
+    """The paper's option must be k-means, not an equal split in disguise: phases of 30, 100 and
+    70 samples (true cuts 30 and 130), where equal thirds cut at 67 and 133."""
+    path = three_phase((30, 100, 70), seed)
+    truth = np.array([30, 130])
+    cuts = np.array([a for a, _ in kmeans_segments(path, 3, seed=0)[1:]])
+    equal = np.array([a for a, _ in equal_segments(len(path), 3)[1:]])
+    assert np.abs(equal - truth).max() > 30  # the case tells the two apart
+    assert np.abs(cuts - truth).max() <= 12, cuts
+
+
 def test_equal_segments():
     assert equal_segments(10, 3) == [(0, 3), (3, 7), (7, 10)]
     for T in (5, 17, 100):
