@@ -116,6 +116,27 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+def _quiet_exit_on_ctrl_c(code: int) -> None:
+    """From here on the work is done and its outputs written: a Ctrl-C while Python exits (joblib's
+    pool joining its threads) ends the process at once with ``code``, not with a traceback
+    ('Exception ignored in threading._shutdown ... KeyboardInterrupt')."""
+    import os
+    import signal
+
+    def now(signum, frame):
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # an ignored SIGINT stays ignored
+        signal.signal(signal.SIGINT, now)
+
+
 def entry() -> None:  # pragma: no cover - thin wrapper for python -m
-    sys.exit(main())
+    code = main()
+    _quiet_exit_on_ctrl_c(code)
+    sys.exit(code)
 

@@ -34,3 +34,28 @@ def test_sigint_ends_eval_with_130_and_no_traceback(tmp_path, delay):
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "Error" not in err, err
     assert err.rstrip().endswith("interrupted") and took < 15, (took, err)
+
+
+EXIT_WITH_SIGINT = """
+import os, signal, threading, time
+from hila_lang import cli
+
+def finished_work(argv=None):
+    # what joblib's pool does at exit: a thread joined in threading._shutdown; Ctrl-C comes then
+    threading._register_atexit(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(2)))
+    print("done", flush=True)
+    return 0
+
+cli.main = finished_work
+cli.entry()
+"""
+
+
+def test_ctrl_c_while_python_exits_after_the_work_prints_no_traceback():
+    """The work is done and written; a Ctrl-C while Python shuts joblib's pool down at exit
+    (its manager thread joined in threading._shutdown) printed 'Exception ignored in: <module
+    'threading'> ... KeyboardInterrupt' with exit status 0.  It now ends at once, quietly, with
+    the work's status."""
+    proc = subprocess.run([sys.executable, "-c", EXIT_WITH_SIGINT], capture_output=True, text=True, timeout=60)
+    assert proc.stdout == "done\n"
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
