@@ -5,6 +5,7 @@ Run from the checkout::
     python bench/vision_game.py                 # 30 games: 5 rounds of the 6 conditions below
     python bench/vision_game.py --rounds 10     # 60 games
     python bench/vision_game.py --only bump     # one condition
+    python bench/vision_game.py --only harsh --rounds 8   # beyond the battery (below)
 
 Every game is ``programs/game.hila`` on the PyBullet iCub (in this process, one PyBullet client per
 game), seed = the game's number, the opponent random and minimax in turn and starting every
@@ -17,6 +18,9 @@ third game.  The conditions (world and back-end settings, all seeded by the game
 - ``light``: ``light=0.5`` (the light drops to 50-100 % after every opponent move);
 - ``sloppy``: ``crosses=sloppy``;
 - ``all``: all of them at once (``light=0.6``).
+
+Not in the default battery (``--only harsh``): ``harsh``, every perturbation beyond the issue's
+sizes -- ``board.bump=0.05``, ``eyes.noise=12``, ``light=0.35``, ``crosses=sloppy``.
 
 Progress goes to stderr, one line per game.  The last line, on stdout, sums it up: games
 played and completed (the game ended on the paper with no error), games the robot lost,
@@ -52,6 +56,8 @@ CONDITIONS = {
     "sloppy": {"crosses": "sloppy"},
     "all": {"board.bump": "0.03", "eyes.noise": "6", "light": "0.6", "crosses": "sloppy"},
 }
+#: conditions run only when asked for (``--only``)
+EXTRA = {"harsh": {"board.bump": "0.05", "eyes.noise": "12", "light": "0.35", "crosses": "sloppy"}}
 
 
 def play(seed: int, condition: str, out: Path) -> dict:
@@ -61,7 +67,7 @@ def play(seed: int, condition: str, out: Path) -> dict:
     from hila_lang.plugins.options import RunOptions
 
     settings = {"opponent": ("random", "minimax")[seed % 2], "first": "opponent" if seed % 3 == 2 else "robot",
-                **CONDITIONS[condition]}
+                **{**CONDITIONS, **EXTRA}[condition]}
     options = RunOptions(seed=seed, out=out, settings=settings, stdin=io.StringIO(), stdout=io.StringIO())
     t0 = time.perf_counter()
     interp = prepare(PROGRAM, options, "pybullet")
@@ -86,7 +92,8 @@ def play(seed: int, condition: str, out: Path) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5, help="rounds of every condition (default 5: 30 games)")
-    parser.add_argument("--only", choices=sorted(CONDITIONS), action="append", help="only these conditions")
+    parser.add_argument("--only", choices=sorted({**CONDITIONS, **EXTRA}), action="append",
+                        help="only these conditions (harsh: only this way)")
     parser.add_argument("--first-seed", type=int, default=0, help="seed of the first game (default 0)")
     args = parser.parse_args(argv)
     conditions = args.only or list(CONDITIONS)

@@ -61,6 +61,15 @@ def warp_reason(warp, dim: int) -> str:
     return f"a similarity transform (fallback): {why}"
 
 
+def _threshold_origin(options: dict) -> str:
+    """Where OSILA's threshold came from: the setting, or its default rule (:mod:`.osila.noise`)."""
+    from .osila.noise import NOISE_MULTIPLE
+
+    if options.get("threshold") is not None:
+        return "(as set: osila.threshold)"
+    return f"(default: {NOISE_MULTIPLE:g} sigma of the mapped path's position noise)"
+
+
 def explain_run(template, binding, hand=None, constraints=(), options=None, *, surface=None,
                 title: str = "") -> list[str]:
     """Lines explaining the HILA step of ``template`` with ``binding`` (ICP name -> point or None),
@@ -109,8 +118,7 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
     res = step.result
     lines[0] += f", {len(step.path)} points"
     lines.append(f"  map: {warp_reason(res.warp, template.dim)}")
-    lines.append(f"  threshold: {res.threshold * 1000:.2f} mm" +
-                 ("" if options.get("threshold") is not None else " (default: 1% of the mapped path's size)"))
+    lines.append(f"  threshold: {res.threshold * 1000:.3g} mm " + _threshold_origin(options))
     if not constraints and res.rounds == 1:
         lines.append("  plan adjustment: none needed (no via/avoid, 1 round)")
         return lines

@@ -122,3 +122,22 @@ def test_a_sloppy_cross_is_off_centre_and_over_a_grid_line_but_in_its_cell(cell)
     neat = cross_strokes(GRID, cell, np.random.default_rng(0))
     local = GRID.world_to_grid(np.vstack(neat)) - GRID.world_to_grid(cell_center(GRID, cell))
     assert np.abs(local).max() < size / 2  # a neat cross stays inside
+
+
+def test_a_circle_drawn_out_of_turn_is_on_the_paper_so_seeing_it_is_no_misread():
+    """The record keeps only the game's legal moves, but the ink of a circle drawn out of turn in
+    an empty cell is on the paper: an eye that sees it there reads the paper right, and one that
+    misses it does not."""
+    ref = Referee(GRID, "robot", 0)
+    ref.record.board = ("O", "", "O", "", "O", "", "X", "", "X")  # the opponent's turn
+    circle = cell_center(GRID, 2) + 0.015 * np.column_stack([np.cos(np.linspace(0, 6.3, 40)),
+                                                              np.sin(np.linspace(0, 6.3, 40)), np.zeros(40)])
+    ref.score_circle({"state": "main/mark/draw", "planned": circle, "executed": circle}, intended=2)
+    assert ref.fouls == [{"cell": 2, "foul": "drawn out of turn", "moves_before": 0}]
+    assert ref.record.board[1] == "" and ref.to_move() == "opponent"  # the game's record: legal moves only
+    assert ref.paper_marks() == ("O", "O", "O", "", "O", "", "X", "", "X")
+    assert ref.score_sighting(sight(["O", "O", "O", "", "O", "", "X", "", "X"], look=1)) == []
+    assert ref.score_sighting(sight(["O", "", "O", "", "O", "", "X", "", "X"], look=2)) == [
+        {"look": 2, "moves_before": 0, "cell": 2, "seen": "", "true": "O"}]
+    ref.record.board = ("O", "X", "O", "", "O", "", "X", "", "X")  # the opponent plays over it: its mark counts
+    assert ref.paper_marks()[1] == "X"

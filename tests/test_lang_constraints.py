@@ -263,3 +263,21 @@ def test_repl_explain_before_and_after_a_run():
     interp2 = Interpreter(checked, fsm, ScriptedWorld(), DryBackend())
     interp2.run(max_steps=2)  # main/visit (a call) is current: explain the last run
     assert interp2.explain()[0] == "main/back (line 17), step 2: reach.back, 35 points"
+
+
+def test_explain_says_how_the_threshold_was_chosen(capsys):
+    """The default threshold is 2 sigma of the mapped path's position noise (``osila.noise``),
+    not the 1 % of the path's size it was before: explain names the rule OSILA used."""
+    from hila_lang import cli
+    from hila_lang.osila.noise import NOISE_MULTIPLE
+
+    checked, fsm = load_program(PROGRAM)
+    interp = Interpreter(checked, fsm, ScriptedWorld(), DryBackend())
+    explained = interp.explain()  # main/reach, about to run
+    interp.run(max_steps=1)
+    res = interp.last_run.step_result.result
+    line = next(x for x in explained if x.startswith("  threshold: "))
+    assert line == (f"  threshold: {res.threshold * 1000:.3g} mm "
+                    f"(default: {NOISE_MULTIPLE:g} sigma of the mapped path's position noise)")
+    assert cli.main(["explain", PROGRAM, "--state", "main/reach", "--set", "osila.threshold=0.002"]) == 0
+    assert "  threshold: 2 mm (as set: osila.threshold)" in capsys.readouterr().out.splitlines()

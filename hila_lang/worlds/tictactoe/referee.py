@@ -7,12 +7,14 @@ and saw.  It never chooses, filters or retries for the robot: the robot's decisi
 its own sightings (:mod:`.player`), and the game goes on from them.  The referee compares
 after the fact:
 
-- each sighting against the record and the true sheet: ``misreads`` (cell, what the robot saw,
-  what is there), the distances of the perceived grid corners from the true ones and of the
-  estimated table height from the true one;
+- each sighting against what the paper holds (:meth:`Referee.paper_marks`: the record, and the
+  robot's circles drawn out of turn in empty cells, whose ink is there though the game does not
+  count them) and the true sheet: ``misreads`` (cell, what the robot saw, what is there), the
+  distances of the perceived grid corners from the true ones and of the estimated table height
+  from the true one;
 - each circle: the cell its ink lies in (on the sheet as it is), how far it strays outside it,
   and ``fouls`` (a circle drawn out of turn or in a taken cell; the record keeps the cell's
-  first mark).
+  first mark, and only the game's legal moves).
 
 Perturbations (world settings, seeded by ``--seed``), after each of the opponent's moves:
 
@@ -124,6 +126,8 @@ class Referee:
         self.misreads: list[dict[str, Any]] = []
         self.fouls: list[dict[str, Any]] = []
         self.perturbations: list[dict[str, Any]] = []
+        #: cell -> mark inked on the paper outside the game's record (a circle drawn out of turn)
+        self.stray: dict[int, str] = {}
 
     # -- the game as it is ---------------------------------------------------------------------
     def to_move(self) -> str | None:
@@ -142,6 +146,11 @@ class Referee:
         if w == ttt.CROSS:
             return OPPONENT
         return "draw" if ttt.EMPTY not in self.record.board else None
+
+    def paper_marks(self) -> ttt.Board:
+        """What the paper holds, cells 1..9: the record's marks, and where the record has none, a
+        circle the robot drew out of turn (:attr:`stray`): what an eye that reads right sees."""
+        return tuple(m or self.stray.get(c, "") for c, m in enumerate(self.record.board, 1))
 
     def _record(self, who: str, cell: int, t: float) -> None:
         mark = ttt.CIRCLE if who == ROBOT else ttt.CROSS
@@ -189,8 +198,9 @@ class Referee:
 
     # -- scoring -------------------------------------------------------------------------------
     def score_sighting(self, sight: dict[str, Any]) -> list[dict[str, Any]]:
-        """Compare one sighting with the record and the sheet as they are now; returns its misreads."""
-        truth = self.record.board
+        """Compare one sighting with the paper (:meth:`paper_marks`) and the sheet as they are now;
+        returns its misreads."""
+        truth = self.paper_marks()
         misreads = [{"look": sight["look"], "moves_before": len(self.record.moves), "cell": c,
                      "seen": sight["board"][c - 1], "true": truth[c - 1]}
                     for c in range(1, 10) if sight["board"][c - 1] != truth[c - 1]]
@@ -241,6 +251,7 @@ class Referee:
                                "moves_before": len(self.record.moves)})
         elif self.to_move() != ROBOT:
             self.fouls.append({"cell": cell, "foul": "drawn out of turn", "moves_before": len(self.record.moves)})
+            self.stray.setdefault(cell, ttt.CIRCLE)  # its ink is on the paper all the same
         else:
             self._record(ROBOT, cell, t)
         return mark

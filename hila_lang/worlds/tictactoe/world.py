@@ -134,6 +134,7 @@ class TicTacToeWorld:
         self.snapshots = AttributeSnapshots(
             self,
             ("rng", "opponent._rng", "_scored", "_idle", "referee.grid", "referee.rng", "referee.record._board",
+             "referee.stray",
              "player.table", "player.own", "player.choice", "player._blind_board", "player._since", "player._stale"),
             append_only=("states", "referee.record._moves", "referee.marks", "referee.crosses", "referee.looks",
                          "referee.misreads", "referee.fouls", "referee.perturbations", "player.sightings"))
@@ -317,7 +318,7 @@ class TicTacToeWorld:
     def _seen_versus_real(self) -> str:
         seen = self.player.sightings[-1]["board"] if self.player.sightings else self.player.board()
         return "the robot sees " + " ".join(m or "." for m in seen) + "; the paper holds " + \
-            " ".join(m or "." for m in self.board)
+            " ".join(m or "." for m in self.referee.paper_marks())
 
     # -- the end -----------------------------------------------------------------------------
     def result(self) -> str | None:
