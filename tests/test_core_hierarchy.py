@@ -75,3 +75,23 @@ def test_resolve_and_errors():
         generate([], t.icps)
     with pytest.raises(InputError, match=r"one task ICP mapping per step \(2\), got 1"):
         generate([t.sub("A"), t.sub("B")], [t.icps])
+
+
+def test_the_shipped_reach_stays_above_the_paper_from_the_far_side():
+    """The reach of ``primitives/circle.yaml`` into cell 9 as the robot saw it in the game of seed
+    14 (random opponent): the corners on the paper it saw, the hand lifted beyond the cell's far
+    side.  The step's path never goes below the corners' plane (it went 1.1 mm below with the
+    similarity fallback; the arm refuses 2 mm below the real paper)."""
+    from pathlib import Path
+
+    from hila_lang.hierarchy import hila_step
+    from hila_lang.template import load_template
+
+    reach = load_template(Path(__file__).resolve().parents[1] / "primitives" / "circle.yaml").sub("reach")
+    z = 0.57002
+    corners = {"tl": [0.29092, -0.12271, z], "tr": [0.30466, -0.17419, z], "br": [0.25312, -0.18799, z],
+               "bl": [0.23937, -0.13651, z]}
+    hand = [0.36254, -0.03486, 0.65688]
+    step = hila_step(reach, {**corners, "hand": hand, "start": None}, hand)
+    assert step.path[:, 2].min() >= z - 1e-6
+    assert abs(step.path[-1, 2] - z) < 1e-6  # the pen ends on the paper, where the draw begins

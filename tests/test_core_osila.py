@@ -161,6 +161,36 @@ def test_coplanar_icps_in_3d_use_similarity_and_five_points_use_tps():
     assert fit_warp(both, 0.8 * both @ R.T).kind == "tps"
 
 
+def reach_over_a_square():
+    """A 3-D reach: from a hand 0.2 above and beside a 0.07 square (z = 0) down into it, and a task
+    with the square turned and moved and the hand on its other side, half as high: the hand's pair
+    cannot be predicted by any map from the four coplanar corners."""
+    t = np.linspace(0, 1, 80)[:, None]
+    hand, touch = np.array([-0.08, -0.07, 0.2]), np.array([0.05, 0.04, 0.0])
+    path = hand + t * (touch - hand)
+    path[:, 2] = 0.2 * (1 - t[:, 0]) ** 2  # comes down and touches the paper at the end
+    corners = np.array([[0, 0, 0], [0.07, 0, 0], [0.07, 0.07, 0], [0, 0.07, 0]], float)
+    R = rotation(3, 2.9, axis=(0, 0, 1))  # the square turned half round: the hand is on its other side
+    task = corners @ R.T + [0.3, -0.1, 0.57]
+    task_hand = task.mean(0) + [-0.07, -0.06, 0.09]
+    return path, np.vstack([corners, hand]), np.vstack([task, task_hand])
+
+
+def test_a_hand_above_coplanar_corners_does_not_tilt_the_paper():
+    """Issue 14's game, seed 14 (random opponent): the reach into a cell bound the four corners on
+    the paper and the hand on the far side; the fallback similarity, pulled by the hand, tilted
+    the paper's plane and the reach went 1.1 mm below it (2.1 mm below the real paper: the arm
+    refused).  The hand's pair is left out of the leave-one-out comparison (no TPS exists without
+    it); on the corners the TPS wins, and it keeps the corners' plane."""
+    path, src, dst = reach_over_a_square()
+    warp = fit_warp(src, dst, on=path)
+    assert warp.kind == "tps" and warp.amplification < 3
+    assert warp.mapped[:, 2].min() >= 0.57 - 1e-9  # never below the paper the corners lie on
+    np.testing.assert_allclose(warp.mapped[-1, 2], 0.57, atol=1e-9)  # and touches it
+    res = imitate_detailed(path, src, dst)
+    assert res.path[:, 2].min() >= 0.57 - res.threshold - 1e-9
+
+
 def test_coinciding_template_icps_last_pair_wins():
     src = np.array([[0, 0], [1, 0], [0, 1], [1, 1], [0, 0]], float)
     dst = src.copy()

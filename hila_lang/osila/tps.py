@@ -24,7 +24,11 @@ Which map (never a crash, never a blow-up)
      exactly, with no pair left to check it, and any ICP error becomes shear;
   2. it predicts each pair from the others at least as well as the fallback does (leave-one-out
      error: Rippa's closed form for the TPS, K refits for the fallback) — the data at hand says
-     whether its ICPs carry a smooth deformation or a rigid placement plus noise;
+     whether its ICPs carry a smooth deformation or a rigid placement plus noise.  A pair without
+     which the others cannot determine a TPS (the hand above four exactly coplanar corners of a
+     drawing surface: the system without it is singular) is left out of both means: no TPS can be fitted without it, so it says
+     nothing about which map generalises, and counting it as an infinite error would hand the
+     choice to the fallback however badly that predicts the other pairs;
   3. its amplification on the path is at most :data:`MAX_AMPLIFICATION` (below).
 
   Otherwise the **similarity** fallback: the least-squares similarity transform of the pairs
@@ -69,6 +73,9 @@ from .fallback import fit_similarity
 
 MERGE_TOL = 1e-6
 DEGENERATE_TOL = 1e-3
+#: (A⁻¹)_kk of the normalised TPS system at most this: the system without pair k is singular
+#: (rounding level; it is 1e-17 for the hand above four coplanar corners, about 1 otherwise)
+SINGULAR_TOL = 1e-12
 #: largest Lebesgue constant of a TPS on the mapped path before the similarity fallback is used,
 #: per dimension D (see the module docstring; measured by ``bench/warp.py``)
 MAX_AMPLIFICATION = {2: 6.0, 3: 8.0}
@@ -279,13 +286,13 @@ def _similarity(src, dst, lin, w, amplification) -> Warp:
     return Warp("similarity", src, dst, w, lin, float(np.abs(src - src.sum(0) / K).max()), amplification)
 
 
-def _choice_kernel(src, dst, ridge, card, lin, w):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - compiled by numba (hila_lang.jit)
     """The small systems behind :func:`fit_warp`'s choice, as loops (numpy twin: :func:`_choice_numpy`).
 
     Fills ``card`` (K + D + 1, K) with A⁻¹[:, :K] of the TPS system on the normalised template
     points, ``lin`` (D + 1, D) and ``w`` (K, D) with the similarity fallback on all pairs, and
-    returns the fallback's leave-one-out error (mean squared).  Needs K >= D + 2 points spanning D
-    dimensions.
+    ``loo`` (K,) with the fallback's leave-one-out squared error per pair.  Needs K >= D + 2
+    points spanning D dimensions.
     """
     K, D = src.shape
     mu = np.zeros(D)
@@ -329,7 +336,6 @@ def _choice_kernel(src, dst, ridge, card, lin, w):  # pragma: no cover - compile
                 diff = src[i, d] - src[j, d]
                 r2 += diff * diff
             phi[i, j] = np.sqrt(r2) / sc
-    total = 0.0
     for skip in range(-1, K):
         m = K if skip < 0 else K - 1
         rows = np.empty(m, dtype=np.int64)
@@ -401,18 +407,19 @@ def _choice_kernel(src, dst, ridge, card, lin, w):  # pragma: no cover - compile
                 for d in range(D):
                     w[rows[u], d] = sol[u, d]
         else:
+            loo[skip] = 0.0
             for d in range(D):
                 pred = md[d] + sol[m, d]
                 for c in range(D):
                     pred += sR[d, c] * (src[skip, c] - ms[c])
                 for u in range(m):
                     pred += phi[skip, rows[u]] * sol[u, d]
-                total += (pred - dst[skip, d]) ** 2
-    return total / K
+                loo[skip] += (pred - dst[skip, d]) ** 2
 
 
-def _similarity_loo_numpy(src: np.ndarray, dst: np.ndarray, phi: np.ndarray) -> float:
-    """All K leave-one-out fits of the similarity fallback at once (see :func:`similarity_loo`)."""
+def _similarity_loo_numpy(src: np.ndarray, dst: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """All K leave-one-out fits of the similarity fallback at once: the squared error of each
+    left-out pair, shape (K,) (see :func:`similarity_loo`)."""
     K, D = src.shape
     keep = ~np.eye(K, dtype=bool)
     # centroids without pair k, from the totals
@@ -449,11 +456,11 @@ def _similarity_loo_numpy(src: np.ndarray, dst: np.ndarray, phi: np.ndarray) -> 
     rhs[:, :K] = resid
     sol = np.linalg.solve(A, rhs)  # (K, K + 1, D); weight k of system k is 0
     pred = pred_lin[idx, idx] + np.einsum("kn,knd->kd", phi * keep, sol[:, :K]) + sol[:, K]
-    return float(((pred - dst) ** 2).sum(1).mean())
+    return ((pred - dst) ** 2).sum(1)
 
 
 def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """:func:`_choice_kernel` in numpy: (card, lin, w, similarity leave-one-out error)."""
+    """:func:`_choice_kernel` in numpy: (card, lin, w, similarity leave-one-out errors (K,))."""
     K, D = src.shape
     _, _, A = _tps_system(src, ridge)
     rhs = np.zeros((K + D + 1, K))
@@ -465,20 +472,20 @@ def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 
 def _choice(src, dst, ridge, compiled_kernel: bool = True):
-    """(card, lin, w, similarity LOO) by the compiled kernel (if asked and available), else numpy;
-    None if a system is singular."""
+    """(card, lin, w, similarity LOO per pair (K,)) by the compiled kernel (if asked and
+    available), else numpy; None if a system is singular."""
     from ..jit import compiled
 
     K, D = src.shape
     kernel = None if not compiled_kernel else compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
-                      np.zeros((4, 2)))
+                      np.zeros((4, 2)), np.zeros(4))
     try:
         if kernel is None:
             return _choice_numpy(src, dst, ridge)
-        card, lin, w = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D))
-        loo = kernel(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
-                     card, lin, w)
-        return card, lin, w, float(loo)
+        card, lin, w, loo = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D)), np.empty(K)
+        kernel(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
+               card, lin, w, loo)
+        return card, lin, w, loo
     except (np.linalg.LinAlgError, ZeroDivisionError):
         return None
 
@@ -495,7 +502,7 @@ def similarity_loo(src: np.ndarray, dst: np.ndarray) -> float:
     its residuals.  ``inf`` if a fit is singular.
     """
     got = _choice(src, dst, np.zeros(len(src)))
-    return float("inf") if got is None else got[3]
+    return float("inf") if got is None else float(got[3].mean())
 
 
 def fit_warp(
@@ -546,10 +553,16 @@ def fit_warp(
                if K >= D + 2 and rank == D and on is not None else None)
         amplification = None
         if got is not None:
-            card, lin, w, sim_loo = got
+            card, lin, w, sim_each = got
             sol = card @ dst
             diag = np.diagonal(card[:K])
-            tps_loo = float(np.mean((sol[:K] / diag[:, None]) ** 2) * D) if np.all(np.abs(diag) > 1e-12) else np.inf
+            # the pairs a TPS can be fitted without (docstring, 2.): Rippa's error of pair k is
+            # c_k / (A⁻¹)_kk, and (A⁻¹)_kk vanishes when the system without pair k is singular
+            judged = np.abs(diag) > SINGULAR_TOL
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tps_each = np.where(judged, ((sol[:K] / diag[:, None]) ** 2).sum(1), np.inf)
+            tps_loo, sim_loo = ((float(tps_each[judged].mean()), float(sim_each[judged].mean())) if judged.any()
+                                else (np.inf, 0.0))
             tie = (1e-9 * float(np.abs(dst - dst.sum(0) / K).max())) ** 2
             if tps_loo <= sim_loo + tie:
                 # the TPS predicts left-out pairs at least as well: check its amplification on the path
