@@ -12,7 +12,7 @@ with its own PyBullet client, and prints the resident memory after each, so a le
 ``loadTexture`` on every ink reload, DESIGN.md section 4) shows as growth per game.  The last line
 sums it up::
 
-    game wall=<s> peak=<MB> series=<n> rss_growth_per_game=<MB> r_min=<R>
+    game wall=<s> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
 """
 
 from __future__ import annotations
@@ -52,8 +52,10 @@ def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float,
     return wall, peak, json.loads((out / "report.json").read_text())
 
 
-def series(n: int, out: Path) -> list[tuple[float, float, dict]]:
-    """``n`` games in this process: (wall s, RSS MB after the game, report) per game."""
+def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
+    """``n`` games in this process: (wall s, RSS MB after the game, report -- or the error's
+    first line for a game that failed: a finding, and the series goes on) per game."""
+    from hila_lang.errors import HilaError
     from hila_lang.plugins.options import RunOptions
     from hila_lang.language.runner import finish, prepare
 
@@ -63,8 +65,11 @@ def series(n: int, out: Path) -> list[tuple[float, float, dict]]:
                              stdin=io.StringIO(), stdout=io.StringIO())
         t0 = time.perf_counter()
         interp = prepare(PROGRAM, options, "pybullet")
-        interp.run()
-        report = finish(interp)
+        try:
+            interp.run()
+            report: dict | str = finish(interp)
+        except HilaError as exc:
+            report = str(exc).splitlines()[0]
         rows.append((time.perf_counter() - t0, rss_mb(), report))
     return rows
 
@@ -89,16 +94,21 @@ def main(argv: list[str] | None = None) -> int:
                   f"R min {min(m['r'] for m in report['marks']):.4f}", flush=True)
         print(f"peak RSS of a game process: {peak:.0f} MB", flush=True)
         growth = float("nan")
+        failed = 0
         if args.series > 0:
             rows = series(args.series, tmp)
             for k, (wall, rss, report) in enumerate(rows):
+                if isinstance(report, str):
+                    failed += 1
+                    print(f"series game {k + 1:3d}: {wall:5.2f} s, RSS {rss:7.1f} MB, FAILED: {report}", flush=True)
+                    continue
                 r_all += [m["r"] for m in report["marks"] if m["r"] is not None]
                 print(f"series game {k + 1:3d}: {wall:5.2f} s, RSS {rss:7.1f} MB, {report['result']}", flush=True)
             if len(rows) >= 3:  # growth after the first game (which loads everything)
                 growth = (rows[-1][1] - rows[1][1]) / (len(rows) - 2)
-        print(f"game wall={max(walls):.2f} peak={peak:.0f} series={args.series} "
+        print(f"game wall={max(walls):.2f} peak={peak:.0f} series={args.series} failed={failed} "
               f"rss_growth_per_game={growth:.2f} r_min={min(r_all):.4f}")
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -55,7 +55,7 @@ def warp_reason(warp, dim: int) -> str:
         why = (f"the {kept} pairs (ICPs and constraint pairs) span only {rank} of {dim} dimensions "
                f"({'collinear' if rank == 1 else 'coplanar'}), so a spline would be unconstrained across them")
     else:
-        amp = getattr(warp, "amplification", None)
+        amp = warp.amplification
         why = "the spline did not earn its place over the rigid fit" + (
             f" (amplification {amp:.1f} on the path)" if amp is not None else "")
     return f"a similarity transform (fallback): {why}"

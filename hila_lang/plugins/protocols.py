@@ -48,6 +48,9 @@ class Eyes(Protocol):
     pose and the joint angles it was taken at (``CameraImage.joints``), so a caller can
     recompute the pose from the kinematic chain (:meth:`chain`)."""
 
+    #: standard deviation of the sensor noise in every image, grey levels (0: none)
+    noise: float
+
     def look_at(self, point: "np.ndarray") -> float:
         """Aim the eyes at ``point`` (3,); returns the angle (radians) the joint limits leave."""
         ...

@@ -84,7 +84,7 @@ def build_report(world, trace=None) -> dict[str, Any]:
         "perturbations": {
             "board.bump": world.referee.bump, "light": world.referee.light,
             "crosses": "sloppy" if world.referee.sloppy else "neat",
-            "eyes.noise": None if not world.sees else float(getattr(backend.eyes, "noise", 0.0)),
+            "eyes.noise": None if not world.sees else float(backend.eyes.noise),
             "events": world.referee.perturbations,
         },
         "moves": world.moves,
