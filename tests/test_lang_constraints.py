@@ -102,6 +102,14 @@ def test_a_run_without_constraints_dumps_as_before():
      "t.hila:2:56: error: 'via' needs a point or a point group, got 3"),
     ("main { run reach.reach(object = hand, home = hand) via lmap }",
      "t.hila:2:56: error: unknown name 'lmap'"),
+    ("main { run reach.reach(object = hand, home = hand) via (0.3, 0.1) }",
+     "t.hila:2:56: error: 'via' needs a point of the world (x, y, z), got the 2-D point (0.3, 0.1)"),
+    ("main { run reach.reach(object = hand, home = hand) via \"abc\" }",
+     "t.hila:2:56: error: 'via' needs a point or a point group, got \"abc\""),
+    ("main { run reach.reach(object = hand, home = hand) avoid lamp radius \"x\" }",
+     "t.hila:2:70: error: an obstacle's radius must be a number of metres, got \"x\""),
+    ("main { run reach.reach(object = hand, home = hand) avoid lamp radius none }",
+     "t.hila:2:70: error: an obstacle's radius must be a number of metres, got none"),
 ])
 def test_constraint_mistakes_are_located_check_errors(src, message):
     with pytest.raises(CheckError) as info:

@@ -67,6 +67,19 @@ def test_exec_stops_at_the_limit_with_exit_1_and_max_steps_moves_it(tmp_path, ca
     assert info.value.code == 2 and "expected a whole number >= 0 (0: no limit), got -1" in capsys.readouterr().err
 
 
+def test_explain_and_repl_keep_to_max_steps_too(tmp_path, capsys, monkeypatch):
+    """Every run command takes --max-steps; explain and the REPL used to ignore it."""
+    import io
+
+    prog = tmp_path / "loop.hila"
+    prog.write_text(LOOP)
+    assert cli.main(["explain", str(prog), "--max-steps", "300"]) == 1
+    assert "stopped after 300 steps without finishing (the step limit)" in capsys.readouterr().err
+    monkeypatch.setattr("sys.stdin", io.StringIO("run\nquit\n"))
+    cli.main(["repl", str(prog), "--max-steps", "40"])
+    assert "stopped after 40 steps without finishing (the step limit)" in "".join(capsys.readouterr())
+
+
 def test_the_trace_in_memory_is_bounded_and_counts_everything(tmp_path):
     interp = engine(tmp_path, LOOP, step_limit=None)
     seen = []

@@ -130,6 +130,18 @@ def test_a_failed_run_is_recorded_and_verifies_as_failing_the_same_way(tmp_path)
     assert proc.returncode == 0 and proc.stdout.startswith("no difference: 1 steps verified")
 
 
+def test_a_run_stopped_by_the_step_limit_verifies(tmp_path):
+    """The step limit is part of the recorded command: a run it stopped verifies (it reported
+    'the recording failed there, the re-run went on')."""
+    prog = tmp_path / "loop.hila"
+    prog.write_text("main {\n    while true { let x = 1 }\n}\n")
+    proc = hila("exec", str(prog), "--max-steps", "10", "--record", str(tmp_path / "l.hilarec"), "--quiet")
+    assert proc.returncode == 1 and "the step limit" in proc.stderr
+    assert read_record(tmp_path / "l.hilarec")["command"]["max_steps"] == 10
+    proc = hila("replay", "--verify", str(tmp_path / "l.hilarec"))
+    assert proc.returncode == 0 and proc.stdout.startswith("no difference: 10 steps verified"), proc.stdout
+
+
 def test_a_person_s_moves_are_recorded_and_typed_again(tmp_path):
     moves = "5\n1\n2\n3\n4\n6\n7\n8\n9\n"
     proc = hila("exec", "programs/game.hila", "--backend", "dry", "--opponent", "human", "--set", "report=no",

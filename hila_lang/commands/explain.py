@@ -27,7 +27,7 @@ def run(args) -> int:
     from ..language.runner import finish, prepare
 
     options = run_options(args)
-    interp = prepare(args.program, options, args.backend)
+    interp = prepare(args.program, options, args.backend, step_limit=args.max_steps)
     out = options.stdout
 
     def wanted(name: str) -> bool:

@@ -244,7 +244,7 @@ class RepeatStmt:
 
 Stmt = Union[RunStmt, CallStmt, LetStmt, WaitStmt, IfStmt, WhileStmt, UntilStmt, RepeatStmt]
 #: the statement classes (for ``isinstance``)
-STATEMENTS = _STMT_TYPES = get_args(Stmt)
+STATEMENTS = get_args(Stmt)
 
 # --------------------------------------------------------------------------- top level
 
@@ -389,7 +389,7 @@ def walk(body):
     for s in body:
         yield s
         for c in children(s):
-            if isinstance(c, _STMT_TYPES):
+            if isinstance(c, STATEMENTS):
                 yield from walk((c,))
 
 

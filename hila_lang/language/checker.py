@@ -111,7 +111,7 @@ class _Checker(A.Visitor):
             self.expr(pt.value, set(), pt.pos)
             self.point_depth(pt)
             self.points[pt.name] = pt.value
-            self.point_dims[pt.name] = self.dim(pt.value, set())
+            self.point_dims[pt.name] = self.dim(pt.value, _Defined())
         hands = p.of(A.HandDecl)
         if len(hands) > 1:
             raise self.error("'hand at' is given twice", hands[1].pos)
@@ -211,10 +211,7 @@ class _Checker(A.Visitor):
         if s.name in RESERVED:
             raise self.error(f"'{s.name}' is reserved; pick another name", s.pos)
         self.expr(s.value, defined, s.pos)
-        if isinstance(defined, _Defined):
-            defined.let(s.name, self.dim(s.value, defined))
-        else:
-            defined.add(s.name)
+        defined.let(s.name, self.dim(s.value, defined))
 
     def visit_WaitStmt(self, s: A.WaitStmt, defined: set[str]) -> None:
         self.world.event(s.wait.event, s.wait.pos if s.wait.pos.line else s.pos)
@@ -288,7 +285,7 @@ class _Checker(A.Visitor):
             if b.icp in icps:  # one ICP bound to one point (not a group bound to a group)
                 self.world.binding(s.ref, dim, b.icp, self.dim(b.value, defined), b.pos)
                 value = b.value
-                if (isinstance(value, A.Name) and len(value.parts) == 1 and value.parts[0] in getattr(defined, "params", ())
+                if (isinstance(value, A.Name) and len(value.parts) == 1 and value.parts[0] in defined.params
                         and value.parts[0] not in defined.dims):  # a parameter: checked at each call
                     self.param_uses.setdefault((defined.task, value.parts[0]), []).append((s.ref, dim, b.icp))
         self.constraints(s.constraints, defined)
@@ -300,8 +297,9 @@ class _Checker(A.Visitor):
                 f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
 
     def constraints(self, constraints, defined: set[str]) -> None:
-        """``via P`` takes no radius, ``avoid P`` needs one (> 0 when written as a number); P is a
-        point or a point group, so a number, a truth value or ``none`` is refused."""
+        """``via P`` takes no radius, ``avoid P`` needs one (a number of metres > 0 when written
+        as a literal); P is a point of the world (x, y, z) or a point group, so a number, a string,
+        a truth value, ``none`` or a point of another size is refused."""
         for c in constraints:
             if c.kind == "via" and c.radius is not None:
                 raise self.error("a 'via' waypoint takes no radius", c.radius.pos if c.radius.pos.line else c.pos,
@@ -309,13 +307,22 @@ class _Checker(A.Visitor):
                                  "point write 'avoid POINT radius R'")
             if c.kind == "avoid" and c.radius is None:
                 raise self.error("'avoid' needs a radius: avoid POINT radius R (metres)", c.pos)
-            if isinstance(c.value, (A.Number, A.Bool, A.NoneLit)):
+            if isinstance(c.value, (A.Number, A.String, A.Bool, A.NoneLit)):
                 raise self.error(f"'{c.kind}' needs a point or a point group, got {A.expr_text(c.value)}",
                                  c.value.pos if c.value.pos.line else c.pos,
                                  "e.g. (0.3, -0.1, 0.6), a point's name, or a group such as board.cell5")
             self.expr(c.value, defined, c.pos)
+            size = self.dim(c.value, defined)
+            if size is not None and size != 3:
+                raise self.error(f"'{c.kind}' needs a point of the world (x, y, z), got the {size}-D point "
+                                 f"{A.expr_text(c.value)}", c.value.pos if c.value.pos.line else c.pos,
+                                 "give it 3 coordinates, metres (a 2-D template's constraints are projected "
+                                 "onto its drawing surface, like its ICPs)")
             if c.radius is not None:
                 self.expr(c.radius, defined, c.pos)
+                if isinstance(c.radius, (A.String, A.Bool, A.NoneLit, A.Vector)):
+                    raise self.error(f"an obstacle's radius must be a number of metres, got {A.expr_text(c.radius)}",
+                                     c.radius.pos if c.radius.pos.line else c.pos)
                 if isinstance(c.radius, A.Number) and c.radius.value <= 0:
                     raise self.error(f"an obstacle's radius must be more than 0 metres, got {A.expr_text(c.radius)}",
                                      c.radius.pos if c.radius.pos.line else c.pos)
@@ -339,7 +346,7 @@ class _Checker(A.Visitor):
             return None
         first = e.parts[0]
         if first in defined:
-            return getattr(defined, "dims", {}).get(first) if len(e.parts) == 1 else None
+            return defined.dims.get(first) if len(e.parts) == 1 else None
         if e.text == "hand":
             return 3
         if e.text in self.point_dims:

@@ -213,7 +213,8 @@ def start_recording(args, options):
     ensure_writable(path)  # a recording that cannot be written is refused before the run, not after
     options.stdin = TeeInput(options.stdin)
     command = {"program": str(args.program), "backend": args.backend, "seed": options.seed,
-               "settings": dict(options.settings), "record_eyes": bool(args.record_eyes)}
+               "settings": dict(options.settings), "record_eyes": bool(args.record_eyes),
+               "max_steps": getattr(args, "max_steps", None)}
 
     def start(interp) -> Recorder:
         command.update(world=interp.fsm.world, backend=interp.backend.name)

@@ -254,7 +254,13 @@ def verify(record: dict, *, tolerance: float = 1e-6) -> tuple[bool, list[str]]:
                     return False, lines
             result = record["result"]
             n = len(steps) + 1
-            if result["status"] == "failed":
+            limit = command.get("max_steps") or 0  # 0 / None: no limit (recordings before it was kept)
+            if result["status"] == "failed" and limit and len(steps) >= limit:
+                if interp.done:  # the recording hit --max-steps; the re-run must not have finished either
+                    lines.append(f"first difference at step {n}: the recording stopped at the step limit "
+                                 f"({limit}), the re-run finished")
+                    return False, lines
+            elif result["status"] == "failed":
                 try:
                     interp.step()
                 except HilaError as exc:

@@ -69,7 +69,8 @@ class Player:
     hand : Hand or None
         Needed with eyes (to move the arm out of the way).
     layout : Grid or None
-        Where the board was laid out, for a robot without eyes (default :meth:`Grid.game`).
+        Where the board was laid out, for a robot without eyes (default :meth:`Grid.game`); a
+        robot with eyes is given none: it knows the board only from its sightings.
 
     Attributes
     ----------
@@ -78,7 +79,7 @@ class Player:
         ``arm``, ``unsure``, ``doubts``, ``surface_z``, ``marks_made`` (marks made since the
         look before, as far as the robot knows) and ``seconds``.
     own : list of int
-        The cells of its circles, as it saw where its pen drew.
+        The cells of its circles, where it drew them in the grid as it saw it.
     choice : int or None
         The cell it chose last.
     """
@@ -91,7 +92,7 @@ class Player:
         self.first = first
         self.park = np.asarray(park, dtype=float).copy()
         self.eyes, self.hand = eyes, hand
-        self.layout = layout or Grid.game()
+        self.layout = layout if layout is not None or eyes is not None else Grid.game()
         self.table = Table(ROOT_POSITION[2] - TABLE_PRIOR_BELOW_ROOT)
         self.sightings: list[dict[str, Any]] = []
         self.own: list[int] = []
@@ -113,10 +114,11 @@ class Player:
         if not self.sees and announced is not None and self._blind_board[announced - 1] == ttt.EMPTY:
             self._blind_board = ttt.play(self._blind_board, int(announced), ttt.CROSS)
 
-    def drew(self, executed: np.ndarray) -> int | None:
-        """The robot drew a circle along ``executed`` (T, 3) (its pen tip): remember the cell
-        it drew in, as it sees the board; returns it (None: not in the grid as it sees it)."""
-        path = np.asarray(executed, dtype=float)
+    def drew(self, commanded: np.ndarray) -> int | None:
+        """The robot drew a circle along ``commanded`` (T, 3), the pen path it sent to its arm:
+        remember the cell it drew in, as it sees the board; returns it (None: not in the grid as
+        it sees it)."""
+        path = np.asarray(commanded, dtype=float)
         low = path[path[:, 2] <= path[:, 2].min() + DRAWN_BAND]
         cell = self._cell_at(np.median(low, axis=0))
         self._since += 1
@@ -159,6 +161,8 @@ class Player:
         :data:`PEN_PRESS` into the paper), else the layout."""
         sight = self.sight()
         if sight is None:
+            if self.layout is None:
+                raise HilaRuntimeError("the robot has not seen the board yet: it has no corners to bind")
             return {cell: cell_corners(self.layout, cell) for cell in range(1, 10)}
         press = np.array([0.0, 0.0, PEN_PRESS])
         return {cell: {name: p - press for name, p in names.items()} for cell, names in sight["corners"].items()}
@@ -217,7 +221,7 @@ class Player:
     def _cell_at(self, point: np.ndarray) -> int | None:
         """The cell (1..9) holding ``point`` in the grid as the robot knows it, or None."""
         if not self.sightings:
-            return cell_at(self.layout, point)
+            return None if self.layout is None else cell_at(self.layout, point)
         c = self.sightings[-1]["corners"]
         origin = c[1]["tl"]
         right = c[3]["tr"] - origin

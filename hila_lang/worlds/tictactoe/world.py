@@ -192,7 +192,9 @@ class TicTacToeWorld:
         self.referee.backend = backend
         backend.reset_hand(self.park)
         hand = Hand(backend.hand_position, lambda path: backend.move(path, label="look"))
-        self.player = Player(self.first, self.park, eyes=backend.eyes, hand=hand, layout=self.referee.layout)
+        # the layout only for a robot that plays blind: one with eyes knows the board from its sightings
+        self.player = Player(self.first, self.park, eyes=backend.eyes, hand=hand,
+                             layout=self.referee.layout if backend.eyes is None else None)
         self._print(f"tic-tac-toe: the robot plays O, the opponent ({self.opponent.name}) plays X; "
                     f"{self.first} starts")
         self._print(ttt.render(self.board))
@@ -297,7 +299,7 @@ class TicTacToeWorld:
             fouls = len(self.referee.fouls)
             mark = self.referee.score_circle(entry, data.get("template"), self.player.choice,
                                              time.perf_counter() - self.t0)
-            self.player.drew(mark["executed"])
+            self.player.drew(entry["planned"])  # what it commanded, not the simulator's pen tip
             self._print(f"\n{ROBOT} ({ttt.CIRCLE}) plays cell {mark['cell']}")
             for foul in self.referee.fouls[fouls:]:
                 self._print(f"referee: the robot's circle in cell {mark['cell']} is {foul['foul']}")
