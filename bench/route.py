@@ -1,6 +1,8 @@
 """Measurements behind two OSILA defaults: the ball's size and the re-timing prior.
 
-Neither uses LASA or any other evaluation data set.
+Neither uses LASA.  ``--ball`` uses only synthetic templates; ``--timing`` uses synthetic
+renditions and also the project's generated stand-in (Experiment A's data), split by set-up:
+the stand-in's figures under the default re-timing are therefore not independent of it.
 
 ``--ball`` (the default threshold, ``hila_lang.osila.noise``): synthetic templates with a KNOWN
 answer — a random smooth curve (``bench/warp.py``'s), mapped by a known random true map with

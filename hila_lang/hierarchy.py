@@ -416,10 +416,11 @@ def check_coincident(template: Template, icps: dict[str, np.ndarray], given: Map
       ICP is taken out of ``icps`` and a note says so (returned, for the trace);
     - any other pair (both bound by the caller) is an :class:`InputError` naming both.
 
-    Points closer than the distortion threshold (given, else 1 % of the template path's size,
-    OSILA's default scale) are one point for the route anyway and pass.  ``given``: what the
+    Points closer than the distortion threshold (given, else :data:`~hila_lang.osila.adjust.ON_PATH`
+    = 1 % of the template path's size) are one point for the route anyway and pass.  ``given``: what the
     caller bound by name (a ``start`` missing from it is the hand).
     """
+    from .osila.adjust import ON_PATH
     from .osila.tps import MERGE_TOL
 
     names = list(icps)
@@ -428,7 +429,7 @@ def check_coincident(template: Template, icps: dict[str, np.ndarray], given: Map
         return notes
     src = np.array([template.icps[k] for k in names], dtype=float)
     same = MERGE_TOL * float(np.ptp(src, axis=0).max())
-    tol = threshold if threshold else 0.01 * float(np.linalg.norm(np.ptp(template.path, axis=0)))
+    tol = threshold if threshold else ON_PATH * float(np.linalg.norm(np.ptp(template.path, axis=0)))
     hand_start = START in icps and START not in given
     for i in range(len(names)):
         for j in range(i + 1, len(names)):

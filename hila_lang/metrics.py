@@ -90,11 +90,13 @@ def resample(path: Any, n: int) -> np.ndarray:
     return out
 
 
-#: paths with T × n at most this resample through a cached matrix (:func:`_resampling_matrix`)
-MATRIX_LIMIT = 250_000
+#: paths with T × n at most this resample through a cached matrix (:func:`_resampling_matrix`):
+#: 200 × 200 samples (LASA's paths have 40-160, the stand-in's 32-64), 320 kB a matrix, so the
+#: cache of 512 holds at most 160 MB (it held up to 8 GB: 4096 matrices of 250,000)
+MATRIX_LIMIT = 40_000
 
 
-@lru_cache(maxsize=4096)
+@lru_cache(maxsize=512)
 def _resampling_matrix(T: int, n: int) -> np.ndarray:
     """The (n, T) matrix of :func:`resample`: the spline is linear in the points, so its columns
     are the splines through the unit vectors (built once per pair of lengths, then a product)."""

@@ -44,6 +44,14 @@ METHODS = ("speed", "kmeans", "changepoint", "equal")
 DEFAULT_METHOD = "speed"
 
 
+def describe(method: str, k: int) -> str:
+    """How a template was segmented, one sentence for its description."""
+    how = {"speed": "at the deepest dips in speed (hila_lang.segmentation.speed_segments)",
+           "kmeans": "by k-means", "changepoint": "by change points of the velocity (ruptures)",
+           "equal": "into equal lengths"}[method]
+    return f"Segmented {how} (k = {k})."
+
+
 def equal_segments(T: int, n: int) -> list[tuple[int, int]]:
     """Split ``T`` stamps into ``n`` contiguous ``[start, stop)`` ranges of (nearly) equal size."""
     T = check_int(T, "T", minimum=1)

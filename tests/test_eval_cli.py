@@ -72,6 +72,10 @@ def test_writes_tables_csv_json_and_heatmaps(small_run):
     doc = json.loads((out / "results.json").read_text())
     check_contract(doc, ("osila", "none", "similarity", "tps"), (1, 2, 3, 4))
     assert np.array(doc["tables"]["table_ii"]).shape == (4, 5, 5)
+    assert set(doc["tables"]["controls"]) == {"none", "similarity", "tps"}  # every table of every control
+    for control in doc["tables"]["controls"].values():
+        assert np.array(control["table_iii"]).shape == (4, 5, 5) and np.array(control["table_i"]).shape == (4, 5)
+    assert "TABLE I with the controls" in text
     assert np.array(doc["paper"]["table_iii"])[0, 0, 4] == 8390
     assert doc["run"]["seed"] == 3 and doc["run"]["threshold"] == 2.0 and doc["run"]["protocol"] == "paper"
     # the printed summary shows the same numbers as the json

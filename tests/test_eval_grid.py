@@ -252,6 +252,11 @@ def test_printed_tables_have_the_papers_layout(paper_result):
     rows = [ln for ln in t2 if re.match(r"^(exp\d)?\s*\|\s+\d \|", ln)]
     assert len(rows) == 20
     assert f"{tables.table2(paper_result)[0, 0, 4]:.3f} (0.380)" in rows[0]
+    # Table I again with every control, on the same self-mapping pairs
+    block = tables.format_table1_methods(paper_result).splitlines()
+    assert [ln.split()[0] for ln in block[2:]] == [m for m in paper_result.methods for _ in paper_result.segments]
+    tps_n2 = next(ln for ln in block if ln.split()[:2] == ["tps", "2"])
+    assert f"{tables.table1(paper_result, 'tps')[1, 0]:.3f}" in tps_n2.split("|")[1]
 
 
 def test_paper_figures_only_under_the_paper_protocol(trials):

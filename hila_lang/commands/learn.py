@@ -114,30 +114,17 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
 
     if source == "--from-sim":
         print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
-        template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name,
-                                     recording_dir=args.keep_recording)
+        template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name, method=args.method,
+                                  recording_dir=args.keep_recording)
     else:
         left, right = (args.frames, None) if source == "--frames" else (args.left, args.right)
         template = template_from_frames(
             left, right, read_icps=demonstration_icps, calibration_left=args.calibration_left, calibration_right=args.calibration_right,
             cameras=args.cameras, stereo=args.stereo, k=k, tags=tags, contact=contact, name=name,
-            seed=args.seed, max_gap=args.max_gap)
-    if args.method != "kmeans":  # perception segments by k-means; cut the same path as asked
-        from ..segmentation import segment_template
-
-        template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
-        template.description = template.description.replace(f"Segmented by k-means (k = {k}).", _segmented(args.method, k))
+            method=args.method, seed=args.seed, max_gap=args.max_gap)
     if args.description:
         template.description = args.description
     return template
-
-
-def _segmented(method: str, k: int) -> str:
-    """How a template was segmented, for its description."""
-    how = {"speed": "at the deepest dips in speed (hila_lang.segmentation.speed_segments)",
-           "kmeans": "by k-means", "changepoint": "by change points of the velocity (ruptures)",
-           "equal": "into equal lengths"}[method]
-    return f"Segmented {how} (k = {k})."
 
 
 def run(args: argparse.Namespace) -> int:
@@ -145,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..fileio import ensure_writable
     from ..segmentation import segment_template
+    from ..segmentation import describe
     from ..template import Template, save_template
 
     source = _source(args)
@@ -163,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
         demo, times = read_demo_csv(args.demo)
         icps = load_icps(args.icps, demo.shape[1])
         description = args.description or (f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}."
-                                           + (f" {_segmented(args.method, k)}" if tags else ""))
+                                           + (f" {describe(args.method, k)}" if tags else ""))
         try:
             template = Template(name, demo, icps, times=times, description=description)
         except InputError as exc:

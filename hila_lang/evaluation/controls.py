@@ -30,8 +30,9 @@ demonstration is not what makes its paths good.
 
 Anchors (the points ``none`` passes through and the DMPs start and end at) come from the
 constraints only: each pair that is a point of the template path (a boundary or time-fraction
-pair, or a scene ICP within 1 % of the template's size of its path — OSILA's own default
-threshold — such as the hand's start) is an anchor at that template time; where the template's
+pair, or a scene ICP within 1 % of the template's size of its path — the rule by which OSILA's
+plan adjustment counts an ICP as a place the route must go, ``osila.adjust.ON_PATH`` — such as
+the hand's start) is an anchor at that template time; where the template's
 first or last point is not an anchor, its image under the ``similarity`` transform is.
 
 DMP roll-outs use linearity: the DMP's transformation system is linear in start, goal and
@@ -51,6 +52,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import InputError
+from ..osila.adjust import ON_PATH
 from .protocols import Constraints
 
 CONTROLS = ("none", "similarity", "tps", "dmp", "dmp-aligned")
@@ -58,7 +60,8 @@ DMP_WEIGHTS = 10
 #: fewest integration steps of a DMP roll-out (its output is resampled to the piece's length)
 MIN_STEPS = 50
 #: a scene ICP within this fraction of the template's bounding-box diagonal of its path is an anchor
-ANCHOR_TOLERANCE = 0.01
+#: (OSILA's own rule for an ICP on the path)
+ANCHOR_TOLERANCE = ON_PATH
 
 
 def dmp_available() -> bool:

@@ -82,7 +82,10 @@ def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict
         doc["tables"] = {"layout": "table_ii/table_iii are [N index][output set-up][input set-up]; "
                                    "table_i is [N index][set-up]",
                          "table_i": tables.table1(result), "table_ii": tables.table2(result),
-                         "table_iii": tables.table3(result)}
+                         "table_iii": tables.table3(result),
+                         "controls": {m: {"table_i": tables.table1(result, m), "table_ii": tables.table2(result, m),
+                                          "table_iii": tables.table3(result, m)}
+                                      for m in result.methods if m != "osila"}}
         if result.protocol == "paper":
             doc["tables"]["claims"] = tables.claims(result)
     if tables._with_paper(result):

@@ -7,7 +7,9 @@
   (task, rows) set-up; each cell holds N = 1..4 on four lines, as in the paper.
 - Table III: the same for MSD (squared path units: pixels² for the stand-in).
 
-Tables I–III are OSILA's, in the paper's layout.  Under ``--protocol paper`` with the stand-in's
+Tables I–III are OSILA's, in the paper's layout; Table I is printed again with every control
+(:func:`format_table1_methods`: the same self-mapping pairs, the same constraints), and
+``results.json`` holds Tables I–III of every control too.  Under ``--protocol paper`` with the stand-in's
 5 set-ups the paper's figures (:mod:`.paper`) are printed beside ours, ``ours (paper)``: they are
 reference values from a different (human, unpublished) data set, so the comparison says whether
 the reproduction behaves alike, not whether either method is good.
@@ -128,6 +130,20 @@ def format_table1(result: GridResult, method: str = "osila") -> str:
     return "\n".join(lines)
 
 
+def format_table1_methods(result: GridResult) -> str:
+    """Table I for every method, on the same self-mapping pairs: rows method and N, columns set-ups."""
+    width = _width(result, False, "r")
+    lines = ["TABLE I with the controls: averaged R of the self-mapping cases, per method "
+             "(Tables II-III of every control: results.json, tables.controls)",
+             "method       N | " + " | ".join(f"{name:^{width}}" for name in result.setups)]
+    for method in result.methods:
+        values = table1(result, method)
+        for s, n in enumerate(result.segments):
+            cells = [_cell(values[s, k], None, "r") for k in range(len(result.setups))]
+            lines.append(f"{method:<12}{n:>2} | " + " | ".join(f"{c:^{width}}" for c in cells))
+    return "\n".join(lines)
+
+
 def _format_cross(result: GridResult, ours: np.ndarray, ref: np.ndarray | None, kind: str, title: str) -> str:
     width = _width(result, ref is not None, kind)
     head = max(7, *(len(name) for name in result.setups)) + 1
@@ -229,6 +245,8 @@ def render(result: GridResult, tables: bool = True) -> str:
                  f"TABLES I-III: OSILA in the paper's layout ({result.protocol} protocol; the paper's figures "
                  "are shown only with --protocol paper on the stand-in)")
         parts += [label, format_table1(result), format_table2(result), format_table3(result)]
+        if len(result.methods) > 1:
+            parts.append(format_table1_methods(result))
         if result.protocol == "paper":
             parts.append(format_claims(result))
     return "\n\n".join(p for p in parts if p) + "\n"

@@ -29,6 +29,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
+from ..segmentation import DEFAULT_METHOD
 from .calibration import Calibration
 
 #: template points at most this far above (or below) the paper are put on it, metres: the
@@ -213,8 +214,8 @@ def load_calibration_source(source, eye: str) -> Calibration:
 def template_from_frames(left, right=None, *, read_icps: Callable, calibration_left=None, calibration_right=None,
                          cameras=None, stereo=None,
                          k: int = 3, tags=DEFAULT_TAGS, contact=DEFAULT_CONTACT, name: str = "circle",
-                         seed: int = 0, max_gap: int = 3, description: str = "", return_perception: bool = False):
-    """A k-means segmented template from recorded stereo frames.
+                         method: str = DEFAULT_METHOD, seed: int = 0, max_gap: int = 3, description: str = "", return_perception: bool = False):
+    """A segmented template from recorded stereo frames.
 
     Parameters
     ----------
@@ -235,8 +236,9 @@ def template_from_frames(left, right=None, *, read_icps: Callable, calibration_l
         A folder with ``left/`` and ``right/`` chessboard pairs seen by both eyes (default: the
         recording's ``calibration/stereo`` when it exists; without it the eyes' relative pose is
         the kinematics').
-    k, tags, contact, seed
-        Segmentation (:func:`hila_lang.segmentation.segment_template`).
+    k, tags, contact, method, seed
+        Segmentation (:func:`hila_lang.segmentation.segment_template`; ``method`` one of
+        :data:`hila_lang.segmentation.METHODS`).
     name : str
         Template name.
     max_gap : int
@@ -246,7 +248,7 @@ def template_from_frames(left, right=None, *, read_icps: Callable, calibration_l
     -------
     Template, or (Template, Perception) with ``return_perception``.
     """
-    from ..segmentation import segment_template
+    from ..segmentation import describe, segment_template
     from ..template import Template
     from .calibration import calibrate_stereo
     from .recording import load_cameras, load_frames
@@ -287,8 +289,8 @@ def template_from_frames(left, right=None, *, read_icps: Callable, calibration_l
         f"undistorted with chessboard calibrations (RMS reprojection "
         f"{calibration['left'].rms:.3f} / {calibration['right'].rms:.3f} px), Gaussian RBF smoothed "
         f"(0.5 px), triangulated; points within {CONTACT_SNAP * 1000:g} mm of the paper put on it; "
-        f"{result.icp_reading.note} Segmented by k-means (k = {k}).")
+        f"{result.icp_reading.note} {describe(method, k)}")
     path = snap_contact(result.path, float(cams["surface_z"]))
     whole = Template(name=name, path=path, icps=result.icps, times=result.times, description=desc)
-    template = segment_template(whole, k, list(tags), method="kmeans", seed=seed, contact=tuple(contact))
+    template = segment_template(whole, k, list(tags), method=method, seed=seed, contact=tuple(contact))
     return (template, result) if return_perception else template

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
+from ...segmentation import DEFAULT_METHOD
 from ...sim.camera import STUDIO, Camera
 from .board import Grid, cell_center
 from .marks import cross_strokes
@@ -150,7 +151,7 @@ def record_demonstration(out_dir, seed: int = 0, *, n_calibration: int = 40, n_s
 
 
 def learn_from_sim(seed: int = 0, *, k: int = 3, tags=("reach", "draw", "retract"), contact=("draw",),
-                   name: str = "circle", recording_dir=None, frames: int | None = None,
+                   name: str = "circle", method: str = DEFAULT_METHOD, recording_dir=None, frames: int | None = None,
                    n_calibration: int = 40, n_stereo: int = 16, return_perception: bool = False):
     """Record the seeded demonstration in PyBullet, then learn it by perception.
 
@@ -166,7 +167,7 @@ def learn_from_sim(seed: int = 0, *, k: int = 3, tags=("reach", "draw", "retract
         record_demonstration(folder, seed, n_calibration=n_calibration, n_stereo=n_stereo, overwrite=True,
                              frames=frames)
         out = template_from_frames(folder, read_icps=demonstration_icps, k=k, tags=tags, contact=contact,
-                                   name=name, seed=0, return_perception=return_perception)
+                                   name=name, method=method, seed=0, return_perception=return_perception)
         template = out[0] if return_perception else out
         template.description = (
             f"Learned by perception from a simulated recording: the seeded human-like demonstration "
