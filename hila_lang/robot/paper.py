@@ -15,10 +15,8 @@ import numpy as np
 from ..errors import InputError
 from ..sim.camera import Camera, CameraImage
 from ..sim.canvas import Canvas
+from ..sim.surface import CONTACT_TOLERANCE
 from ..validation import check_path
-
-#: the pen touches the paper when its tip is at most this far above the surface, metres
-CONTACT_TOLERANCE = 0.0005
 
 
 class Paper:
@@ -34,7 +32,7 @@ class Paper:
 
     def touching(self, points: np.ndarray) -> np.ndarray:
         """Boolean (N,): which points (N, 3) are on the paper (tip at or below its surface + tol)."""
-        return self.surface.contains(points) & (points[:, 2] <= self.surface.z + CONTACT_TOLERANCE)
+        return self.surface.touching(points)
 
     def ink_trace(self, executed: np.ndarray, color="robot") -> int:
         """Ink the parts of a pen trace (N, 3) that touch the paper; returns how many points did."""

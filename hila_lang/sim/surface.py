@@ -23,6 +23,9 @@ import numpy as np
 
 from ..errors import InputError
 
+#: the pen touches a surface when its tip is at most this far above it, metres (it inks there)
+CONTACT_TOLERANCE = 0.0005
+
 
 def _finite(value, n: int, name: str) -> tuple[float, ...]:
     try:
@@ -110,6 +113,12 @@ class Surface:
         """Boolean (N,): which points (N, 3) lie over the surface, seen from above."""
         local = np.atleast_2d(self.to_local(points))
         return (np.abs(local[:, 0]) <= self.size[0] / 2) & (np.abs(local[:, 1]) <= self.size[1] / 2)
+
+    def touching(self, points) -> np.ndarray:
+        """Boolean (N,): which pen-tip points (N, 3) touch the surface (over it, at most
+        :data:`CONTACT_TOLERANCE` above it or below it)."""
+        points = np.atleast_2d(np.asarray(points, dtype=float))
+        return self.contains(points) & (points[:, 2] <= self.z + CONTACT_TOLERANCE)
 
     def world_T_surface(self) -> np.ndarray:
         """Pose (4, 4) of the surface frame (x = right, y = far, z up) at its centre."""

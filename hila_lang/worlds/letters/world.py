@@ -28,11 +28,9 @@ import numpy as np
 from ...errors import HilaRuntimeError, UnknownNameError
 from ...fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
-from ...sim.surface import Scene
+from ...sim.surface import CONTACT_TOLERANCE, Scene
 from .layout import PAPER, layout
 
-#: a pen-tip point within this height of the paper touches it, metres (as the robot's ink)
-CONTACT_TOLERANCE = 0.0005
 #: how often a program may ask for a letter without writing it
 MAX_ASKS = 3
 #: every file the world writes
@@ -105,7 +103,7 @@ class LettersWorld:
                                    state=data.get("state"))
         executed = data.get("executed")
         drawn = np.asarray(data["path"] if executed is None else executed, dtype=float)
-        touching = PAPER.contains(drawn) & (drawn[:, 2] <= PAPER.z + CONTACT_TOLERANCE)
+        touching = PAPER.touching(drawn)
         self.written.append({"letter": slot["letter"], "slot": k + 1, "state": data.get("state"),
                              "template": name, "drawn": drawn, "contact_points": int(touching.sum())})
         self._asks = 0

@@ -226,12 +226,15 @@ def cell_corners(spec: Grid, cell: int) -> dict[str, np.ndarray]:
     return _cell_points(spec, cell, _CORNER_OFFSETS)
 
 
+def cell_number(col, row) -> np.ndarray:
+    """The cells (1..9; 0 outside the grid) at grid positions counted in cell sizes: ``col`` from
+    the grid's left edge, ``row`` from its far edge (0..3 inside), scalars or arrays alike."""
+    c, r = np.floor(col).astype(int), np.floor(row).astype(int)
+    return np.where((c >= 0) & (c < 3) & (r >= 0) & (r < 3), r * 3 + c + 1, 0)
+
+
 def cell_at(spec: Grid, point: np.ndarray) -> int | None:
     """The cell (1..9) containing ``point`` (shape (3,) or (2,), world) seen from above, or None."""
     right, far = spec.world_to_grid(np.asarray(point, dtype=float))
     step = spec.grid_size / 3
-    col = math.floor((right + spec.grid_size / 2) / step)
-    row = math.floor((spec.grid_size / 2 - far) / step)
-    if 0 <= row < 3 and 0 <= col < 3:
-        return row * 3 + col + 1
-    return None
+    return int(cell_number(right / step + 1.5, 1.5 - far / step)) or None

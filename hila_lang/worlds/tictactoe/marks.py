@@ -7,11 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...sim.surface import CONTACT_TOLERANCE
 from .board import Grid, cell_center
 
-#: a pen-tip point within this height of the paper touches it, metres (the PyBullet back end
-#: inks within the same 0.5 mm)
-CONTACT_TOLERANCE = 0.0005
 #: half the length of a cross's bar, as a fraction of the cell size
 CROSS_HALF = 0.30
 #: a sloppy cross: turned by up to this many degrees, and over one of its cell's grid lines by

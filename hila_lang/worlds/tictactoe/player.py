@@ -30,7 +30,7 @@ import numpy as np
 
 from ...errors import HilaRuntimeError
 from . import rules as ttt
-from .board import Grid, cell_at, cell_corners
+from .board import Grid, cell_at, cell_corners, cell_number
 
 ROBOT, OPPONENT = "robot", "opponent"
 #: how far beyond the grid's right edge the pen goes to take the arm out of the eyes' view, metres
@@ -229,6 +229,5 @@ class Player:
         rel = np.asarray(point, dtype=float)[:2] - origin[:2]
         u = rel @ right[:2] / (right[:2] @ right[:2]) * 3
         v = rel @ near[:2] / (near[:2] @ near[:2]) * 3
-        col, row = int(np.floor(u)), int(np.floor(v))
-        return row * 3 + col + 1 if 0 <= col < 3 and 0 <= row < 3 else None
+        return int(cell_number(u, v)) or None
 

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import InputError
+from .board import cell_number
 
 #: size of a top-down pixel, metres
 RESOLUTION = 0.001
@@ -464,10 +465,9 @@ def _read_marks(mark, seen, frame, lines) -> tuple[list[str], list[float], list[
     wx, wy = origin[0] + xs * res - centre[0], origin[1] - ys * res - centre[1]
     u = (wx * right[0] + wy * right[1]) / cell + 1.5   # column coordinate, 0..3 over the grid
     v = 1.5 - (wx * far[0] + wy * far[1]) / cell       # row coordinate, 0..3 over the grid
-    col, row = np.floor(u).astype(int), np.floor(v).astype(int)
-    in_grid = (col >= 0) & (col < 3) & (row >= 0) & (row < 3)
-    cell_of = np.where(in_grid, row * 3 + col + 1, 0)
-    inner = in_grid & ((u - col - 0.5) ** 2 + (v - row - 0.5) ** 2 < 0.46 ** 2)
+    cell_of = cell_number(u, v)
+    in_grid = cell_of > 0
+    inner = in_grid & ((u - np.floor(u) - 0.5) ** 2 + (v - np.floor(v) - 0.5) ** 2 < 0.46 ** 2)
     area = np.maximum(np.bincount(cell_of[inner], minlength=10), 1)
     hidden = np.bincount(cell_of[inner & ~seen], minlength=10) / area
     inked = np.bincount(cell_of[inner & mark], minlength=10)  # diagnostics

@@ -50,7 +50,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...errors import HilaRuntimeError, InputError
-from .board import CORNER_NAMES
+from .board import CORNER_NAMES, cell_number
 
 #: the views tried in order while in doubt: (name, eye, where the arm is -- None: where the views
 #: before left it --, where the eyes look)
@@ -439,12 +439,7 @@ def _touched_cell(path: np.ndarray, reading, surface_z: float) -> int:
         raise InputError(f"the pen never touches the paper (lowest point {path[:, 2].min() - surface_z:+.3f} m "
                          f"from the surface): cannot tell which cell was demonstrated")
     rel = low[:, :2] - reading.center[:2]
-    right = rel @ reading.right[:2] / reading.cell_size
-    far = rel @ reading.far[:2] / reading.cell_size
-    col = np.floor(right + 1.5).astype(int)
-    row = np.floor(1.5 - far).astype(int)
-    inside = (col >= 0) & (col < 3) & (row >= 0) & (row < 3)
-    if not inside.any():
+    cells = cell_number(rel @ reading.right[:2] / reading.cell_size + 1.5, 1.5 - rel @ reading.far[:2] / reading.cell_size)
+    if not cells.any():
         raise InputError("the pen touches the paper only outside the grid: cannot tell the demonstrated cell")
-    cells = row[inside] * 3 + col[inside] + 1
-    return int(np.bincount(cells).argmax())
+    return int(np.bincount(cells[cells > 0]).argmax())
