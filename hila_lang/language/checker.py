@@ -214,7 +214,7 @@ class _Checker(A.Visitor):
         defined.let(s.name, self.dim(s.value, defined))
 
     def visit_WaitStmt(self, s: A.WaitStmt, defined: set[str]) -> None:
-        self.world.event(s.wait.event, s.wait.pos if s.wait.pos.line else s.pos)
+        self.world.event(s.wait.event, s.wait.pos if s.wait.pos.line else s.pos, len(s.wait.args))
         self.expr(s.wait.args, defined, s.pos)
 
     def visit_IfStmt(self, s: A.IfStmt, defined: set[str]) -> None:
@@ -409,11 +409,11 @@ class _Names(A.Visitor):
         return e.pos if e.pos.line else self.where
 
     def visit_Ask(self, e: A.Ask) -> None:
-        self.c.world.question(e.name, self._pos(e))
+        self.c.world.question(e.name, self._pos(e), len(e.args))
         self.generic_visit(e)
 
     def visit_Wait(self, e: A.Wait) -> None:
-        self.c.world.event(e.event, self._pos(e))
+        self.c.world.event(e.event, self._pos(e), len(e.args))
         self.generic_visit(e)
 
     def visit_Name(self, e: A.Name) -> None:

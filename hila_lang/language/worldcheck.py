@@ -55,11 +55,27 @@ class WorldCheck:
             hint = f"its {kind}s: {', '.join(sorted(names))}" if names else (d.advice or f"it has no {kind}s")
         raise self.error(f"{d.source or f'world {self.world!r}'} has no {kind} '{name}'", pos, hint)
 
-    def question(self, name: str, pos: A.Pos) -> None:
-        self._known("question", name, pos)
+    def _arguments(self, kind: str, name: str, count: int | None, pos: A.Pos) -> None:
+        """``count`` arguments given to a question or event whose table says how many it takes."""
+        d = self.declared
+        wanted = None if d is None or count is None else d.arities.get((kind, name))
+        if wanted is None or wanted == count:
+            return
+        entry = getattr(self.info, "questions" if kind == "question" else "events").entry(name)
+        signature = entry.signature if entry is not None else name
+        verb = "ask" if kind == "question" else "wait"
+        raise self.error(f"{kind} '{name}' of {d.source or f'world {self.world!r}'} takes "
+                         f"{wanted} argument(s), got {count}", pos, f"write it {verb} {signature}")
 
-    def event(self, name: str, pos: A.Pos) -> None:
+    def question(self, name: str, pos: A.Pos, count: int | None = None) -> None:
+        """``ask name`` with ``count`` arguments (None: not counted)."""
+        self._known("question", name, pos)
+        self._arguments("question", name, count, pos)
+
+    def event(self, name: str, pos: A.Pos, count: int | None = None) -> None:
+        """``wait name`` with ``count`` arguments (None: not counted)."""
         self._known("event", name, pos)
+        self._arguments("event", name, count, pos)
 
     def point(self, name: str, pos: A.Pos) -> None:
         """A world point written out in full (not a program point or a variable)."""

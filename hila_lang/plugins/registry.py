@@ -69,6 +69,9 @@ class Declared:
         What to do when a name is missing and the world has none of its kind.
     question_dims, event_dims : mapping name -> 2 or 3
         The answers that are always points of one size (a script's); others are not known.
+    arities : mapping (kind, name) -> int
+        How many arguments a question (kind ``"question"``) or event takes, where the world's
+        table declares it.
     """
 
     questions: Mapping[str, str]
@@ -79,6 +82,7 @@ class Declared:
     advice: str | None = None
     question_dims: Mapping[str, int] = field(default_factory=dict)
     event_dims: Mapping[str, int] = field(default_factory=dict)
+    arities: Mapping[tuple[str, str], int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -94,8 +98,12 @@ class WorldInfo:
     doc : str
         One line.
     settings : tuple of Setting
-    questions, events : mapping name -> one-line doc
-        What ``ask NAME`` and ``wait NAME`` may name.
+    questions, events : Names (or a mapping name -> one-line doc, made into one)
+        What ``ask NAME`` and ``wait NAME`` may name: arguments, doc and the world's method that
+        answers (:mod:`hila_lang.plugins.names`); the world, ``hila check``, ``hila show world``
+        and the language server all read this one table.
+    points : Names
+        The scene points the world names, as patterns (``board.cellN.tl|tr|br|bl``) with docs.
     default_backend : str
         The back end when ``--backend`` is not given.
     dynamic_names : bool
@@ -118,6 +126,13 @@ class WorldInfo:
     dynamic_names: bool = False
     drawing_surface: bool = False
     declare: str | None = None
+    points: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from .names import Names
+
+        for kind, attr in (("question", "questions"), ("event", "events"), ("point", "points")):
+            object.__setattr__(self, attr, Names.of(kind, getattr(self, attr)))
 
     def parse(self, given: dict[str, str]) -> dict[str, Any]:
         return parse_settings(self.settings, given, f"world {self.name}")
@@ -130,7 +145,8 @@ class WorldInfo:
         if self.dynamic_names:
             return None
         return Declared(dict(self.questions), dict(self.events), None, self.drawing_surface,
-                        f"the {self.name} world")
+                        f"the {self.name} world",
+                        arities={**self.questions.arities(), **self.events.arities()})
 
     def build(self, options, settings: dict[str, Any]):
         """The world for a run (``settings`` as :meth:`parse` returns them), checked to be a World."""

@@ -12,6 +12,7 @@ image of the paper (``paper.png``) when the program ends.
 - :mod:`.world` -- the ``letters`` world
 """
 
+from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
 from ...plugins.settings import Setting, boolean, number
 from .shapes import ALPHABET
@@ -37,12 +38,17 @@ WORLD = WorldInfo(
         Setting("size", "letter height on the paper, metres", number(0.015, 0.06), default=0.036, metavar="METRES"),
         Setting("report", "write the output folder (paper.png, report.json)", boolean, default=True, metavar="yes|no"),
     ),
-    questions={
-        "done": "true when every letter of the word is written",
-        "next_slot": "the point group of the next letter's box on the paper, e.g. \"paper.slot2\"",
-        "next_letter": "the next letter to write, e.g. \"I\"",
-        "word": "the word being written",
-    },
+    points=Names("point", [
+        Name("paper.slotK.tl|tr|br|bl", "the corners of the K-th letter's box on the paper"),
+        Name("paper.home", "where the hand waits above the paper"),
+    ]),
+    questions=Names("question", [
+        Name("done", "true when every letter of the word is written", answer="ask_done"),
+        Name("next_slot", "the point group of the next letter's box on the paper, e.g. \"paper.slot2\"",
+             answer="ask_next_slot"),
+        Name("next_letter", "the next letter to write, e.g. \"I\"", answer="ask_next_letter"),
+        Name("word", "the word being written", answer="ask_word"),
+    ]),
     default_backend="dry",
     drawing_surface=True,
 )

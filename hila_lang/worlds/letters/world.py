@@ -1,11 +1,10 @@
 """The ``letters`` world: a word to write, its letters' slots on the paper, and the paper's image.
 
-Scene points (:meth:`LettersWorld.points`), world frame, metres: ``paper.slotK.tl|tr|br|bl``,
-the corners of the K-th letter's box (:mod:`.layout`), and ``paper.home``, where the hand waits.
-
-Questions: ``done`` (every letter written), ``next_slot`` (the next letter's point group, e.g.
-``"paper.slot2"``, so ``run H(s.*)`` binds the template's box corners ``tl tr br bl`` to the
-slot's), ``next_letter`` (``"I"``), ``word``.  It has no events.
+Its scene points (``paper.slotK.tl|tr|br|bl``: the K-th letter's box; ``paper.home``) and
+questions (``done``, ``next_slot``: a point group such as ``"paper.slot2"``, so ``run
+H(s.*)`` binds the template's box corners ``tl tr br bl`` to the slot's; ``next_letter``,
+``word``) are declared once in :data:`hila_lang.worlds.letters.WORLD` (``hila show world
+letters``); :meth:`LettersWorld.query` answers through that table.  It has no events.
 
 The world follows the program: each state that runs with the pen down writes the next letter
 (``notify("state_done", pen_down=True, ...)``); a template for another letter in that slot is a
@@ -69,23 +68,28 @@ class LettersWorld:
         return k
 
     def query(self, name: str, *args: Any) -> Any:
-        if name == "done":
-            return len(self.written) == len(self.layout.slots)
-        if name == "word":
-            return self.word
-        if name == "next_slot":
-            return f"paper.slot{self._next() + 1}"
-        if name == "next_letter":
-            k = self._next()
-            self._asks += 1
-            letter = self.layout.slots[k]["letter"]
-            if self._asks > MAX_ASKS:
-                raise HilaRuntimeError(f"letter {k + 1} ({letter!r}) was asked for {MAX_ASKS} times and never written",
-                                       hint=f"does the program run a template for {letter!r}?")
-            return letter
         from . import WORLD
 
-        raise UnknownNameError("question", name, WORLD.questions, owner="the letters world")
+        return WORLD.questions.answer(self, name, args, "the letters world")
+
+    # the questions, as declared in :data:`hila_lang.worlds.letters.WORLD` (name, arguments, doc)
+    def ask_done(self) -> bool:
+        return len(self.written) == len(self.layout.slots)
+
+    def ask_word(self) -> str:
+        return self.word
+
+    def ask_next_slot(self) -> str:
+        return f"paper.slot{self._next() + 1}"
+
+    def ask_next_letter(self) -> str:
+        k = self._next()
+        self._asks += 1
+        letter = self.layout.slots[k]["letter"]
+        if self._asks > MAX_ASKS:
+            raise HilaRuntimeError(f"letter {k + 1} ({letter!r}) was asked for {MAX_ASKS} times and never written",
+                                   hint=f"does the program run a template for {letter!r}?")
+        return letter
 
     def wait(self, event: str, *args: Any) -> Any:
         raise UnknownNameError("event", event, (), owner="the letters world",

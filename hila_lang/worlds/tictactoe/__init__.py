@@ -14,6 +14,7 @@
 :data:`WORLD` declares it (entry point ``hila.worlds: tictactoe``).
 """
 
+from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
 from ...plugins.settings import Setting, boolean, choice, number
 
@@ -34,18 +35,29 @@ WORLD = WorldInfo(
         Setting("crosses", "how the opponent draws its crosses: neat, or sloppy (off-centre, turned, over a grid "
                            "line)", choice("neat", "sloppy"), default="neat", metavar="neat|sloppy"),
     ),
-    questions={
-        "game_over": "true when someone has won or the board is full",
-        "robot_to_move": "true when it is the robot's turn",
-        "opponent_to_move": "true when it is the opponent's turn",
-        "best_move": "the robot's next cell as a point group, e.g. \"board.cell5\" (minimax on the board it sees)",
-        "best_cell": "the robot's next cell as a number 1..9",
-        "last_move": "the point group of the robot's last circle",
-        "winner": "\"robot\", \"opponent\", \"draw\" or none while the game goes on",
-        "marks": "how many marks are on the board",
-        "free": "free(N): true when cell N (1..9) is empty",
-    },
-    events={"opponent_moved": "the opponent plays a cell (its cross is inked); the value is the cell"},
+    points=Names("point", [
+        Name("board.cellN.tl|tr|br|bl", "the corners of cell N (1..9) as the robot last saw them"),
+        Name("board.move.tl|tr|br|bl", "the corners of the cell the robot plays next (only while it sees it is "
+                                       "its turn)"),
+        Name("arm.park", "where the arm was parked at the start: a seeded random place above the grid"),
+        Name("arm.lift", "straight above the pen at the park height"),
+    ]),
+    questions=Names("question", [
+        Name("game_over", "true when someone has won or the board is full", answer="ask_game_over"),
+        Name("robot_to_move", "true when it is the robot's turn", answer="ask_robot_to_move"),
+        Name("opponent_to_move", "true when it is the opponent's turn", answer="ask_opponent_to_move"),
+        Name("best_move", "the robot's next cell as a point group, e.g. \"board.cell5\" (minimax on the board "
+                          "it sees)", answer="ask_best_move"),
+        Name("best_cell", "the robot's next cell as a number 1..9", answer="ask_best_cell"),
+        Name("last_move", "the point group of the robot's last circle", answer="ask_last_move"),
+        Name("winner", "\"robot\", \"opponent\", \"draw\" or none while the game goes on", answer="ask_winner"),
+        Name("marks", "how many marks are on the board", answer="ask_marks"),
+        Name("free", "true when cell N (1..9) is empty", args=("N",), answer="ask_free"),
+    ]),
+    events=Names("event", [
+        Name("opponent_moved", "the opponent plays a cell (its cross is inked); the value is the cell",
+             answer="wait_opponent_moved"),
+    ]),
     default_backend="pybullet",
     drawing_surface=True,
 )

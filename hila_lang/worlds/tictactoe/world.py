@@ -11,24 +11,15 @@ perturbs the scene between moves and scores after the fact (``report.json``: ``v
 every misread).  Every question the program asks is answered by the robot's side; the referee
 acts only when the robot waits for the opponent and after the robot has drawn.
 
-Scene points (:meth:`TicTacToeWorld.points`), world frame, metres, as the robot knows them:
-
-- ``board.cellN.tl|tr|br|bl`` for N = 1..9: every cell's corners, as last seen;
-- ``board.move.tl|tr|br|bl``: the corners of the cell the robot plays next (minimax on the
-  board it sees, never loses; present only while it sees that it is its turn);
-- ``arm.park``: where the arm was parked at the start, a seeded random place above the grid;
-- ``arm.lift``: straight above the pen at the park height (:meth:`.player.Player.lift_point`).
-
-Questions (:meth:`TicTacToeWorld.query`), all answered from the robot's own view of the board:
-``game_over``, ``robot_to_move``, ``opponent_to_move``, ``best_move`` (the robot's next cell as a
-point group, ``"board.cell5"``, so ``c.*`` binds the ICPs ``tl``, ``tr``, ``br``, ``bl`` to its
-corners), ``best_cell`` (the same as a number), ``last_move`` (the point group of the robot's
-last circle), ``winner`` (``"robot"``, ``"opponent"``, ``"draw"`` or None), ``marks`` (number
-of marks on the board), ``free N`` (cell N is empty).
-
-Events: ``wait("opponent_moved")``: the opponent plays a cell on the real board, its cross is
-inked on the paper, the scene is perturbed (settings below), and the cell is returned (the
-opponent announces it; a robot with eyes still reads the board itself).
+Its scene points, questions (``ask``), events (``wait``) and settings are declared once, with their
+arguments and docs, in :data:`hila_lang.worlds.tictactoe.WORLD` (``hila show world tictactoe``
+prints them); :meth:`TicTacToeWorld.query` and :meth:`TicTacToeWorld.wait` answer through that
+table (the ``ask_*`` and ``wait_*`` methods), and ``hila check`` checks a program against it.
+Every question is answered from the robot's own view of the board; ``best_move`` and
+``last_move`` are point groups (``"board.cell5"``), so ``c.*`` binds the ICPs ``tl``, ``tr``,
+``br``, ``bl`` to the cell's corners.  ``wait opponent_moved``: the opponent plays a cell on the
+real board, its cross is inked on the paper, the scene is perturbed (settings below), and the
+cell is returned (the opponent announces it; a robot with eyes still reads the board itself).
 ``notify("state_done", pen_down=True, executed=TRACE, ...)``: the referee records the robot's
 circle in the cell where the pen actually drew.  The board is printed after every move.
 
@@ -220,43 +211,51 @@ class TicTacToeWorld:
         return pts
 
     def _answer(self, name: str, *args: Any) -> Any:
-        player = self.player
-        if name == "game_over":
-            return player.game_over()
-        if name == "robot_to_move":
-            return player.to_move() == ROBOT
-        if name == "opponent_to_move":
-            return player.to_move() == OPPONENT
-        if name == "best_move":
-            return f"board.cell{player.best_move()}"
-        if name == "best_cell":
-            return player.best_move()
-        if name == "last_move":
-            return f"board.cell{player.last_move()}"
-        if name == "winner":
-            w = ttt.winner(player.board())
-            return {ttt.CIRCLE: ROBOT, ttt.CROSS: OPPONENT}.get(w, "draw" if player.game_over() else None)
-        if name == "marks":
-            return 9 - player.board().count(ttt.EMPTY)
-        if name == "free":
-            if len(args) != 1:
-                raise InputError(f"query 'free' takes one cell number, got {len(args)} arguments")
-            cell = args[0]
-            if isinstance(cell, float) and cell.is_integer():
-                cell = int(cell)
-            if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 9:
-                raise InputError(f"query 'free' expects a cell 1..9, got {cell!r}")
-            return player.board()[cell - 1] == ttt.EMPTY
         from . import WORLD
 
-        raise UnknownNameError("question", name, WORLD.questions, owner="the tictactoe world")
+        return WORLD.questions.answer(self, name, args, "the tictactoe world")
+
+    # the questions, as declared in :data:`hila_lang.worlds.tictactoe.WORLD` (name, arguments, doc)
+    def ask_game_over(self) -> bool:
+        return self.player.game_over()
+
+    def ask_robot_to_move(self) -> bool:
+        return self.player.to_move() == ROBOT
+
+    def ask_opponent_to_move(self) -> bool:
+        return self.player.to_move() == OPPONENT
+
+    def ask_best_move(self) -> str:
+        return f"board.cell{self.player.best_move()}"
+
+    def ask_best_cell(self) -> int:
+        return self.player.best_move()
+
+    def ask_last_move(self) -> str:
+        return f"board.cell{self.player.last_move()}"
+
+    def ask_winner(self) -> str | None:
+        w = ttt.winner(self.player.board())
+        return {ttt.CIRCLE: ROBOT, ttt.CROSS: OPPONENT}.get(w, "draw" if self.player.game_over() else None)
+
+    def ask_marks(self) -> int:
+        return 9 - self.player.board().count(ttt.EMPTY)
+
+    def ask_free(self, cell: Any) -> bool:
+        if isinstance(cell, float) and cell.is_integer():
+            cell = int(cell)
+        if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 9:
+            raise InputError(f"query 'free' expects a cell 1..9, got {cell!r}")
+        return self.player.board()[cell - 1] == ttt.EMPTY
 
     # -- World protocol: the referee's side ---------------------------------------------------
     def wait(self, event: str, *args: Any) -> Any:
-        if event != "opponent_moved":
-            from . import WORLD
+        from . import WORLD
 
-            raise UnknownNameError("event", event, WORLD.events, owner="the tictactoe world")
+        return WORLD.events.answer(self, event, args, "the tictactoe world")
+
+    def wait_opponent_moved(self) -> Any:
+        """The opponent plays on the real board (the referee's side)."""
         self._score()
         turn = self.referee.to_move()
         if turn is None:
