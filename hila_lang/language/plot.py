@@ -10,11 +10,13 @@ from ..errors import InputError
 
 
 def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.ndarray | None = None,
-              title: str = "") -> Path:
+              title: str = "", marks: list | None = None, legend: str = "blue planned, red executed") -> Path:
     """Write a PNG with the path seen from above (x, y) and from the side (x, z).
 
     ``path`` (T, 3) in metres is drawn blue with its start as a green dot; ``executed`` (T', 3),
-    if given, red; ``icps`` (name -> (3,)) as labelled black circles.
+    if given, red; ``icps`` (name -> (3,)) as labelled black circles; ``marks`` a list of
+    ``(index, label)``: the path point ``index`` drawn as an orange tick with ``label`` beside it
+    (a template's cuts with the tag that starts there, a run's states where each starts).
     """
     import cv2
 
@@ -45,11 +47,17 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
                 pts = np.array([px(p, axes, x0) for p in line], np.int32)
                 cv2.polylines(img, [pts], False, colour, 1, cv2.LINE_AA)
         cv2.circle(img, px(path[0], axes, x0), 4, (0, 160, 0), -1)
+        for k, (index, text) in enumerate(marks or ()):
+            c = px(path[int(index)], axes, x0)
+            cv2.drawMarker(img, c, (0, 140, 255), cv2.MARKER_TILTED_CROSS, 9, 2)
+            # labels alternate below and above their tick: neighbouring ticks keep readable labels
+            cv2.putText(img, str(text), (c[0] + 6, c[1] + (14 if k % 2 == 0 else -8)), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 110, 230), 1,
+                        cv2.LINE_AA)
         for name, p in icps.items():
             c = px(p, axes, x0)
             cv2.circle(img, c, 5, (0, 0, 0), 1)
             cv2.putText(img, name, (c[0] + 6, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(img, f"{title}  ({len(path)} points, view {span * 100:.1f} cm; blue planned, red executed)", (pad, 16),
+    cv2.putText(img, f"{title}  ({len(path)} points, view {span * 100:.1f} cm; {legend})", (pad, 16),
                 cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     from ..fileio import write_png
 
