@@ -60,7 +60,7 @@ def test_compile_formats(capsys):
 def test_exec_dry_with_trace_file(tmp_path, capsys):
     trace = tmp_path / "trace.txt"
     assert cli.main(["exec", "programs/reach_return.hila", "--backend", "dry", "--trace", str(trace), "--quiet"]) == 0
-    assert capsys.readouterr().out == ""
+    assert capsys.readouterr().out == "result: finished: 22 steps, 10 run states\n"  # --quiet: the result only
     lines = trace.read_text().splitlines()
     assert len(lines) == 22 and lines[-1].endswith("end")
     assert lines[1].startswith("  2  main/visit#1/reach  [line 12]  run reach.reach pen up: 36 points")

@@ -47,12 +47,11 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
                 pts = np.array([px(p, axes, x0) for p in line], np.int32)
                 cv2.polylines(img, [pts], False, colour, 1, cv2.LINE_AA)
         cv2.circle(img, px(path[0], axes, x0), 4, (0, 160, 0), -1)
-        for k, (index, text) in enumerate(marks or ()):
-            c = px(path[int(index)], axes, x0)
+        for k, (c, text) in enumerate(_merged([(px(path[int(i)], axes, x0), str(t)) for i, t in marks or ()])):
             cv2.drawMarker(img, c, (0, 140, 255), cv2.MARKER_TILTED_CROSS, 9, 2)
             # labels alternate below and above their tick: neighbouring ticks keep readable labels
-            cv2.putText(img, str(text), (c[0] + 6, c[1] + (14 if k % 2 == 0 else -8)), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 110, 230), 1,
-                        cv2.LINE_AA)
+            cv2.putText(img, text, (c[0] + 6, c[1] + (14 if k % 2 == 0 else -8)),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 110, 230), 1, cv2.LINE_AA)
         for name, p in icps.items():
             c = px(p, axes, x0)
             cv2.circle(img, c, 5, (0, 0, 0), 1)
@@ -62,3 +61,24 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
     from ..fileio import write_png
 
     return write_png(file, img, bgr=True)
+
+
+def _merged(marks: list, near: int = 6) -> list:
+    """Marks ``(pixel, label)`` within ``near`` pixels of an earlier one joined into one label:
+    ``"reach 2"``, ``"reach 5"`` -> ``"reach 2,5"`` (same first word), else ``"a; b"``."""
+    groups: list[tuple[tuple[int, int], list[str]]] = []
+    for c, text in marks:
+        for g, texts in groups:
+            if abs(g[0] - c[0]) <= near and abs(g[1] - c[1]) <= near:
+                texts.append(text)
+                break
+        else:
+            groups.append((c, [text]))
+    out = []
+    for c, texts in groups:
+        heads = {t.split(" ", 1)[0] for t in texts}
+        if len(texts) > 1 and len(heads) == 1 and all(" " in t for t in texts):
+            out.append((c, f"{heads.pop()} " + ",".join(t.split(" ", 1)[1] for t in texts)))
+        else:
+            out.append((c, "; ".join(texts)))
+    return out

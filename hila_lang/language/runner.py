@@ -7,7 +7,9 @@ events and points checked against what the world declares, before anything is bu
 up the world it names (``world NAME``, default ``scripted``) and the back end (``--backend``,
 else the world's ``default_backend``) in the registry (:mod:`hila_lang.plugins.registry`),
 builds the world, then the back end on the world's scene, attaches them, and returns an
-:class:`~hila_lang.language.interpreter.Interpreter`.  :func:`finish` ends the run;
+:class:`~hila_lang.language.interpreter.Interpreter`.  ``--out DIR`` works in every world: one
+that writes no output folder of its own gets the run's picture and report
+(:mod:`hila_lang.language.runout`), written when the run ends.  :func:`finish` ends the run;
 :func:`finishing` ends it also when it fails.
 """
 
@@ -32,10 +34,14 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
     backend_info = registry.backend(backend or world_info.default_backend)
     osila, world_settings, backend_settings = checked.run_settings
     world = world_info.build(options, world_settings)
+    from .runout import run_outputs
+
+    outputs = run_outputs(world, options)  # --out for a world that writes none: made and proved writable now
     be = backend_info.build(world.scene, options, backend_settings)
     try:
         world.attach(be)
         interp = Interpreter(checked, fsm, world, be, osila, step_limit=step_limit)
+        interp.run_outputs = None if outputs is None else (outputs, options.seed, options.stdout)
         if be.view is not None:
             show_states(interp)
         return interp
@@ -68,7 +74,14 @@ def finish(interp: Interpreter):
     try:
         with guarded() as guard:
             guard.hold()
-            return interp.world.finish(interp.trace, fsm=interp.fsm)
+            summary = interp.world.finish(interp.trace, fsm=interp.fsm)
+            outputs = getattr(interp, "run_outputs", None)
+            if outputs is not None:
+                from .runout import write_run_outputs
+
+                folder, seed, stdout = outputs
+                write_run_outputs(folder, interp, seed, stdout)
+            return summary
     finally:
         interp.backend.close()
 

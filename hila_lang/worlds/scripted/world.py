@@ -33,7 +33,9 @@ KEEP_LOG = 1000
 class ScriptedWorld:
     """Implements :class:`hila_lang.plugins.protocols.World` from a script (see the module docstring)."""
 
-    def __init__(self, points=None, answers=None, events=None, home=None) -> None:
+    def __init__(self, points=None, answers=None, events=None, home=None, stdout=None) -> None:
+        #: where :meth:`finish` prints the result line (None: it prints nothing)
+        self.stdout = stdout
         self._points = {str(k): _point(v, f"point {k!r}") for k, v in (points or {}).items()}
         self.answers = {k: (list(v) if isinstance(v, list) else v) for k, v in (answers or {}).items()}
         self.events = {k: list(v) for k, v in (events or {}).items()}
@@ -69,12 +71,20 @@ class ScriptedWorld:
         self.log.append((event, data))
 
     def finish(self, trace=None, *, fsm=None) -> dict:
-        """Counts of the states and run states executed (every one, not only those kept)."""
+        """Counts of the states and run states executed (every one, not only those kept); prints
+        the result line (also under ``--quiet``): finished, or where the run stopped."""
         trace = trace or []
         kinds = getattr(trace, "kinds", None)
         if kinds is None:  # a plain list of entries
             kinds = {"run": sum(1 for t in trace if t.kind == "run")}
-        return {"states": len(trace), "runs": kinds.get("run", 0)}
+        summary = {"states": len(trace), "runs": kinds.get("run", 0)}
+        if self.stdout is not None:
+            last = trace[-1] if len(trace) else None
+            how = (f"stopped at step {last.step} ({last.state}, line {last.line})" if last is not None and last.error
+                   else "finished" if last is not None and last.next is None else "not finished")
+            print(f"result: {how}: {summary['states']} steps, {summary['runs']} run states", file=self.stdout,
+                  flush=True)
+        return summary
 
 
 def _point(value, what: str) -> np.ndarray:
@@ -87,7 +97,7 @@ def _point(value, what: str) -> np.ndarray:
     return arr
 
 
-def load_script(path) -> ScriptedWorld:
+def load_script(path, stdout=None) -> ScriptedWorld:
     """A :class:`ScriptedWorld` from a YAML script file."""
     from ...fileio import load_yaml
 
@@ -100,7 +110,7 @@ def load_script(path) -> ScriptedWorld:
                          file=str(path))
     try:
         _check_shape(doc)
-        return ScriptedWorld(doc.get("points"), doc.get("answers"), doc.get("events"), doc.get("home"))
+        return ScriptedWorld(doc.get("points"), doc.get("answers"), doc.get("events"), doc.get("home"), stdout)
     except InputError as exc:
         exc.file = str(path)
         raise
@@ -167,4 +177,4 @@ def _point_size(value) -> int | None:
 def make_world(options, settings) -> ScriptedWorld:
     """Plug-in factory: ``--set script=FILE.yaml`` or an empty world."""
     script = settings.get("script")
-    return load_script(script) if script else ScriptedWorld()
+    return load_script(script, options.stdout) if script else ScriptedWorld(stdout=options.stdout)
