@@ -284,7 +284,7 @@ def test_repl_under_a_terminal_survives_ctrl_c(tmp_path):
         os.write(fd, b"where\n")
         where = _read_until(fd, b"(hila)")
         steps = int(where.split("step ")[1].split(",")[0])
-        assert steps > 10 and "hand at (0.000, 0.000, 0.000)" in where and "at main/" in where
+        assert steps > 10 and "hand at (0.310, -0.090, 0.671)" in where and "at main/" in where  # the ready point
         os.write(fd, b"step\n")
         after = _read_until(fd, b"(hila)")
         assert f"{steps + 1:>3}  main/" in after  # the next step, numbered on from where it stopped

@@ -48,7 +48,7 @@ import numpy as np
 
 from . import ast as A
 from ..bounded import BoundedLog
-from ..errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError
+from ..errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError, UnreachableError
 from ..interrupts import guarded
 from .fsm import FSM, SetState, State
 from .history import History, Snapshot
@@ -392,7 +392,12 @@ class Interpreter(History):
         step = hila_step(t, self.scene_binding(st), self.hand(), constraints=self.constraints(st),
                          surface=self.surface(), **self.osila_options)
         path, icps = step.path, step.icps
-        executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+        try:
+            executed = self.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+        except UnreachableError as exc:  # told as the program's target, not a waypoint index
+            from ..robot.reach import name_the_target
+
+            raise name_the_target(exc, icps, st.ref) from None
         executed = None if executed is None else np.asarray(executed, dtype=float)
         self._hold()
         self.last_path, self.last_icps = path, icps

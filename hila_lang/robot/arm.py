@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import HilaRuntimeError, UnreachableError
+from ..errors import HilaRuntimeError
 from . import ik, model
+from .reach import check_planned, unreachable
 from .trajectory import densify, trapezoid_profile
-from .workspace import TABLE_FRONT_X, TABLE_SIZE
 
 #: simulation rate, Hz
 SIM_RATE = 240.0
@@ -137,26 +137,16 @@ class Arm:
         return result
 
     def _check_above_table(self, point: np.ndarray, k: int, total: int, label: str) -> None:
-        on_table = TABLE_FRONT_X <= point[0] <= TABLE_FRONT_X + TABLE_SIZE[0]
-        if on_table and point[2] < self.surface_z - 0.002:
-            raise UnreachableError(
-                f"cannot reach {_fmt(point)} m (waypoint {k + 1} of {total}): it is "
-                f"{(self.surface_z - point[2]) * 1000:.1f} mm below the paper; the arm did not move",
-                state=label or None,
-            )
+        check_planned(np.asarray(point, dtype=float)[None], self.surface_z, label)
 
     def _raise_if_unreachable(self, result: ik.IKResult, point, k: int, total: int, label: str) -> None:
         if result.converged:
             return
         tilt = f", pen tilted {math.degrees(result.tilt):.1f} deg" if result.tilt > IK_ACCEPT_TILT else ""
         distance = np.linalg.norm(result.position - np.asarray(point, dtype=float))
-        raise UnreachableError(
-            f"cannot reach {_fmt(point)} m (waypoint {k + 1} of {total}): the pen gets no closer "
-            f"than {distance * 1000:.1f} mm, to {_fmt(result.position)}{tilt}; the arm did not move",
-            state=label or None,
-            hint="targets must be above the table, in front of the robot (x 0.20-0.45 m, "
-            "y -0.30-0.10 m works at table height)",
-        )
+        raise unreachable(point, f"the pen gets no closer than {distance * 1000:.1f} mm, to "
+                                 f"{_fmt(result.position)}{tilt}", distance, label,
+                          where=f" (waypoint {k + 1} of {total})")
 
     def reset_hand(self, target: np.ndarray) -> np.ndarray:
         """Put the pen tip at ``target`` (3,) at once (no motion, no trace); returns the angles (10,).
@@ -177,8 +167,7 @@ class Arm:
         Raises :class:`UnreachableError` (the arm does not move) when a waypoint cannot be
         reached, :class:`HilaRuntimeError` if a joint leaves its limits during execution.
         """
-        for k, point in enumerate(planned):
-            self._check_above_table(point, k, len(planned), label)
+        check_planned(planned, self.surface_z, label)  # the reach bound and the paper, as the dry back end checks
         q_start = self.joint_positions()
         start = self.chain.tip_position(q_start)
         dense, origin_index, arc = densify(np.vstack([start, planned]), WAYPOINT_SPACING)

@@ -37,13 +37,11 @@ from . import model
 from .body import Body
 from .eyes import Eyes
 from .paper import Paper, TopView
-from .workspace import PAPER_THICKNESS, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z, default_surface
+from .workspace import PAPER_THICKNESS, READY_HEIGHT, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z, default_surface
 
 #: moves kept in :attr:`PyBulletBackend.traces` (a 4 s move at 240 Hz is about 100 kB)
 KEEP_TRACES = 1000
 
-#: the hand's ready point above the paper's centre, metres
-READY_HEIGHT = 0.10
 #: lighting of the robot's scene (its eye images)
 EYE_LIGHT = RenderStyle()
 

@@ -1,10 +1,17 @@
 """The dry back end: kinematic, no physics — the hand follows every path exactly.
 
 Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
-``--set hand=X,Y,Z`` (a setting of this back end), else the origin; a program's
+``--set hand=X,Y,Z`` (a setting of this back end), else where PyBullet starts the pen: 0.10 m
+above the paper's centre (:func:`hila_lang.robot.workspace.ready_point`); a program's
 ``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
 It has no eyes, no ink, no overview camera, no lights and no window (those capabilities are None);
 its ``snapshots`` copy where the hand is and cut the list of moves back.
+
+It checks what PyBullet's arm checks of a planned path before it moves
+(:func:`hila_lang.robot.reach.check_planned`): every waypoint within the arm's kinematic reach
+bound, none below the paper over the table (the world's surface, else the default sheet, as
+PyBullet lays it).  A path that fails is an :class:`~hila_lang.errors.UnreachableError` (exit 1),
+as on PyBullet: a program that runs dry runs on the robot as far as the kinematics can tell.
 """
 
 from __future__ import annotations
@@ -30,9 +37,11 @@ class DryBackend:
     view = None
     lighting = None
 
-    def __init__(self, start=(0.0, 0.0, 0.0)) -> None:
+    def __init__(self, start=(0.0, 0.0, 0.0), surface_z: float | None = None) -> None:
         from ..plugins.snapshots import AttributeSnapshots
 
+        #: the paper's height, metres (None: no paper, no table check)
+        self.surface_z = surface_z
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
         #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.bounded.BoundedLog`)
         self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
@@ -52,6 +61,9 @@ class DryBackend:
         arr = check_path(path, "path")
         if arr.shape[1] != 3:
             raise InputError(f"expected a path of shape (T, 3), got {arr.shape}")
+        from .reach import check_planned
+
+        check_planned(arr, self.surface_z, label)
         self.moves.append((label, arr.copy(), bool(pen_down)))
         self._hand = arr[-1].copy()
         return arr.copy()
@@ -62,7 +74,10 @@ class DryBackend:
 
 def make_backend(scene, options, settings) -> DryBackend:
     """Plug-in factory (see :mod:`hila_lang.plugins.registry`)."""
+    from .workspace import default_surface, ready_point
+
     home = None if scene is None else scene.home
     if home is None:
         home = settings.get("hand")
-    return DryBackend(home if home is not None else (0.0, 0.0, 0.0))
+    surface = scene.surface if scene is not None and scene.surface is not None else default_surface()
+    return DryBackend(home if home is not None else ready_point(surface), surface_z=surface.z)

@@ -17,6 +17,16 @@ TABLE_FRONT_X = 0.12
 TABLE_SIZE = (0.60, 1.00, 0.03)
 #: paper thickness, metres: the drawing surface is this far above the table top
 PAPER_THICKNESS = 0.001
+#: the hand's ready point above the paper's centre, metres (where a back end starts the pen when
+#: the world does not say)
+READY_HEIGHT = 0.10
+
+
+def ready_point(surface):
+    """The pen's start when the world names none: :data:`READY_HEIGHT` above ``surface``'s centre, (3,)."""
+    import numpy as np
+
+    return surface.to_world(0.0, 0.0) + np.array([0.0, 0.0, READY_HEIGHT])
 
 
 def default_surface():

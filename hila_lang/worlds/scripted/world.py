@@ -80,8 +80,12 @@ class ScriptedWorld:
         summary = {"states": len(trace), "runs": kinds.get("run", 0)}
         if self.stdout is not None:
             last = trace[-1] if len(trace) else None
-            how = (f"stopped at step {last.step} ({last.state}, line {last.line})" if last is not None and last.error
-                   else "finished" if last is not None and last.next is None else "not finished")
+            if last is not None and last.error:
+                how = f"stopped at step {last.step} ({last.state}, line {last.line})"
+            elif last is not None and last.next is None:
+                how = "finished"
+            else:
+                how = "stopped (the message says why)"
             print(f"result: {how}: {summary['states']} steps, {summary['runs']} run states", file=self.stdout,
                   flush=True)
         return summary
