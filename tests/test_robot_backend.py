@@ -123,10 +123,14 @@ def test_top_view_sees_the_grid_and_the_ink(robot, drawn):
 
 def test_unreachable_target_raises_and_the_arm_stays(robot):
     start = robot.hand_position()
-    far = np.array([0.90, -0.10, 0.60])
-    with pytest.raises(UnreachableError, match=r"cannot reach \(0\.900, -0\.100, 0\.600\) m \(waypoint 2 of 2\): "
-                       r"the pen gets no closer than \d+\.\d mm") as info:
+    far = np.array([0.90, -0.10, 0.60])  # beyond the arm's kinematic reach bound: refused before any IK
+    with pytest.raises(UnreachableError, match=r"cannot reach \(0\.900, -0\.100, 0\.600\) m: it is 0\.903 m from the "
+                       r"arm's base"):
         robot.move(np.array([start, far]), label="reach cell")
+    behind = np.array([-0.05, -0.45, 0.95])  # inside the bound, but the IK cannot get the pen there
+    with pytest.raises(UnreachableError, match=r"cannot reach \(-0\.050, -0\.450, 0\.950\) m \(waypoint 2 of 2\): "
+                       r"the pen gets no closer than \d+\.\d mm") as info:
+        robot.move(np.array([start, behind]), label="reach cell")
     assert info.value.exit_code == 1 and info.value.state == "reach cell"
     assert "(in state reach cell)" in str(info.value)
     np.testing.assert_allclose(robot.hand_position(), start, atol=1e-9)

@@ -206,6 +206,8 @@ class _Checker(A.Visitor):
                 for ref, template_dim, icp in self.param_uses.get((call.task, param), []) if dim else ():
                     self.world.binding(ref, template_dim, icp, dim, arg.pos if arg.pos.line else call.pos,
                                        f" (through parameter '{param}' of task '{call.task}')")
+                    self.world.reach(ref, icp, arg, self.points, (), arg.pos if arg.pos.line else call.pos,
+                                     f" (through parameter '{param}' of task '{call.task}')")
 
     def visit_LetStmt(self, s: A.LetStmt, defined: set[str]) -> None:
         if s.name in RESERVED:
@@ -284,6 +286,7 @@ class _Checker(A.Visitor):
             self.expr(b.value, defined, b.pos)
             if b.icp in icps:  # one ICP bound to one point (not a group bound to a group)
                 self.world.binding(s.ref, dim, b.icp, self.dim(b.value, defined), b.pos)
+                self.world.reach(s.ref, b.icp, b.value, self.points, defined, b.pos)
                 value = b.value
                 if (isinstance(value, A.Name) and len(value.parts) == 1 and value.parts[0] in defined.params
                         and value.parts[0] not in defined.dims):  # a parameter: checked at each call

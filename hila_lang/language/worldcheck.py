@@ -7,6 +7,10 @@ world must answer:
   (:class:`~hila_lang.plugins.registry.Declared`), or a :class:`CheckError` with "did you mean";
 - a world point written out (``board.cell5.tl``), when the world knows its points before it
   runs (a script's);
+- a target bound to an ICP, when the back end moves an arm (``BackendInfo.reach``: PyBullet, and
+  the dry back end, which checks paths as PyBullet does): a point written out or a program
+  point outside the arm's reach bound is refused at the statement that binds it (a run's
+  binding, or the task call whose argument becomes the target), with its distances;
 - the points bound to a template's ICPs: a 3-D template takes 3-D points; a 2-D template runs on
   the world's drawing surface (the scene points bound to it are projected onto the surface, see
   :func:`hila_lang.hierarchy.hila_step`), so a world without one refuses it, with the reason.
@@ -34,10 +38,13 @@ class WorldCheck:
         self.info = registry.world(world)
         self.run_settings = None  # (OSILA options, world settings, back-end settings), parsed
         parsed = None
+        backend_info = registry.backend(backend or self.info.default_backend)
+        #: ((x, y, z), radius): the ball the back end's hand stays in, or None
+        self.reach_ball = backend_info.reach
+        self.backend_name = backend_info.name
         if settings is not None:
             from ..plugins.options import split_settings
 
-            backend_info = registry.backend(backend or self.info.default_backend)
             self.run_settings = split_settings(settings, self.info, backend_info)
             parsed = self.run_settings[1]
         self.declared = self.info.declared(parsed)
@@ -91,6 +98,25 @@ class WorldCheck:
             f"it has {len(d.points)} point(s)" if d.points else d.advice or "it names no points")
         raise self.error(f"unknown scene point '{name}' ({d.source or 'the world'} does not name it)", pos, hint)
 
+    # ------------------------------------------------------------------ the arm's reach
+    def reach(self, ref: str, icp: str, value: A.Expr, points: dict, variables, pos: A.Pos, via: str = "") -> None:
+        """ICP ``icp`` of ``ref`` bound to ``value``: refused when it is a point known now (written
+        out, or a program point; ``variables`` are names that shadow program points) outside the
+        back end's reach bound."""
+        if self.reach_ball is None:
+            return
+        target = constant_point(value, points, variables)
+        if target is None or len(target) != 3:
+            return
+        from ..robot.reach import out_of_reach
+
+        why = out_of_reach(target, *self.reach_ball)
+        if why is not None:
+            where = "(" + ", ".join(f"{v:.3f}" for v in target) + ")"
+            raise self.error(f"ICP '{icp}' of '{ref}' is bound to {where}{via}, which the arm cannot reach: {why}", pos,
+                             f"back end {self.backend_name!r} moves the iCub's arm: targets must be above the table, "
+                             "in front of the robot (x 0.20-0.45 m, y -0.30-0.10 m works at table height)")
+
     # ------------------------------------------------------------------ dimensions
     def value_dim(self, kind: str, name: str) -> int | None:
         """The size of the point a question (``kind="question"``) or event always answers, or None."""
@@ -121,3 +147,25 @@ class WorldCheck:
                 f"'{ref}' is a 2-D template, and world '{self.world}' has no drawing surface to run it on", pos,
                 "a 2-D template is a drawing: run it in a world with paper"
                 + (f" ({', '.join(worlds)})" if worlds else "") + ", or learn the demonstration in 3-D")
+
+
+def constant_point(expr, points: dict, variables=(), depth: int = 0) -> tuple[float, ...] | None:
+    """The coordinates of ``expr`` when they are known before the run: a point written out
+    (``(1.0, -0.2, 0.6)``, signs allowed) or a program point (``point far = ...``) that is one,
+    not shadowed by a variable; None otherwise (a question's answer, a parameter, a sum)."""
+    if depth > 50:
+        return None
+    if isinstance(expr, A.Number) and not isinstance(expr.value, bool):
+        return (float(expr.value),)
+    if isinstance(expr, A.Unary) and expr.op == "-":
+        inner = constant_point(expr.operand, points, variables, depth + 1)
+        return None if inner is None or len(inner) != 1 else (-inner[0],)
+    if isinstance(expr, A.Vector):
+        items = [constant_point(e, points, variables, depth + 1) for e in expr.items]
+        if any(i is None or len(i) != 1 for i in items):
+            return None
+        return tuple(i[0] for i in items)
+    if isinstance(expr, A.Name) and len(expr.parts) == 1 and expr.parts[0] not in variables:
+        value = points.get(expr.parts[0])
+        return None if value is None else constant_point(value, points, variables, depth + 1)
+    return None

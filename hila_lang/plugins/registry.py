@@ -170,12 +170,17 @@ class BackendInfo:
     doc : str
         One line.
     settings : tuple of Setting
+    reach : ((x, y, z), radius) or None
+        A ball (world frame, metres) that holds every point the back end's hand can reach, when
+        it moves a robot's arm: ``hila check`` refuses a target bound outside it, at the
+        statement that binds it (:mod:`hila_lang.language.worldcheck`).  None: no such bound.
     """
 
     name: str
     factory: str
     doc: str
     settings: tuple[Setting, ...] = ()
+    reach: tuple | None = None
 
     def parse(self, given: dict[str, str]) -> dict[str, Any]:
         return parse_settings(self.settings, given, f"back end {self.name}")

@@ -20,11 +20,16 @@ points ``hila.backends``).  Importing this package imports nothing heavy; pybull
 from ..plugins.registry import BackendInfo
 from ..plugins.settings import Setting, number, point
 
+#: the iCub arm's kinematic reach bound (:mod:`hila_lang.robot.reach`; kept here as numbers so
+#: declaring the back ends imports nothing): the torso pitch origin and the chain's length, metres
+REACH = ((0.0, -0.0270463, 0.62), 0.776)
+
 DRY = BackendInfo(
     name="dry",
     factory="hila_lang.robot.dry:make_backend",
     doc="kinematic, no physics: the hand follows every path exactly",
     settings=(Setting("hand", "where the hand starts when the world does not say", point, metavar="X,Y,Z"),),
+    reach=REACH,  # it checks planned paths as PyBullet's arm does
 )
 
 PYBULLET = BackendInfo(
@@ -34,4 +39,5 @@ PYBULLET = BackendInfo(
     settings=(Setting("eyes.noise", "sensor noise of the eye cameras: Gaussian, standard deviation in grey "
                                     "levels 0-255, seeded by --seed", number(0.0, 40.0), default=0.0,
                       metavar="SIGMA"),),
+    reach=REACH,
 )

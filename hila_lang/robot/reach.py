@@ -25,10 +25,11 @@ import numpy as np
 from ..errors import UnreachableError
 from .workspace import TABLE_FRONT_X, TABLE_SIZE
 
+from . import REACH
+
 #: the torso pitch joint's origin, world frame, metres (the root at (0, 0, 0.62), facing +x)
-REACH_CENTRE = (0.0, -0.0270463, 0.62)
-#: the sum of the arm chain's link lengths from that origin to the pen tip, metres
-REACH_RADIUS = 0.776
+#: and the sum of the arm chain's link lengths from that origin to the pen tip, metres
+REACH_CENTRE, REACH_RADIUS = REACH
 #: how far below the paper a target on the table may be before it is refused, metres
 BELOW_PAPER = 0.002
 
