@@ -29,8 +29,8 @@ def test_show_circle_prints_its_tags_spans_contact_and_icps(capsys, monkeypatch,
     assert out[icps + 1:icps + 6] == ["  A tl    (+0.353, -0.036, +0.371)", "  B tr    (+0.353, -0.103, +0.371)",
                                       "  C br    (+0.286, -0.103, +0.371)", "  D bl    (+0.286, -0.036, +0.371)",
                                       "  E hand  (+0.204, -0.174, +0.568)"]
-    frame = out.index("path from above (x right, y up): digits = the tag's points, | = a cut, letters = ICPs, "
-                      "* = start")
+    frame = out.index("path from above, as the robot faces it (x forward = up, y left = left): digits = the tag's "
+                      "points, | = a cut, letters = ICPs, * = start")
     rows = out[frame + 1:]
     assert len(rows) == 18 + 1 and rows[0] == "  +" + "-" * 56 + "+" and rows[-1] == "plot written to " + str(
         tmp_path / "c.png")
@@ -43,9 +43,10 @@ def test_show_circle_prints_its_tags_spans_contact_and_icps(capsys, monkeypatch,
 
 
 def test_the_picture_puts_cuts_icps_and_start_where_they_are():
-    """A straight line from x=0 to x=1 cut at its middle: the cut is in the middle column."""
-    path = np.column_stack([np.linspace(0, 1, 11), np.zeros(11), np.zeros(11)])
-    t = Template("line", path, {"a": np.array([0.0, 0.5, 0.0])},
+    """A straight line from y=1 to y=0 (the robot's left to its right) cut at its middle: the cut
+    is in the middle column; an ICP ahead (x) is above it."""
+    path = np.column_stack([np.zeros(11), np.linspace(1, 0, 11), np.zeros(11)])
+    t = Template("line", path, {"a": np.array([0.5, 1.0, 0.0])},
                  segments=[Segment("one", 0, 5), Segment("two", 5, 11)])
     rows = picture(t, columns=21, rows=11)
     line = next(r for r in rows if "*" in r)

@@ -128,8 +128,8 @@ def template_text(template, path=None) -> str:
     if t.segments:
         lines.append("  every sub-template adds 'start' and 'end': its first and last points")
     lines.append("")
-    lines.append("path from above (x right, y up): digits = the tag's points, | = a cut, letters = ICPs, "
-                 "* = start")
+    lines.append("path from above, as the robot faces it (x forward = up, y left = left): digits = the tag's "
+                 "points, | = a cut, letters = ICPs, * = start")
     lines += ["  " + row for row in picture(t)]
     return "\n".join(lines)
 
@@ -139,13 +139,19 @@ def _letter(k: int) -> str:
 
 
 def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS) -> list[str]:
-    """The path from above as ``rows`` strings of ``columns`` characters, framed: each point is the
+    """The path from above, as the robot faces it (x forward up the page, y to the left), as ``rows``
+    strings of ``columns`` characters, framed: each point is the
     number of the tag it belongs to, the first point of every tag after the first a ``|`` (a cut),
     each ICP its letter, the start ``*``; later marks draw over earlier ones in that order."""
     import numpy as np
 
-    xy = np.asarray(template.path, dtype=float)[:, :2]
-    icps = [np.asarray(p, dtype=float)[:2] for p in template.icps.values()]
+    # seen from above and behind the robot: forward (+x) up the page, the robot's left (+y) to the left
+    def view(p):
+        p = np.asarray(p, dtype=float)
+        return np.array([-p[1], p[0]])
+
+    xy = np.array([view(p) for p in template.path])
+    icps = [view(p) for p in template.icps.values()]
     everything = np.vstack([xy] + icps)
     lo, hi = everything.min(0), everything.max(0)
     span = max(float((hi - lo).max()), 1e-9)

@@ -11,7 +11,8 @@ from ..errors import InputError
 
 def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.ndarray | None = None,
               title: str = "", marks: list | None = None, legend: str = "blue planned, red executed") -> Path:
-    """Write a PNG with the path seen from above (x, y) and from the side (x, z).
+    """Write a PNG with the path seen from above as the robot faces it (x forward up, y to the
+    left) and from the side (x, z).
 
     ``path`` (T, 3) in metres is drawn blue with its start as a green dot; ``executed`` (T', 3),
     if given, red; ``icps`` (name -> (3,)) as labelled black circles; ``marks`` a list of
@@ -32,28 +33,32 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
     mid = (lo + hi) / 2
     size, pad = 400, 30
     img = np.full((size + 2 * pad + 20, 2 * (size + 2 * pad), 3), 255, np.uint8)
-    views = [((0, 1), "top (x right, y up)", 0), ((0, 2), "side (x right, z up)", size + 2 * pad)]
+    # the top view as the robot faces the table: forward (+x) up the image, its left (+y) to the left
+    views = [((1, 0), "top, as the robot faces it (x forward up, y left)", 0, -1),
+             ((0, 2), "side (x right, z up)", size + 2 * pad, 1)]
 
-    def px(p, axes, x0):
-        u = (p[axes[0]] - mid[axes[0]]) / span + 0.5
+    def px(p, view, x0):
+        axes, flip = view
+        u = flip * (p[axes[0]] - mid[axes[0]]) / span + 0.5
         v = (p[axes[1]] - mid[axes[1]]) / span + 0.5
         return int(x0 + pad + u * size), int(20 + pad + (1 - v) * size)
 
-    for axes, label, x0 in views:
+    for axes_of, label, x0, flip in views:
+        view = (axes_of, flip)
         cv2.rectangle(img, (x0 + pad, 20 + pad), (x0 + pad + size, 20 + pad + size), (200, 200, 200), 1)
         cv2.putText(img, label, (x0 + pad, 20 + pad - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (60, 60, 60), 1, cv2.LINE_AA)
         for line, colour in ((path, (200, 80, 0)), (executed, (0, 0, 220))):
             if line is not None and len(line) > 1:
-                pts = np.array([px(p, axes, x0) for p in line], np.int32)
+                pts = np.array([px(p, view, x0) for p in line], np.int32)
                 cv2.polylines(img, [pts], False, colour, 1, cv2.LINE_AA)
-        cv2.circle(img, px(path[0], axes, x0), 4, (0, 160, 0), -1)
-        for k, (c, text) in enumerate(_merged([(px(path[int(i)], axes, x0), str(t)) for i, t in marks or ()])):
+        cv2.circle(img, px(path[0], view, x0), 4, (0, 160, 0), -1)
+        for k, (c, text) in enumerate(_merged([(px(path[int(i)], view, x0), str(t)) for i, t in marks or ()])):
             cv2.drawMarker(img, c, (0, 140, 255), cv2.MARKER_TILTED_CROSS, 9, 2)
             # labels alternate below and above their tick: neighbouring ticks keep readable labels
             cv2.putText(img, text, (c[0] + 6, c[1] + (14 if k % 2 == 0 else -8)),
                         cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 110, 230), 1, cv2.LINE_AA)
         for name, p in icps.items():
-            c = px(p, axes, x0)
+            c = px(p, view, x0)
             cv2.circle(img, c, 5, (0, 0, 0), 1)
             cv2.putText(img, name, (c[0] + 6, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
     cv2.putText(img, f"{title}  ({len(path)} points, view {span * 100:.1f} cm; {legend})", (pad, 16),

@@ -7,7 +7,7 @@ run (a bad ``--out`` is refused before anything moves), :func:`write_run_outputs
 the run ends (also when it failed or was stopped: what was done is kept):
 
 - ``path.png``: every run state's planned path (blue) and the path the back end executed (red),
-  top and side views (:func:`hila_lang.language.plot.plot_path`), each state's start marked and
+  the scene points bound to its ICPs (black circles), top and side views (:func:`hila_lang.language.plot.plot_path`), each state's start marked and
   named ``NAME STEP`` (the state's last name part and the step number of its trace line; states
   that start at one place share a label: ``reach 2,5,8``);
 - ``report.json``: the program, world, back end, seed, the counts, how the run ended, and one
@@ -73,6 +73,25 @@ def run_report(interp, seed: int | None = None) -> dict:
     }
 
 
+#: at most this many ICPs are drawn on the picture (the newest states' first)
+MAX_DRAWN_ICPS = 24
+
+
+def _scene_points(runs) -> dict:
+    """The ICPs the run states were bound to (not their ``start``/``end``), each once: a name
+    bound to different points in different states is drawn as ``NAME@STEP``."""
+    drawn: dict[str, np.ndarray] = {}
+    for e in reversed(runs):
+        for name, p in (e.icps or {}).items():
+            p = np.asarray(p, dtype=float).reshape(-1)
+            if name in ("start", "end") or p.shape != (3,) or len(drawn) >= MAX_DRAWN_ICPS:
+                continue
+            if name in drawn and not np.allclose(drawn[name], p, atol=1e-4):
+                name = f"{name}@{e.step}"
+            drawn.setdefault(name, p)
+    return drawn
+
+
 def write_run_outputs(folder, interp, seed: int | None = None, stdout=None) -> dict:
     """Write ``path.png`` (when a run state moved the hand) and ``report.json`` into ``folder``."""
     from .plot import plot_path
@@ -85,7 +104,7 @@ def write_run_outputs(folder, interp, seed: int | None = None, stdout=None) -> d
         starts = np.cumsum([0] + [len(e.path) for e in runs[:-1]])
         marks = [(int(i), f"{e.state.rsplit('/', 1)[-1]} {e.step}") for i, e in zip(starts, runs)]
         plot_path(planned, folder.file("path.png"), executed=np.vstack(executed) if executed else None,
-                  marks=marks, title=f"{interp.fsm.file} ({interp.backend.name})",
+                  marks=marks, icps=_scene_points(runs), title=f"{interp.fsm.file} ({interp.backend.name})",
                   legend="blue planned, red executed, x: where each state starts")
     folder.write_text("report.json", json.dumps(report, indent=2) + "\n")
     folder.close()
