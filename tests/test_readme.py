@@ -1,0 +1,61 @@
+"""The README fits in a head (issue 23 item 5): its first screen says what hila is, gives the two
+set-up commands exactly, links the tutorial and shows a picture; the reference material moved to
+``docs/`` pages, every one linked from the README, every relative link of the pages resolving."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+#: a first screen: what a terminal or a repository page shows before scrolling
+FIRST_SCREEN = 40
+SETUP = ("python3 -m venv .venv && . .venv/bin/activate && pip install . && hila exec programs/game.hila",
+         "python3 -m venv .venv && . .venv/bin/activate && pip install '.[test]' && pytest")
+#: every section the README had before issue 23, and the page that holds it now
+MOVED = {
+    "Tic-tac-toe: `hila exec programs/game.hila`": "worlds.md",
+    "Writing a word: `hila exec programs/write.hila`": "worlds.md",
+    "The hila language": "language.md",
+    "Recording and replaying a run": "recordings.md",
+    "A window: `--gui`": "robot.md",
+    "An editor that understands .hila: `hila lsp`": "editors.md",
+    "Templates and imitation (OSILA / HILA)": "osila.md",
+    "Does one demonstration help? `hila eval`": "eval-tables.md",
+    "The simulated iCub (PyBullet)": "robot.md",
+    "Perception: learning through the iCub's eyes": "robot.md",
+    "Benchmarks": "benchmarks.md",
+    "Worlds and back ends are plug-ins": "worlds.md",
+    "Layout": "layout.md",
+}
+
+
+def test_the_first_screen_holds_what_hila_is_the_setup_the_tutorial_and_a_picture():
+    head = "\n".join(README.read_text().splitlines()[:FIRST_SCREEN])
+    assert head.startswith("# hila\n") and "ONE human demonstration" in head
+    for command in SETUP:
+        assert f"```sh\n{command}\n```" in head
+    assert "(docs/tutorial.md)" in head
+    images = re.findall(r"!\[[^\]]+\]\(([^)]+\.png)\)", head)
+    assert images and all((ROOT / i).is_file() for i in images)
+
+
+def test_the_gui_setup_notes_say_it_needs_a_display_and_where_xvfb_run_comes_from():
+    text = README.read_text()
+    assert "X display" in text and "xvfb-run" in text and "`xvfb` package" in text
+
+
+def test_every_moved_section_is_on_a_page_the_readme_links():
+    text = README.read_text()
+    for heading, page in MOVED.items():
+        assert f"## {heading}\n" in (ROOT / "docs" / page).read_text(), heading
+        assert f"(docs/{page})" in text, page
+    assert "coordinator: short links to the studio, scene matching, evaluation, recognition and limits" in text
+
+
+def test_the_relative_links_of_the_readme_and_the_pages_resolve():
+    pages = [README, ROOT / "docs" / "tutorial.md", *sorted({ROOT / "docs" / p for p in MOVED.values()})]
+    for page in pages:
+        for target in re.findall(r"\]\(([^)#:]+)(?:#[^)]*)?\)", page.read_text()):
+            assert (page.parent / target).exists(), f"{page.name}: {target}"
