@@ -38,6 +38,9 @@ PYBULLET = BackendInfo(
     doc="the iCub in PyBullet: IK, 240 Hz position control, ink on the paper, fish-eye eye cameras",
     settings=(Setting("eyes.noise", "sensor noise of the eye cameras: Gaussian, standard deviation in grey "
                                     "levels 0-255, seeded by --seed", number(0.0, 40.0), default=0.0,
-                      metavar="SIGMA"),),
+                      metavar="SIGMA"),
+              Setting("speed", "with --gui: play the motion N times faster than real time (the simulation is the "
+                               "same; headless runs are not paced)", number(0.1, 100.0), default=1.0, metavar="N",
+                      flag="--speed"),),
     reach=REACH,
 )

@@ -95,10 +95,11 @@ class Arm:
     """Torso + right arm of ``body`` holding a pen over a table whose paper is at ``surface_z``.
 
     ``stats`` (a dict) gains ``ik_solves``, ``ik_seconds``, ``steps`` and ``step_seconds``.
-    ``realtime``: pace the control loop at its simulated speed (a GUI window).
+    ``realtime``: pace the control loop for a window a person watches: 0 (or False) not at all,
+    1 (or True) at its simulated speed, N at N times it (``--speed N``).
     """
 
-    def __init__(self, body, surface_z: float, stats: dict, *, realtime: bool = False) -> None:
+    def __init__(self, body, surface_z: float, stats: dict, *, realtime: float = 0.0) -> None:
         self.body = body
         self.chain = body.arm_chain
         self.surface_z = float(surface_z)
@@ -211,8 +212,8 @@ class Arm:
             reference.append(point)
             self.body.command(q_target, qd_target, POSITION_GAIN, VELOCITY_GAIN)
             pb.stepSimulation(physicsClientId=c)
-            if self.realtime:  # a window shows the motion at its real speed
-                ahead = len(reference) * dt - (time.perf_counter() - started)
+            if self.realtime:  # a window shows the motion at real speed, or --speed N times it
+                ahead = len(reference) * dt / float(self.realtime) - (time.perf_counter() - started)
                 if ahead > 0:
                     time.sleep(ahead)
             q = self.joint_positions()

@@ -50,10 +50,10 @@ __all__ = ["PyBulletBackend", "Trace", "make_backend"]
 
 def make_backend(scene, options, settings) -> "PyBulletBackend":
     """Plug-in factory: the world's ``scene.surface`` (default :func:`.workspace.default_surface`),
-    ``options.gui``, and the eyes' sensor noise (``--set eyes.noise=SIGMA``, seeded by ``options.seed``)."""
+    ``options.gui`` and its pace (``--speed N``), and the eyes' sensor noise (``--set eyes.noise=SIGMA``, seeded by ``options.seed``)."""
     surface = None if scene is None else scene.surface
     return PyBulletBackend(surface, gui=options.gui, eye_noise=float(settings.get("eyes.noise") or 0.0),
-                           seed=int(options.seed))
+                           seed=int(options.seed), speed=float(settings.get("speed") or 1.0))
 
 
 class PyBulletBackend:
@@ -100,7 +100,7 @@ class PyBulletBackend:
     name = "pybullet"
 
     def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto",
-                 eye_noise: float = 0.0, seed: int = 0) -> None:
+                 eye_noise: float = 0.0, seed: int = 0, speed: float = 1.0) -> None:
         self.surface = surface if surface is not None else default_surface()
         if not isinstance(self.surface, Surface):
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
@@ -110,11 +110,16 @@ class PyBulletBackend:
         self.stats = dict.fromkeys(("ik_solves", "ik_seconds", "steps", "step_seconds", "renders", "render_seconds"), 0)
         self.sim = SimScene(gui=gui, time_step=1.0 / SIM_RATE, solver_iterations=SOLVER_ITERATIONS, style=EYE_LIGHT)
         try:
+            if gui:  # framed from the first frame: before the robot loads and the eyes calibrate
+                from .window import frame
+
+                frame(self.sim, self.surface)
             self.body = Body(self.sim)
             self._build_table(self.surface.z - PAPER_THICKNESS)
             self.ink = Paper(self.sim, self.surface)
             self.overview = TopView(self.ink, self._render)
-            self.arm = Arm(self.body, self.surface.z, self.stats, realtime=gui)
+            # with a window the motion is paced: real time, or --speed N times it
+            self.arm = Arm(self.body, self.surface.z, self.stats, realtime=float(speed) if gui else 0.0)
             centre = self.surface.to_world(0.0, 0.0)
             reachable = self.arm.ready_at(centre + np.array([0.0, 0.0, READY_HEIGHT]))
             low_table = self.surface.z < TABLE_TOP_Z - 0.05
@@ -132,9 +137,7 @@ class PyBulletBackend:
         """The ``view``: PyBullet's window framed on the robot and the paper (:mod:`.window`)."""
         from .window import Window
 
-        head = self.body.link_position(model.EYE_LINKS["left"])
-        robot = np.array([[0.0, 0.0, 0.45], head + [0.0, 0.0, 0.08], self.hand_position()])
-        window = Window(self.sim, self.surface, robot)
+        window = Window(self.sim, self.surface)  # framed as when the window opened
         self.arm.observer = window.executed_point
         return window
 

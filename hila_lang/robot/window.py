@@ -4,8 +4,11 @@ as they happen, the current FSM state written in the view, and the left eye's im
 :class:`Window` implements :class:`hila_lang.plugins.protocols.View` (the back end's ``view``
 capability; None without a window):
 
-- on start PyBullet's side panels and camera previews are turned off and the camera looks at the
-  robot and the paper from the front right, close enough that they fill most of the window;
+- PyBullet's side panels and camera previews are turned off and the camera looks at the robot
+  and the paper from the front right, close enough that they fill most of the window -- from
+  the first frame: :func:`frame` runs right after the window opens, before the robot is loaded
+  (the eyes' first calibration alone takes about 25 s), on the robot's nominal outline
+  (:func:`robot_points`), and the window keeps that framing;
 - :meth:`planned` draws a path the arm is about to follow (blue), :meth:`executed_point` extends
   the pen's trace as the simulation steps (red, a segment every few steps);
 - :meth:`show_state` writes the state's name and its program line above the scene;
@@ -38,19 +41,42 @@ PLANNED_RGB = (0.15, 0.35, 0.95)
 EXECUTED_RGB = (0.9, 0.1, 0.1)
 
 
+#: the left eye in the robot's held posture, world frame, metres (measured: PyBullet 3.2.7,
+#: icub-models 3.2.0, the head held as the back end holds it)
+HEAD = (0.1264, 0.1004, 0.8947)
+
+
+def robot_points(surface) -> np.ndarray:
+    """What the window frames of the robot (3, 3): its waist, above its head, the pen's ready point."""
+    from .workspace import ready_point
+
+    return np.array([[0.0, 0.0, 0.45], np.add(HEAD, [0.0, 0.0, 0.08]), ready_point(surface)])
+
+
+def frame(sim, surface, robot: np.ndarray | None = None) -> np.ndarray:
+    """Turn PyBullet's panels off and point the window's camera at the robot and the paper; the
+    camera's target (3,).  Safe to call before anything is loaded, and again."""
+    pb, c = sim.pb, sim.client
+    for flag in (pb.COV_ENABLE_GUI, pb.COV_ENABLE_RGB_BUFFER_PREVIEW, pb.COV_ENABLE_DEPTH_BUFFER_PREVIEW,
+                 pb.COV_ENABLE_SEGMENTATION_MARK_PREVIEW):
+        pb.configureDebugVisualizer(flag, 0, physicsClientId=c)
+    points = np.vstack([robot_points(surface) if robot is None else robot, surface.corners()])
+    target = (points.min(0) + points.max(0)) / 2
+    distance, yaw, pitch = CAMERA
+    pb.resetDebugVisualizerCamera(distance, yaw, pitch, target.tolist(), physicsClientId=c)
+    return target
+
+
 class Window:
     """The ``view`` of a :class:`~hila_lang.robot.backend.PyBulletBackend` opened with ``gui``."""
 
-    def __init__(self, sim, surface, robot_points: np.ndarray) -> None:
+    def __init__(self, sim, surface, robot: np.ndarray | None = None) -> None:
+        """``robot``: points of the robot to frame (N, 3); None: its nominal outline, as
+        :func:`frame` framed the window when it opened (the view does not move)."""
         self.sim = sim
         pb, c = sim.pb, sim.client
-        for flag in (pb.COV_ENABLE_GUI, pb.COV_ENABLE_RGB_BUFFER_PREVIEW, pb.COV_ENABLE_DEPTH_BUFFER_PREVIEW,
-                     pb.COV_ENABLE_SEGMENTATION_MARK_PREVIEW):
-            pb.configureDebugVisualizer(flag, 0, physicsClientId=c)
-        points = np.vstack([robot_points, surface.corners()])
-        self.target = (points.min(0) + points.max(0)) / 2
+        self.target = frame(sim, surface, robot)
         distance, yaw, pitch = CAMERA
-        pb.resetDebugVisualizerCamera(distance, yaw, pitch, self.target.tolist(), physicsClientId=c)
         # the window applies the camera later: the view matrix from the same yaw/pitch convention,
         # the projection (fixed by the window's size) from the window
         view = pb.computeViewMatrixFromYawPitchRoll(self.target.tolist(), distance, yaw, pitch, 0.0, 2,

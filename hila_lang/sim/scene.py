@@ -207,7 +207,8 @@ class SimScene:
         """Disconnect the client and delete the temporary textures (idempotent)."""
         if self.client >= 0:
             try:
-                self.pb.disconnect(physicsClientId=self.client)
+                with quiet_c_output():  # a window's threads say goodbye on C stdout (17 lines)
+                    self.pb.disconnect(physicsClientId=self.client)
             except Exception:  # already gone  # noqa: BLE001
                 pass
             self.client = -1
