@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import HilaError, HilaRuntimeError
 from .fsm import FSM
-from .interpreter import Trace, TraceEntry, fmt_point
+from .interpreter import Trace, TraceEntry
 from .recording import sha256
 
 
@@ -174,6 +174,19 @@ def _max_difference(a, b) -> tuple[float, int]:
     return float(d[i]), i
 
 
+def differing_points(recorded, now) -> tuple[str, str]:
+    """``recorded`` and ``now`` (points) written with the fewest decimals (3 to 12) that tell
+    them apart, so a difference is never shown as the same numbers twice."""
+    def text(p, digits):
+        return "(" + ", ".join(f"{float(v):.{digits}f}" for v in np.asarray(p, float).reshape(-1)) + ")"
+
+    for digits in range(3, 13):
+        a, b = text(recorded, digits), text(now, digits)
+        if a != b:
+            return a, b
+    return text(recorded, 17), text(now, 17)
+
+
 def _path_difference(what: str, recorded, now, tolerance: float) -> str | None:
     if recorded is None or now is None:
         return None if recorded is None and now is None else f"{what}: recorded {'none' if recorded is None else 'a path'}, now {'none' if now is None else 'a path'}"
@@ -181,8 +194,8 @@ def _path_difference(what: str, recorded, now, tolerance: float) -> str | None:
         return f"{what}: recorded {len(recorded)} points, now {len(now)}"
     d, i = _max_difference(recorded, now)
     if d > tolerance:
-        return (f"{what} differs by up to {d * 1000:.3f} mm (point {i}: recorded {fmt_point(recorded[i])}, "
-                f"now {fmt_point(now[i])})")
+        a, b = differing_points(recorded[i], now[i])
+        return f"{what} differs by up to {d * 1000:.3g} mm (point {i}: recorded {a}, now {b})"
     return None
 
 
@@ -194,8 +207,10 @@ def step_difference(s: dict, entry: TraceEntry, tolerance: float) -> str | None:
     if list(entry.icps) != list(s["icps"]):
         return f"ICPs bound: recorded {', '.join(s['icps'])}, now {', '.join(entry.icps)}"
     for k, v in s["icps"].items():
-        if np.abs(entry.icps[k] - v).max() > tolerance:
-            return f"ICP {k}: recorded {fmt_point(v)}, now {fmt_point(entry.icps[k])}"
+        d = float(np.abs(entry.icps[k] - v).max())
+        if d > tolerance:
+            a, b = differing_points(v, entry.icps[k])
+            return f"ICP {k}: recorded {a}, now {b} (up to {d * 1000:.3g} mm apart)"
     for what, key in (("the planned path", "path"), ("the executed path", "executed")):
         why = _path_difference(what, s[key], getattr(entry, key), tolerance)
         if why:
@@ -204,6 +219,9 @@ def step_difference(s: dict, entry: TraceEntry, tolerance: float) -> str | None:
     same = (isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape
             and np.abs(a - b).max() <= tolerance) or (not isinstance(a, np.ndarray) and a == b)
     if not same:
+        if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape:
+            ra, rb = differing_points(a, b)
+            return f"value: recorded {ra}, now {rb} (up to {float(np.abs(a - b).max()) * 1000:.3g} mm apart)"
         return f"value: recorded {a!r}, now {b!r}"
     if entry.text != s["text"]:
         return f"trace text: recorded {s['text']!r}, now {entry.text!r}"

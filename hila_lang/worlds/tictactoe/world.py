@@ -326,6 +326,19 @@ class TicTacToeWorld:
         """``"robot"``, ``"opponent"``, ``"draw"``, or None while the game goes on (the real board)."""
         return self.referee.result()
 
+    def _why_unfinished(self, result) -> str:
+        """Why a game reads unfinished when the referee counted fouls: which circles did not count."""
+        fouls = self.referee.fouls
+        if result is not None or not fouls:
+            return ""
+        told = []
+        for f in fouls:
+            why = ("the robot drew twice without the opponent playing in between" if f["foul"] == "drawn out of turn"
+                   else "the cell was already taken")
+            told.append(f"the circle in cell {f['cell']} was {f['foul']} ({why})")
+        return (f" -- the referee did not count {len(fouls)} circle(s): " + "; ".join(told)
+                + "; the game needs a move by each side in turn")
+
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
         """Print the result and write the output folder; returns the report as a dict."""
         from .report import build_report, write_outputs
@@ -341,7 +354,8 @@ class TicTacToeWorld:
         vision = report["vision"]
         seen = "" if vision["board_read_by"] != "vision" else \
             f"; {vision['looks']} looks, {len(vision['misreads'])} misread cell(s)"
-        self._print(f"\nresult: {text}" + (f"; per-mark R min {min(rs):.3f}" if rs else "") + seen)
+        self._print(f"\nresult: {text}{self._why_unfinished(result)}" + (f"; per-mark R min {min(rs):.3f}" if rs else "")
+                    + seen)
         if self.write_report:
             folder = write_outputs(self, report)
             report["out"] = str(folder)
