@@ -108,3 +108,10 @@ def test_an_ik_failure_on_the_way_is_told_as_the_target():
                             "0.950) of 'reach.reach' (0.111 m from it): the pen gets no closer than 22.7 mm; the arm "
                             "did not move")
     assert told.state == "main/reach" and told.distance == pytest.approx(0.0227)
+
+
+def test_check_refuses_a_via_waypoint_out_of_reach(tmp_path, capsys):
+    text = HEAD + "point cup = (0.30, -0.18, 0.60)\nmain {\n    run reach.reach(object = cup, home = home) via (1.0, 1.0, 1.0)\n}\n"
+    code, _, err = _run(tmp_path, capsys, text, "check")
+    assert code == 2 and err.splitlines()[0].startswith(
+        "p.hila:5:52: error: the 'via' waypoint is (1.000, 1.000, 1.000), which the arm cannot reach: it is 1.483 m")

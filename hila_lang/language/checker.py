@@ -315,6 +315,8 @@ class _Checker(A.Visitor):
                                  c.value.pos if c.value.pos.line else c.pos,
                                  "e.g. (0.3, -0.1, 0.6), a point's name, or a group such as board.cell5")
             self.expr(c.value, defined, c.pos)
+            if c.kind == "via":
+                self.world.reach_via(c.value, self.points, defined, c.value.pos if c.value.pos.line else c.pos)
             size = self.dim(c.value, defined)
             if size is not None and size != 3:
                 raise self.error(f"'{c.kind}' needs a point of the world (x, y, z), got the {size}-D point "

@@ -103,6 +103,13 @@ class WorldCheck:
         """ICP ``icp`` of ``ref`` bound to ``value``: refused when it is a point known now (written
         out, or a program point; ``variables`` are names that shadow program points) outside the
         back end's reach bound."""
+        self._reachable(f"ICP '{icp}' of '{ref}' is bound to", value, points, variables, pos, via)
+
+    def reach_via(self, value: A.Expr, points: dict, variables, pos: A.Pos) -> None:
+        """A ``via`` waypoint the route must pass: refused like a bound target."""
+        self._reachable("the 'via' waypoint is", value, points, variables, pos, "")
+
+    def _reachable(self, what: str, value: A.Expr, points: dict, variables, pos: A.Pos, via: str) -> None:
         if self.reach_ball is None:
             return
         target = constant_point(value, points, variables)
@@ -113,7 +120,7 @@ class WorldCheck:
         why = out_of_reach(target, *self.reach_ball)
         if why is not None:
             where = "(" + ", ".join(f"{v:.3f}" for v in target) + ")"
-            raise self.error(f"ICP '{icp}' of '{ref}' is bound to {where}{via}, which the arm cannot reach: {why}", pos,
+            raise self.error(f"{what} {where}{via}, which the arm cannot reach: {why}", pos,
                              f"back end {self.backend_name!r} moves the iCub's arm: targets must be above the table, "
                              "in front of the robot (x 0.20-0.45 m, y -0.30-0.10 m works at table height)")
 
