@@ -110,7 +110,7 @@ class _FakePyBullet:
     """Records the debug-drawing calls a Window makes (no window needed)."""
 
     COV_ENABLE_GUI, COV_ENABLE_RGB_BUFFER_PREVIEW, COV_ENABLE_DEPTH_BUFFER_PREVIEW = 1, 2, 3
-    COV_ENABLE_SEGMENTATION_MARK_PREVIEW = 4
+    COV_ENABLE_SEGMENTATION_MARK_PREVIEW, COV_ENABLE_RENDERING = 4, 7
 
     def __init__(self):
         import pybullet
@@ -165,7 +165,7 @@ def test_window_turns_panels_off_places_things_in_view_and_draws_paths():
 
     sim = _FakeSim()
     w = W.Window(sim, default_surface(), np.array([[0.0, 0.0, 0.45], [0.0, 0.0, 1.0]]))
-    assert {(c[1], c[2]) for c in sim.pb.calls if c[0] == "configure"} == {(1, 0), (2, 0), (3, 0), (4, 0)}
+    assert {(c[1], c[2]) for c in sim.pb.calls if c[0] == "configure"} == {(1, 0), (2, 0), (3, 0), (4, 0), (7, 1)}
     # a point placed at (right, up) in the view projects back there
     view = np.array(pybullet.computeViewMatrixFromYawPitchRoll(w.target.tolist(), W.CAMERA[0], W.CAMERA[1],
                                                                W.CAMERA[2], 0.0, 2)).reshape(4, 4).T

@@ -79,6 +79,9 @@ def test_the_window_is_framed_before_the_robot_loads_and_the_simulation_steps(mo
         panels = [i for i, (n, a) in enumerate(recorder.calls) if n == "configureDebugVisualizer"
                   and a[:2] == (pybullet.COV_ENABLE_GUI, 0)]
         assert names[0] == "connect" and panels and panels[0] < camera
+        drawing = [(i, a[1]) for i, (n, a) in enumerate(recorder.calls) if n == "configureDebugVisualizer"
+                   and a[0] == pybullet.COV_ENABLE_RENDERING]
+        assert drawing[0][1] == 0 and drawing[0][0] < names.index("loadURDF")  # not drawn while it loads
         assert camera < names.index("loadURDF") and ("stepSimulation" not in names or camera < names.index("stepSimulation"))
         target = recorder.calls[camera][1][3]
         np.testing.assert_allclose(target, window.frame(robot.sim, robot.surface))  # the window keeps this framing
@@ -118,3 +121,39 @@ def test_the_arm_paces_at_speed_n(monkeypatch):
         assert slept[4.0][0] == pytest.approx(slept[4.0][1] / 4, rel=0.05)
     finally:
         robot.close()
+
+
+def test_under_xvfb_the_window_never_shows_the_robot_unframed():
+    """A screenshot every second while the back end loads and after: each shows either nothing (the
+    window does not draw while the robot loads) or the robot exactly where the framing puts it."""
+    import os
+    import subprocess
+    import sys
+    import threading
+    import time
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from xscreen import VirtualDisplay, xvfb_missing
+
+    if xvfb_missing() is not None:
+        pytest.skip(xvfb_missing())
+    code = ("from hila_lang.robot.backend import PyBulletBackend\nimport time\n"
+            "b = PyBulletBackend(gui=True)\nprint('built', flush=True)\ntime.sleep(5)\nb.close()\n")
+    with VirtualDisplay(1280, 800) as display:
+        env = dict(os.environ, DISPLAY=display.name)
+        proc = subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
+        printed: list[str] = []
+        threading.Thread(target=lambda: printed.extend(proc.stdout), daemon=True).start()
+        before, after = [], []
+        start = time.time()
+        while proc.poll() is None and time.time() - start < 400:
+            time.sleep(1.0)
+            (after if any(line.startswith("built") for line in printed) else before).append(display.screenshot())
+        proc.wait(timeout=60)
+    red = [((s[:, :, 0] > 110) & (s[:, :, 1] < 70) & (s[:, :, 2] < 70)).sum() for s in before + after]
+    framed = max(red)
+    assert after and framed > 5000  # the robot's red shell, framed, fills a good part of the window
+    # every screenshot shows nothing (loading, or closed) or the robot exactly as framed: never elsewhere
+    assert set(red) <= {0, framed}, red
+    assert red[0] == 0  # the first screenshot is taken while it loads

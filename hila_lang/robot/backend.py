@@ -113,7 +113,7 @@ class PyBulletBackend:
             if gui:  # framed from the first frame: before the robot loads and the eyes calibrate
                 from .window import frame
 
-                frame(self.sim, self.surface)
+                frame(self.sim, self.surface, drawing=False)  # the window draws again once it is made
             self.body = Body(self.sim)
             self._build_table(self.surface.z - PAPER_THICKNESS)
             self.ink = Paper(self.sim, self.surface)

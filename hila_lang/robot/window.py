@@ -53,13 +53,19 @@ def robot_points(surface) -> np.ndarray:
     return np.array([[0.0, 0.0, 0.45], np.add(HEAD, [0.0, 0.0, 0.08]), ready_point(surface)])
 
 
-def frame(sim, surface, robot: np.ndarray | None = None) -> np.ndarray:
+def frame(sim, surface, robot: np.ndarray | None = None, *, drawing: bool = True) -> np.ndarray:
     """Turn PyBullet's panels off and point the window's camera at the robot and the paper; the
-    camera's target (3,).  Safe to call before anything is loaded, and again."""
+    camera's target (3,).  Safe to call before anything is loaded, and again.
+
+    ``drawing=False`` also stops the window drawing until a later call with ``drawing=True``:
+    while the robot loads and its eyes calibrate (a minute under a software renderer) the window
+    showed the half-loaded robot from wandering viewpoints (seen under Xvfb); the eyes' images
+    come from the tiny renderer, which this does not touch."""
     pb, c = sim.pb, sim.client
     for flag in (pb.COV_ENABLE_GUI, pb.COV_ENABLE_RGB_BUFFER_PREVIEW, pb.COV_ENABLE_DEPTH_BUFFER_PREVIEW,
                  pb.COV_ENABLE_SEGMENTATION_MARK_PREVIEW):
         pb.configureDebugVisualizer(flag, 0, physicsClientId=c)
+    pb.configureDebugVisualizer(pb.COV_ENABLE_RENDERING, int(drawing), physicsClientId=c)
     points = np.vstack([robot_points(surface) if robot is None else robot, surface.corners()])
     target = (points.min(0) + points.max(0)) / 2
     distance, yaw, pitch = CAMERA
