@@ -248,6 +248,7 @@ def write_outputs(world, report: dict[str, Any]) -> Path:
     if world.fsm is not None:
         folder.write_text("fsm.dot", world.fsm.to_dot())
     folder.file("report.json")
-    report = dict(report, files=folder.close())
+    report = dict(report, files=folder.names())
     folder.write_text("report.json", json.dumps(report, indent=2) + "\n")
+    folder.close()  # the run's files are published together (the manifest names the run)
     return folder.path
