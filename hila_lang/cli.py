@@ -94,6 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     from .interrupts import exit_code, handle_termination
 
     handle_termination()  # SIGTERM and SIGHUP stop a run as Ctrl-C does (exit 143, 129)
+    for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii: escapes, not UnicodeEncodeError
+        if "utf" not in (getattr(stream, "encoding", None) or "utf").lower() and hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     try:
         return int(args._run(args) or 0)
     except HilaError as exc:

@@ -92,6 +92,7 @@ class AtomicFile:
     def __init__(self, path: str | os.PathLike, *, binary: bool = False) -> None:
         self.path = Path(path)
         self.streamed = False
+        self.failed: OSError | None = None  # the write that failed, if one did
         self._tmp = None
         mode = "wb" if binary else "w"
         kwargs = {} if binary else {"encoding": "utf-8"}
@@ -138,7 +139,10 @@ class AtomicFile:
             self._fh.write(data)
 
     def commit(self) -> Path:
-        """Publish what was written at ``path``; returns it."""
+        """Publish what was written at ``path``; returns it.  After a write that failed (a full
+        disk), the same error again: nothing is published, the temporary file is gone."""
+        if self.failed is not None:
+            raise OSError(self.failed.errno, self.failed.strerror, str(self.path))
         with self._named():
             self._fh.flush()
             if self.streamed:
@@ -176,6 +180,7 @@ class AtomicFile:
         except BaseException as exc:
             self.discard()
             if isinstance(exc, OSError) and not isinstance(exc, BrokenPipeError):
+                self.failed = exc
                 raise OSError(exc.errno, exc.strerror, str(self.path)) from None
             raise
 
@@ -225,22 +230,74 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
     return atomic_write_bytes(path, buf.tobytes())
 
 
-def read_bytes(path: str | os.PathLike, what: str = "file") -> bytes:
-    """Read a file, turning every OS failure into an :class:`InputError` naming ``what`` and the path."""
+MB = 1 << 20
+#: the largest file hila reads, by what it is (bytes): checked before reading, so a huge file
+#: (or ``/dev/zero``) is refused at once instead of filling memory (issue 20).
+#:
+#: - a program: 8 MB.  ``bench/parse.py`` compiles a 5 MB program (270,000 states, near
+#:   :data:`~hila_lang.language.limits.MAX_STATES`); the shipped ones are under 4 kB.
+#: - a template (and any YAML file): 4 MB, about 60,000 waypoints at full precision.  PyYAML
+#:   reads a 3.2 MB template (50,000 waypoints) in 15 s and 86 MB here (load 7 on 2 cores);
+#:   10^6 waypoints took 199 s and 3.8 GB.  The shipped ones are under 8 kB.
+#: - anything else (a demonstration CSV, a recording's members are bounded separately): 64 MB.
+READ_LIMITS = {"program": 8 * MB, "template": 4 * MB}
+YAML_LIMIT = 4 * MB
+DEFAULT_READ_LIMIT = 64 * MB
+
+
+def _size(n: int) -> str:
+    return f"{n / MB:.1f} MB" if n >= MB else f"{n:,} bytes"
+
+
+def check_regular(path: str | os.PathLike, what: str = "file") -> os.stat_result:
+    """``os.stat(path)``, refusing what is not a regular file before anything opens it (a FIFO
+    would block, ``/dev/zero`` never ends): :class:`InputError` naming ``what`` and the path."""
+    import stat as _stat
+
     path = Path(path)
     try:
-        return path.read_bytes()
+        st = os.stat(path)
     except FileNotFoundError:
         raise InputError(f"{what} not found", file=str(path)) from None
-    except IsADirectoryError:
-        raise InputError(f"expected a {what}, got a directory", file=str(path)) from None
     except OSError as exc:
         raise InputError(f"cannot read {what}: {exc.strerror}", file=str(path)) from None
+    if _stat.S_ISDIR(st.st_mode):
+        raise InputError(f"expected a {what}, got a directory", file=str(path))
+    if not _stat.S_ISREG(st.st_mode):
+        raise InputError(f"expected a {what} (a regular file), got a {special_kind(path) or 'special file'}",
+                         file=str(path))
+    return st
 
 
-def read_text(path: str | os.PathLike, what: str = "file") -> str:
-    """Read a UTF-8 text file, turning every OS or decoding failure into :class:`InputError`."""
-    data = read_bytes(path, what)
+def read_bytes(path: str | os.PathLike, what: str = "file", limit: int | None = None) -> bytes:
+    """Read a file, turning every OS failure into an :class:`InputError` naming ``what`` and the path.
+
+    Only a regular file is read (:func:`check_regular`), and at most ``limit`` bytes (default:
+    :data:`READ_LIMITS` for ``what``, else :data:`DEFAULT_READ_LIMIT`): a larger one is refused
+    before it is read, with the limit in the message.
+    """
+    path = Path(path)
+    if limit is None:
+        limit = READ_LIMITS.get(what, DEFAULT_READ_LIMIT)
+    st = check_regular(path, what)
+    too_big = InputError(f"{what} is too large: {_size(st.st_size)}, more than hila reads ({_size(limit)})",
+                         file=str(path), hint=f"a {what} this large is not one hila writes; check the file")
+    if st.st_size > limit:
+        raise too_big
+    try:
+        with open(path, "rb") as f:
+            data = f.read(limit + 1)  # a file that grows (or /proc) is bounded too
+    except OSError as exc:
+        raise InputError(f"cannot read {what}: {exc.strerror}", file=str(path)) from None
+    if len(data) > limit:
+        raise too_big
+    return data
+
+
+def read_text(path: str | os.PathLike, what: str = "file", limit: int | None = None) -> str:
+    """Read a UTF-8 text file, turning every OS or decoding failure into :class:`InputError`
+    (at most ``limit`` bytes, see :func:`read_bytes`)."""
+    data = read_bytes(path, what, limit)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -277,19 +334,78 @@ def _unique_key_loader():
     return UniqueKeyLoader
 
 
+#: most nodes a YAML document may hold with every alias expanded: a template of 60,000
+#: waypoints (the :data:`YAML_LIMIT`) has about 240,000; nine nested anchors of nine aliases
+#: each (685 bytes, "a billion laughs") would expand to 387 million and needed > 5.5 GB
+MAX_YAML_NODES = 1_000_000
+
+
+def _expanded_nodes(root) -> int:
+    """How many nodes ``root`` (a composed YAML node) holds with every alias expanded, counted
+    without expanding (each node once, iteratively); stops early past :data:`MAX_YAML_NODES`.
+    A node that contains itself (a recursive alias) is a ``ValueError``."""
+    import yaml
+
+    sizes: dict[int, int] = {}
+    open_: set[int] = set()
+    stack = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        else:
+            children = []
+        if done:
+            open_.discard(key)
+            sizes[key] = min(1 + sum(sizes[id(c)] for c in children), MAX_YAML_NODES + 1)
+            continue
+        if key in sizes:
+            continue
+        if key in open_:
+            raise ValueError("an alias refers to a node that contains it (a recursive alias)")
+        open_.add(key)
+        stack.append((node, True))
+        for c in children:
+            if id(c) in open_:
+                raise ValueError("an alias refers to a node that contains it (a recursive alias)")
+            if id(c) not in sizes:
+                stack.append((c, False))
+    return sizes[id(root)]
+
+
 def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: bool = False) -> Any:
     """``yaml.safe_load`` a file; syntax errors become :class:`InputError` with line and column.
 
     With ``unique_keys`` a key repeated in one mapping is an error too (plain YAML keeps the last
     one silently), reported at the repeated key's line and column.
+
+    Bounded before anything is built (issue 20): the file is at most :data:`YAML_LIMIT` bytes
+    (:data:`READ_LIMITS` for a template), the document at most :data:`MAX_YAML_NODES` nodes
+    with its aliases expanded, and nested no deeper than Python's recursion allows.
     """
     import yaml
 
-    text = read_text(path, what)
+    text = read_text(path, what, READ_LIMITS.get(what, YAML_LIMIT))
+    loader = (_unique_key_loader() if unique_keys else yaml.SafeLoader)(text)
     try:
-        if unique_keys:
-            return yaml.load(text, Loader=_unique_key_loader())  # a SafeLoader subclass
-        return yaml.safe_load(text)
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        try:
+            n = _expanded_nodes(node)
+        except ValueError as exc:
+            raise InputError(f"{what} is not valid for hila: {exc}", file=str(path)) from None
+        if n > MAX_YAML_NODES:
+            raise InputError(f"{what} expands to more than {MAX_YAML_NODES:,} values through its aliases "
+                             "(*name): an alias bomb?", file=str(path),
+                             hint="write the values out instead of repeating them by alias")
+        return loader.construct_document(node)
+    except RecursionError:
+        raise InputError(f"{what} is nested too deeply (lists or mappings inside each other)",
+                         file=str(path)) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         problem = getattr(exc, "problem", None) or str(exc)
@@ -300,6 +416,8 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
             if mark.line < len(lines):
                 kwargs["source_line"] = lines[mark.line]
         raise InputError(f"{what} is not valid YAML: {problem}", **kwargs) from None
+    finally:
+        loader.dispose()
 
 
 def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
@@ -315,10 +433,54 @@ def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
 def cache_folders(name: str) -> list[Path]:
     """Where hila may keep what it computes once and reuses (the generated robot model, the eyes'
     lens calibration): ``$HILA_CACHE_DIR/hila/<name>`` (else ``$XDG_CACHE_HOME`` or
-    ``~/.cache``), then a temporary folder for when that one is not writable, in that order."""
+    ``~/.cache``), then a temporary folder for when that one is not writable, in that order.
+
+    The temporary one, ``hila-<uid>`` in the system's temporary folder (shared by every user),
+    is created private (0700) and used only if it is a folder (not a link) this user owns that
+    nobody else may write in or read (issue 20: another user could plant the robot model and the
+    lens calibration a run trusts); otherwise it is left out, with a note.
+    """
     base = os.environ.get("HILA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME")
     root = Path(base) if base else Path.home() / ".cache"
-    return [root / "hila" / name, Path(tempfile.gettempdir()) / f"hila-{os.getuid()}" / name]
+    folders = [root / "hila" / name]
+    shared = Path(tempfile.gettempdir()) / f"hila-{os.getuid()}"
+    why = _private_folder(shared)
+    if why is None:
+        folders.append(shared / name)
+    else:
+        import sys
+
+        print(f"note: not using the cache folder {shared}: {why}", file=sys.stderr)
+    return folders
+
+
+def _private_folder(folder: Path) -> str | None:
+    """Make ``folder`` 0700 if it is missing; None if it is a folder this user owns with no
+    access for others, else why not."""
+    import stat
+
+    try:
+        folder.mkdir(mode=0o700)
+    except FileExistsError:
+        pass
+    except OSError as exc:
+        return f"cannot make it ({exc.strerror})"
+    try:
+        st = os.lstat(folder)
+    except OSError as exc:
+        return f"cannot read it ({exc.strerror})"
+    if not stat.S_ISDIR(st.st_mode):
+        return "it is not a folder (a link or a file is in its place)"
+    if st.st_uid != os.getuid():
+        return f"it belongs to another user (uid {st.st_uid})"
+    if st.st_mode & 0o022:  # others could have written in it: what it holds cannot be trusted
+        return f"others may write in it (mode {stat.S_IMODE(st.st_mode):04o}; expected 0700)"
+    if st.st_mode & 0o077:  # readable by others (an older hila made it 0755): ours, made private
+        try:
+            os.chmod(folder, 0o700)
+        except OSError as exc:
+            return f"cannot make it private ({exc.strerror})"
+    return None
 
 
 #: the manifest of an output folder: which run wrote which file (:class:`OutputFolder`)
