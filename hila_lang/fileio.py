@@ -389,8 +389,9 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
     import yaml
 
     text = read_text(path, what, READ_LIMITS.get(what, YAML_LIMIT))
-    loader = (_unique_key_loader() if unique_keys else yaml.SafeLoader)(text)
+    loader = None
     try:
+        loader = (_unique_key_loader() if unique_keys else yaml.SafeLoader)(text)  # reads: may raise
         node = loader.get_single_node()
         if node is None:
             return None
@@ -417,7 +418,8 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
                 kwargs["source_line"] = lines[mark.line]
         raise InputError(f"{what} is not valid YAML: {problem}", **kwargs) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
