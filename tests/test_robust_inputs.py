@@ -357,3 +357,42 @@ def test_a_truncated_cached_robot_model_is_rebuilt_with_a_note(tmp_path, monkeyp
         assert f"note: the cached robot model {path} is damaged" in capsys.readouterr().err
     finally:
         model.urdf_path.cache_clear()
+
+
+# ------------------------------------------------------------------ smaller ones (issue 20, item 9)
+
+def test_a_number_too_large_for_a_float_is_a_located_error(tmp_path, capsys):
+    """1e309 used to pass check as inf (exec then failed)."""
+    prog = tmp_path / "p.hila"
+    prog.write_text("main {\n  let a = 1e309\n}\n")
+    assert cli.main(["check", str(prog)]) == 2
+    assert capsys.readouterr().err.startswith(f"{prog}:2:11: error: the number 1e309 is too large")
+
+
+def test_cr_only_line_ends_are_lines(tmp_path, capsys):
+    prog = tmp_path / "p.hila"
+    prog.write_bytes(b"# a comment\rmain {\r  let a = 1\r  let b = 2\r}\r")
+    assert cli.main(["check", str(prog)]) == 0
+    assert "ok (3 states" in capsys.readouterr().out
+
+
+def test_learning_one_row_does_not_hint_k_le_0(tmp_path, capsys):
+    csv, icps = tmp_path / "one.csv", tmp_path / "one.icps.yaml"
+    csv.write_text("t,x,y\n0,0.1,0.2\n")
+    icps.write_text("a: [0.1, 0.2]\n")
+    code = cli.main(["learn", str(csv), "--icps", str(icps), "-o", str(tmp_path / "t.yaml"), "-k", "2"])
+    err = capsys.readouterr().err
+    assert code == 2 and "k <= 0" not in err
+    assert "a demonstration this short cannot be segmented: record at least 2 points, or use k = 1" in err
+
+
+def test_a_stopped_games_report_says_unfinished(tmp_path, capsys):
+    """Ctrl-C's report.json had result: null while the README says 'unfinished'."""
+    from hila_lang.language.runner import finish, prepare
+    from hila_lang.plugins.options import RunOptions
+
+    out = tmp_path / "g"
+    interp = prepare(str(ROOT / "programs" / "game.hila"), RunOptions(out=out, stdout=io.StringIO()), "dry")
+    interp.step()  # one step, then stopped
+    finish(interp)
+    assert json.loads((out / "report.json").read_text())["result"] == "unfinished"
