@@ -288,11 +288,13 @@ def test_a_main_too_long_is_a_located_error_not_max_of_nothing(tmp_path, capsys,
 
 
 def test_ascii_output_encoding_escapes_instead_of_crashing(tmp_path):
+    """PYTHONIOENCODING=ascii: the trace's non-ASCII text was a UnicodeEncodeError (exit 3)."""
     prog = tmp_path / "p.hila"
-    prog.write_text("main {\n  let é = → \n}\n")
+    prog.write_text('main {\n  let s = "caf\u00e9 \u2192"\n}\n', encoding="utf-8")
     env = {**os.environ, "PYTHONIOENCODING": "ascii"}
-    proc = _hila("check", prog, env=env)
-    assert proc.returncode == 2 and "Traceback" not in proc.stderr and "\\u2192" in proc.stderr, proc.stderr
+    proc = _hila("exec", prog, env=env)
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+    assert 'set s = "caf\\xe9 \\u2192"' in proc.stdout
 
 
 def test_a_full_disk_during_trace_is_exit_2_named(tmp_path, capsys, monkeypatch):
