@@ -117,3 +117,37 @@ def test_sigterm_to_eval_with_jobs_stops_its_workers(tmp_path):
         for p in workers:
             if _alive(p):
                 os.kill(p, signal.SIGKILL)
+
+
+def test_sigterm_ends_a_repl_session_instead_of_going_on(tmp_path):
+    """Ctrl-C at the REPL cancels the line; SIGTERM ends the session (the world saves)."""
+    out = tmp_path / "game"
+    proc = _hila("repl", GAME, "--backend", "dry", "--out", out, stdin=subprocess.PIPE)
+    proc.stdin.write("break robot_move\n")  # a harmless command, then the session waits for more
+    proc.stdin.flush()
+    time.sleep(3)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "Traceback" not in err, err
+    assert (out / "report.json").is_file()
+
+
+def test_replay_is_linear_in_the_steps(tmp_path, monkeypatch):
+    """The issue's input: 10,643 of 20,000 steps replayed after 300 s (every step rebuilt the
+    trace from the start).  Counted, not timed: each step is recorded into the trace once."""
+    from hila_lang import cli
+    from hila_lang.language import replay
+    from hila_lang.language.interpreter import Trace
+
+    prog = tmp_path / "loop.hila"
+    prog.write_text("main {\n  let i = 0\n  while true {\n    let i = i + 1\n  }\n}\n")
+    rec = tmp_path / "loop.hilarec"
+    assert cli.main(["exec", str(prog), "--quiet", "--max-steps", "600", "--record", str(rec)]) == 1
+    engine = replay.ReplayEngine(read_record(rec))
+    calls = []
+    real = Trace.record
+    monkeypatch.setattr(Trace, "record", lambda self, entry: (calls.append(1), real(self, entry))[1])
+    assert len(engine.run()) == 600
+    assert len(calls) == 600  # was 600 * 601 / 2
+    engine.back(10)  # going back rebuilds once
+    assert engine.index == 590 and len(engine.trace) == 590
