@@ -64,10 +64,11 @@ OSILA_RANGES: dict[str, tuple[float, float, str]] = {
 MAX_CANDIDATES = 2000
 
 
-def check_osila_ranges(options: dict, flag=lambda name: f"--set osila.{name}") -> None:
+def check_osila_ranges(options: dict, flag=lambda name: f"--set osila.{name}", typed: dict | None = None) -> None:
     """Refuse an OSILA option outside :data:`OSILA_RANGES` (and shells x directions above
     :data:`MAX_CANDIDATES`) before any work: an :class:`InputError` naming ``flag(name)``.
-    Values that are not numbers are left to OSILA's own checks."""
+    Values that are not numbers are left to OSILA's own checks; ``typed`` gives a value as the
+    user typed it, for the message."""
     from ..errors import InputError
 
     for name, value in options.items():
@@ -75,7 +76,8 @@ def check_osila_ranges(options: dict, flag=lambda name: f"--set osila.{name}") -
             continue
         low, high, what = OSILA_RANGES[name]
         if not low <= value <= high:  # NaN fails too
-            raise InputError(f"bad value for {flag(name)}={value}: expected {what} from {low:g} to {high:g}")
+            shown = (typed or {}).get(name, value)
+            raise InputError(f"bad value for {flag(name)}={shown}: expected {what} from {low:g} to {high:g}")
     shells = options.get("shells", 2)
     directions = options.get("directions") or 14
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (shells, directions)) \
@@ -118,7 +120,7 @@ def osila_options(settings: dict[str, str]) -> dict:
                 out[name] = float(out[name])
             except ValueError:
                 pass
-        check_osila_ranges({name: out[name]})
+        check_osila_ranges({name: out[name]}, typed={name: text})
         try:  # OSILA's own checks, on a path of two points
             imitate([[0.0, 0.0], [1.0, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]], **{name: out[name]})
         except InputError as exc:
