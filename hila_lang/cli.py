@@ -7,7 +7,7 @@ Each sub-command lives in ``hila_lang/commands/<name>.py`` and exposes
 - ``run(args) -> int``: the work; heavy imports (pybullet, sklearn, cv2) happen in here.
 
 Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input, 3 an internal error,
-130 interrupted (Ctrl-C).
+130 interrupted (Ctrl-C); 143 and 129 stopped by SIGTERM and SIGHUP (handled like Ctrl-C).
 Any :class:`~hila_lang.errors.HilaError` is printed as a message, never as a traceback.  Any
 other exception (raised by hila, a plug-in or OSILA) is a bug: it is reported as an internal
 error that says where it was raised and whom to report it to, with exit status 3; ``--debug``
@@ -22,7 +22,7 @@ import sys
 import textwrap
 
 from . import __version__
-from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, HilaError, printable
+from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, HilaError, printable
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Run 'hila COMMAND --help' for a command's options. "
         "Exit status: 0 ok, 1 run failed, 2 bad input, 3 internal error (a bug in hila or a "
         "plug-in: the message says where to report it; add --debug for the traceback), "
-        "130 interrupted (Ctrl-C).",
+        "130 interrupted (Ctrl-C; 143 SIGTERM, 129 SIGHUP).",
     )
     parser.add_argument("--version", action="version", version=f"hila {__version__}")
     parser.add_argument("--debug", action="store_true",
@@ -92,6 +92,12 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "_run", None) is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    from .interrupts import exit_code, handle_termination
+
+    handle_termination()  # SIGTERM and SIGHUP stop a run as Ctrl-C does (exit 143, 129)
+    for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii: escapes, not UnicodeEncodeError
+        if "utf" not in (getattr(stream, "encoding", None) or "utf").lower() and hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     try:
         return int(args._run(args) or 0)
     except HilaError as exc:
@@ -103,9 +109,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(printable(f"{where}error: {exc.strerror or exc}"), file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:  # Ctrl-C outside a run the engine could stop cleanly
+    except KeyboardInterrupt as stop:  # Ctrl-C (SIGTERM) outside a run the engine could stop cleanly
         print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return exit_code(stop)
     except Exception as exc:  # noqa: BLE001 - a bug: say so, say where, exit 3
         from .errors import internal_error_message
 
@@ -137,7 +143,14 @@ def _quiet_exit_on_ctrl_c(code: int) -> None:
 
 
 def entry() -> None:  # pragma: no cover - thin wrapper for python -m
-    code = main()
+    from .interrupts import exit_code, handle_termination
+
+    handle_termination()  # from the start: a SIGTERM while the commands load ends quietly too
+    try:
+        code = main()
+    except KeyboardInterrupt as stop:  # Ctrl-C while the command line is being read
+        print("interrupted", file=sys.stderr)
+        code = exit_code(stop)
     _quiet_exit_on_ctrl_c(code)
     sys.exit(code)
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from .errors import InputError
 from .fileio import load_yaml, read_text
+from .template import MAX_COORDINATE, check_coordinates
 
 def read_demo_csv(path: str | Path):
     """Read a demonstration CSV: returns (path (T, D), times (T,) or None).
@@ -54,6 +55,11 @@ def read_demo_csv(path: str | Path):
                     f"expected a finite number in column {name!r}, got {cell!r}",
                     file=str(path), line=no, source_line=raw,
                 )
+            if name != "t" and abs(v) > MAX_COORDINATE:
+                raise InputError(
+                    f"expected a coordinate within +-{MAX_COORDINATE:g} in column {name!r}, got {cell!r}",
+                    file=str(path), line=no, source_line=raw, hint="a demonstration's units are metres or pixels",
+                )
             values.append(v)
         if data and header[0] == "t" and values[0] <= data[-1][1][0]:
             raise InputError(
@@ -82,4 +88,5 @@ def load_icps(path: str | Path, dim: int) -> dict:
             raise InputError(f"expected ICP {name!r} as {dim} numbers (the demonstration's D), got {point!r}", file=str(path))
         if not np.isfinite(point).all():
             raise InputError(f"expected finite numbers for ICP {name!r}, got {point!r}", file=str(path))
+        check_coordinates(point, f"ICP {name!r}", str(path))
     return {str(k): v for k, v in doc.items()}

@@ -8,6 +8,12 @@
   never held.
 - :func:`start_ignoring_sigint`: worker processes that ignore Ctrl-C, so only the parent reacts
   (``hila eval --jobs N``): no traceback from every worker, and no pool left half-started.
+- :func:`handle_termination`: SIGTERM (what ``timeout``, systemd, Docker and CI runners send)
+  and SIGHUP (the terminal closed) are handled like Ctrl-C (issue 20): they raise
+  :class:`Terminated`, a ``KeyboardInterrupt``, so a run stops the same way -- the step
+  finishes being recorded, the world saves what was done, ``--trace`` and ``--record`` are
+  written, temporary files removed, worker pools stopped -- and the process exits with
+  128 + the signal's number (143, 129), as a shell reports a process the signal ended.
 
 Only the main thread handles signals, and only when Python's own handler is installed (an
 ignored SIGINT, or an embedding application's handler, is left alone).
@@ -25,6 +31,38 @@ except ImportError:  # pragma: no cover - not CPython
     _getsignal, _setsignal = signal.getsignal, signal.signal
 
 
+#: the signals handled like Ctrl-C (:func:`handle_termination`)
+TERMINATING = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
+class Terminated(KeyboardInterrupt):
+    """A stop asked by a signal other than SIGINT (SIGTERM, SIGHUP): handled as Ctrl-C is."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum: int) -> KeyboardInterrupt:
+    return KeyboardInterrupt() if signum == signal.SIGINT else Terminated(signum)
+
+
+def cause(stop: BaseException) -> str:
+    """What stopped a run, as a message says it: ``"Ctrl-C"``, ``"SIGTERM"``, ``"SIGHUP"``."""
+    if isinstance(stop, Terminated):
+        return signal.Signals(stop.signum).name
+    return "Ctrl-C"
+
+
+def exit_code(stop: BaseException) -> int:
+    """The exit status of a run ``stop`` ended: 130 for Ctrl-C, 128 + N for signal N."""
+    return 128 + (stop.signum if isinstance(stop, Terminated) else int(signal.SIGINT))
+
+
+#: the guards entered and not yet left, innermost last (a terminating signal consults it)
+_active: list = []
+
+
 class Guard:
     """What :func:`guarded` yields: :meth:`hold` marks the start of the part that must finish."""
 
@@ -32,31 +70,54 @@ class Guard:
 
     def __init__(self) -> None:
         self.holding = False
-        self.pending = False
+        self.pending = 0  # the signal held, 0 for none
         self._previous = None
 
     def hold(self) -> None:
-        """From now on, a Ctrl-C waits until the guarded block ends (a second one does not)."""
+        """From now on, a Ctrl-C (or SIGTERM, SIGHUP) waits until the guarded block ends (a
+        second one does not)."""
         self.holding = True
 
     def _handler(self, signum, frame) -> None:
         if self.holding and not self.pending:  # the first Ctrl-C waits; a second one does not
-            self.pending = True
+            self.pending = signum
         else:
-            raise KeyboardInterrupt
+            raise _stop(signum)
 
     def __enter__(self) -> "Guard":
         if _ours():
             self._previous = _setsignal(signal.SIGINT, self._handler)
+        _active.append(self)
         return self
 
     def __exit__(self, kind, exc, tb) -> bool:
+        if _active and _active[-1] is self:
+            _active.pop()
         if self._previous is not None:
             _setsignal(signal.SIGINT, self._previous)
             self._previous = None
         if self.pending and exc is None:
-            raise KeyboardInterrupt
+            raise _stop(self.pending)
         return False
+
+
+def _terminate(signum, frame) -> None:
+    """The handler of SIGTERM and SIGHUP: held by the innermost guard that holds, else raised."""
+    if _active:
+        _active[-1]._handler(signum, frame)
+    else:
+        raise Terminated(signum)
+
+
+def handle_termination() -> None:
+    """Handle SIGTERM and SIGHUP like Ctrl-C from now on (see the module docstring).  A signal
+    that is ignored (``nohup``) or handled by an embedding application stays as it is; only the
+    main thread can install handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum in TERMINATING:
+        if signal.getsignal(signum) is signal.SIG_DFL:
+            signal.signal(signum, _terminate)
 
 
 def _ours() -> bool:

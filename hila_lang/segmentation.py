@@ -69,7 +69,10 @@ def _checked(path: Any, k: int, min_size: int) -> tuple[np.ndarray, int, int]:
     k = check_int(k, "k", minimum=1)
     if min_size * k > T:
         least = "" if min_size == 1 else f" of at least {min_size} points"
-        raise InputError(f"cannot split {T} points into k = {k} segments{least} (expected k <= {T // min_size})")
+        most = T // min_size
+        hint = (f"expected k <= {most}" if most >= 1 else
+                f"a demonstration this short cannot be segmented: record at least {min_size} points, or use k = 1")
+        raise InputError(f"cannot split {T} points into k = {k} segments{least} ({hint})")
     return path, T, k
 
 

@@ -46,6 +46,20 @@ _REQUIRED = ("hila_template", "name", "icps", "path")
 _SEGMENT_FIELDS = ("tag", "start", "stop", "contact")
 #: ICP names a sub-template adds (they override parent ICPs of the same name)
 START, END = "start", "end"
+#: the largest coordinate a template, an ICP or a demonstration may hold, in its units
+#: (metres or pixels): 1000 km, or a million pixels.  Larger finite numbers (1e308) overflow
+#: OSILA's thin plate spline (squares of distances) into a singular system (issue 20).
+MAX_COORDINATE = 1e6
+
+
+def check_coordinates(values, what: str, file: str | None = None) -> None:
+    """Refuse a coordinate larger than :data:`MAX_COORDINATE` in ``values`` (finite already):
+    an :class:`InputError` naming ``what`` and the value."""
+    arr = np.asarray(values, dtype=float)
+    if arr.size and np.abs(arr).max() > MAX_COORDINATE:
+        worst = float(arr.flat[int(np.argmax(np.abs(arr)))])
+        raise InputError(f"expected coordinates within +-{MAX_COORDINATE:g} in {what}, got {worst:g}", file=file,
+                         hint="a template's units are metres or pixels")
 
 
 @dataclass
@@ -154,6 +168,7 @@ def _validate(t: Template) -> None:
     if not isinstance(t.units, str) or not t.units:
         raise InputError(f"expected field 'units' as a non-empty string, got {t.units!r}")
     t.path = check_path(t.path, "field 'path'")
+    check_coordinates(t.path, "field 'path'")
     T, D = t.path.shape
     if not isinstance(t.icps, dict):
         raise InputError(f"expected field 'icps' as a mapping name -> point, got {type(t.icps).__name__}")
@@ -169,6 +184,7 @@ def _validate(t: Template) -> None:
             raise InputError(f"expected field 'icps.{key}' as {D} numbers (the path's D), got shape {arr.shape}")
         if not np.isfinite(arr).all():
             raise InputError(f"expected finite numbers in field 'icps.{key}', got {arr.tolist()}")
+        check_coordinates(arr, f"field 'icps.{key}'")
         icps[key] = arr
     t.icps = icps
     if t.times is not None:

@@ -159,7 +159,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 from hypothesis.extra.numpy import arrays  # noqa: E402
 
-finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, width=64)  # template.MAX_COORDINATE
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -69,7 +69,7 @@ def test_a_reused_out_folder_holds_one_run(tmp_path, capsys):
     capsys.readouterr()
     files = json.loads((out / "report.json").read_text())["files"]
     assert "eye.png" not in files and not (out / "eye.png").exists()
-    assert sorted(p.name for p in out.iterdir()) == sorted(files + ["notes.txt"])
+    assert sorted(p.name for p in out.iterdir()) == sorted(files + ["notes.txt", ".hila-run.json"])
 
 
 def test_output_folder_made_and_proved_before_use(tmp_path):
@@ -77,7 +77,7 @@ def test_output_folder_made_and_proved_before_use(tmp_path):
     assert folder.path.is_dir() and list(folder.path.iterdir()) == []  # the probe is gone
     (folder.path / "y.txt").write_text("stale")
     folder.write_text("x.txt", "1")
-    assert folder.close() == ["x.txt"] and sorted(p.name for p in folder.path.iterdir()) == ["x.txt"]
+    assert folder.close() == ["x.txt"] and sorted(p.name for p in folder.path.iterdir()) == [".hila-run.json", "x.txt"]
     os.chmod(tmp_path / "a", 0o500)
     try:
         if os.geteuid() != 0:  # root writes anywhere

@@ -171,6 +171,9 @@ def run(args: argparse.Namespace) -> int:
     from ..fileio import OutputFolder
     from ..interrupts import joblib_workers_ignoring_sigint
 
+    from ..resources import clamp_jobs
+
+    args.jobs = clamp_jobs(args.jobs)  # never more workers than cores (issue 20), with a note
     if args.jobs != 1 and args.dask is None:  # first, before numpy starts its threads
         joblib_workers_ignoring_sigint(args.jobs)  # Ctrl-C: exit 130, no worker tracebacks, no hang
     from ..errors import InputError

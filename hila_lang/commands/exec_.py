@@ -50,8 +50,11 @@ def run(args) -> int:
         with finishing(interp):
             interp.run(each=show)
     finally:
-        if trace is not None:
-            trace.commit()
-        if recorder is not None:
-            recorder.close(sys.exc_info()[1])
+        error = sys.exc_info()[1]
+        try:  # each is saved even when the other cannot be (a full disk)
+            if recorder is not None:
+                recorder.close(error)
+        finally:
+            if trace is not None:
+                trace.commit()
     return 0

@@ -116,6 +116,9 @@ def check_calls(tasks: dict, main: A.MainDef, error) -> list[str]:
                     f"levels of blocks and expressions (at most {MAX_NESTING})", call.pos,
                     "tasks are compiled inline: call fewer tasks inside each other")
     total = top.inlined_states + 1  # and the end state
+    if total > MAX_STATES and not top.sites:  # main alone is too long (a 5 MB program): no call to blame
+        raise error(f"the program would compile to {_count(total)} states (at most {MAX_STATES:,})", main.pos,
+                    "split the work into a task called in a loop")
     if total > MAX_STATES:
         call, _ = max(top.sites, key=lambda site: bodies[site[0].task].inlined_states)
         raise error(f"the program would compile to {_count(total)} states (at most {MAX_STATES:,}): every "

@@ -208,8 +208,8 @@ class Interpreter(History):
                     self.done = True
                 else:
                     self.current = entry.next
-        except KeyboardInterrupt:
-            raise self._interrupted(state, recorded) from None
+        except KeyboardInterrupt as stop:
+            raise self._interrupted(state, recorded, stop) from None
         finally:
             self._guard_now = None
         return entry
@@ -228,11 +228,11 @@ class Interpreter(History):
         self._record(TraceEntry(self.trace.total + 1, state.name, state.kind, state.line,
                                 text.splitlines()[0], None, error=why))
 
-    def _interrupted(self, state: State, recorded: bool) -> Interrupted:
+    def _interrupted(self, state: State, recorded: bool, stop: BaseException) -> Interrupted:
         if recorded:  # held until the step was recorded: it happened
-            exc = Interrupted("interrupted (Ctrl-C) just after this state")
+            exc = _stopped_by(stop, "just after this state")
         else:
-            exc = Interrupted("interrupted (Ctrl-C) before this state finished",
+            exc = _stopped_by(stop, "before this state finished",
                               hint="if the program goes on ('step' or 'run' in hila repl), the state runs "
                                    "again from where the hand is")
             self._failed(state, "interrupted", exc.message)
@@ -264,8 +264,8 @@ class Interpreter(History):
                     del done[: len(done) - self.trace_keep]
                 if each is not None:
                     each(entry)
-        except KeyboardInterrupt:  # between two steps (inside one, step() raises Interrupted)
-            raise self._locate(Interrupted("interrupted (Ctrl-C) between two states"), self.state) from None
+        except KeyboardInterrupt as stop:  # between two steps (inside one, step() raises Interrupted)
+            raise self._locate(_stopped_by(stop, "between two states"), self.state) from None
         return done
 
     def _guard(self, state: State, action):
@@ -645,3 +645,12 @@ def _equal(a, b) -> bool:
     if isinstance(a, bool) or isinstance(b, bool):
         return a is b or (isinstance(a, bool) and isinstance(b, bool) and a == b)
     return a == b
+
+
+def _stopped_by(stop: BaseException, when: str, **kwargs) -> Interrupted:
+    """The :class:`Interrupted` of a run ``stop`` ended (Ctrl-C: exit 130; SIGTERM: 143, ...)."""
+    from ..interrupts import cause, exit_code
+
+    exc = Interrupted(f"interrupted ({cause(stop)}) {when}", **kwargs)
+    exc.exit_code = exit_code(stop)
+    return exc

@@ -85,7 +85,10 @@ def decode_source(data: bytes, file: str = "<program>") -> str:
     """UTF-8 bytes -> text; a bad byte is a :class:`HilaSyntaxError` with line and column.
     A byte-order mark at the start (editors on Windows write one) is dropped."""
     try:
-        return data.decode("utf-8").removeprefix("\ufeff")
+        text = data.decode("utf-8").removeprefix("\ufeff")
+        if "\r" in text:  # CR-only line ends (old Mac editors) made the first comment swallow the file
+            text = text.replace("\r\n", "\n").replace("\r", "\n")
+        return text
     except UnicodeDecodeError as exc:
         start = data.rfind(b"\n", 0, exc.start) + 1
         line = data.count(b"\n", 0, exc.start) + 1

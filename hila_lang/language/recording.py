@@ -241,39 +241,214 @@ def write_record(path, document: dict, images: dict[str, bytes] | None = None) -
     return atomic_write_bytes(path, buffer.getvalue())
 
 
+#: the largest ``record.json`` read, decompressed (bytes).  A run step with its planned and
+#: executed paths takes about 2-12 kB of JSON, so this holds tens of thousands of steps; the
+#: shipped game records 62.  Parsed JSON takes several times its text, so this bounds memory
+#: to a few GB at worst (a 3 MB "zip bomb" recording used to take 6.2 GB).
+RECORD_JSON_LIMIT = 256 << 20
+#: the largest eye image read (bytes, decompressed); a 320x240 PNG is about 100 kB
+EYE_IMAGE_LIMIT = 16 << 20
+
+
+class _Damaged(Exception):
+    """A recording that does not hold what :func:`write_record` writes (a message for the user)."""
+
+
+def _member(z: zipfile.ZipFile, name: str, limit: int) -> bytes:
+    """One member of the archive, decompressed, at most ``limit`` bytes (checked as it is read:
+    the size the archive declares may lie)."""
+    import zlib
+
+    try:
+        info = z.getinfo(name)
+    except KeyError:
+        raise _Damaged(f"not a hila recording (expected a ZIP file holding {name})") from None
+    if info.flag_bits & 0x1:
+        raise _Damaged(f"its member {name} is encrypted; hila writes recordings unencrypted")
+    if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+        raise _Damaged(f"its member {name} uses compression method {info.compress_type}; "
+                       "hila writes deflate (8) or none (0)")
+    if info.file_size > limit:
+        raise _Damaged(f"its member {name} is {info.file_size:,} bytes decompressed, more than hila reads "
+                       f"({limit:,})")
+    try:
+        with z.open(info) as f:
+            data = f.read(limit + 1)
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError, RuntimeError) as exc:
+        raise _Damaged(f"its member {name} is damaged ({exc})") from None
+    if len(data) > limit:
+        raise _Damaged(f"its member {name} decompresses to more than hila reads ({limit:,} bytes)")
+    return data
+
+
+class RecordImages(dict):
+    """The eye images of a recording, name -> PNG bytes, each read from the file when first
+    asked for (a recording's images are never read unless used)."""
+
+    def __init__(self, path, names) -> None:
+        super().__init__((n, None) for n in names)
+        self.path = path
+
+    def __getitem__(self, name: str) -> bytes:
+        data = super().__getitem__(name)
+        if data is None:
+            try:
+                with zipfile.ZipFile(self.path) as z:
+                    data = _member(z, name, EYE_IMAGE_LIMIT)
+            except (_Damaged, zipfile.BadZipFile, OSError) as exc:
+                raise InputError(f"cannot read the recording's image {name}: {exc}", file=str(self.path)) from None
+            self[name] = data
+        return data
+
+    def values(self):
+        return [self[n] for n in self]
+
+    def items(self):
+        return [(n, self[n]) for n in self]
+
+
+def _need(d, key, kinds, where, *, optional=False):
+    """``d[key]``, of one of ``kinds`` (a type or tuple), else :class:`_Damaged` naming ``where``."""
+    if not isinstance(d, dict):
+        raise _Damaged(f"{where} is not a mapping")
+    if key not in d:
+        if optional:
+            return None
+        raise _Damaged(f"{where} has no '{key}'")
+    value = d[key]
+    if isinstance(value, bool) and bool not in (kinds if isinstance(kinds, tuple) else (kinds,)):
+        raise _Damaged(f"{where}['{key}'] is {value!r}, expected {_kind_names(kinds)}")
+    if not isinstance(value, kinds):
+        raise _Damaged(f"{where}['{key}'] is {type(value).__name__}, expected {_kind_names(kinds)}")
+    return value
+
+
+def _kind_names(kinds) -> str:
+    names = {dict: "a mapping", list: "a list", str: "text", int: "a whole number", float: "a number",
+             bool: "true/false", type(None): "null"}
+    return " or ".join(names.get(k, k.__name__) for k in (kinds if isinstance(kinds, tuple) else (kinds,)))
+
+
+def _points(value, where: str, shape: str) -> np.ndarray:
+    """A recorded point or path as a finite float array of ``shape`` ("point", "path")."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise _Damaged(f"{where} is not a {shape} of numbers") from None
+    if (shape == "point" and a.shape not in ((2,), (3,))) or (shape == "path" and (a.ndim != 2 or a.shape[1] not in (2, 3))):
+        raise _Damaged(f"{where} has shape {a.shape}, expected a {shape} in 2 or 3 dimensions")
+    if not np.isfinite(a).all():
+        raise _Damaged(f"{where} holds a number that is not finite (NaN or infinity)")
+    return a
+
+
+def _validate(doc) -> None:
+    """Check and convert ``doc`` (the parsed ``record.json``) in place; :class:`_Damaged` names
+    the first thing missing or of the wrong kind."""
+    if not isinstance(doc, dict):
+        raise _Damaged(f"{RECORD_JSON} is not a mapping")
+    version = doc.get("hila_record")
+    if version != RECORD_VERSION:
+        raise _Damaged(f"this hila reads recordings of version {RECORD_VERSION}, got {version!r}")
+    program = _need(doc, "program", dict, "the recording")
+    for key in ("file", "path", "sha256", "text"):
+        _need(program, key, str, "its 'program'")
+    for alias, t in _need(doc, "templates", dict, "the recording").items():
+        for key in ("file", "sha256", "text"):
+            _need(t, key, str, f"its template '{alias}'")
+    command = _need(doc, "command", dict, "the recording")
+    seed = _need(command, "seed", int, "its 'command'")
+    if seed < 0:
+        raise _Damaged(f"its 'command' has seed {seed}, expected a whole number >= 0")
+    settings = _need(command, "settings", dict, "its 'command'")
+    if not all(isinstance(k, str) and isinstance(v, str) for k, v in settings.items()):
+        raise _Damaged("its command's 'settings' are not text pairs")
+    _need(command, "backend", (str, type(None)), "its 'command'", optional=True)
+    _need(command, "max_steps", (int, type(None)), "its 'command'", optional=True)
+    inputs = _need(doc, "input", list, "the recording", optional=True) or []
+    if not all(isinstance(line, str) for line in inputs):
+        raise _Damaged("its 'input' is not a list of lines")
+    start = _need(doc, "start", dict, "the recording")
+    start["hand"] = _points(_need(start, "hand", list, "its 'start'"), "its start 'hand'", "point")
+    fsm = _need(doc, "fsm", dict, "the recording")
+    try:
+        from .fsm import FSM
+
+        states = FSM.from_dict(fsm).states
+    except (HilaError, KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        raise _Damaged(f"its 'fsm' is damaged ({type(exc).__name__}: {exc})") from None
+    result = _need(doc, "result", dict, "the recording")
+    status = _need(result, "status", str, "its 'result'")
+    if status not in ("finished", "stopped", "failed"):
+        raise _Damaged(f"its result's status is {status!r}, expected finished, stopped or failed")
+    if status == "failed":
+        _need(result, "error", str, "its 'result'")
+        _need(result, "exit", int, "its 'result'")
+    state = _need(result, "state", (str, type(None)), "its 'result'", optional=True)
+    if state is not None and state not in states:
+        raise _Damaged(f"its result names state {state!r}, which its FSM does not have")
+    for i, s in enumerate(_need(doc, "steps", list, "the recording")):
+        where = f"step {i + 1}"
+        _need(s, "step", int, where)
+        for key in ("state", "kind", "text"):
+            _need(s, key, str, where)
+        if s["state"] not in states:
+            raise _Damaged(f"{where} names state {s['state']!r}, which its FSM does not have")
+        _need(s, "line", (int, type(None)), where, optional=True)
+        _need(s, "next", (str, type(None)), where, optional=True)
+        s.setdefault("line", None)
+        s.setdefault("next", None)
+        s.setdefault("pen_down", None)
+        for key in ("path", "executed"):
+            value = s.get(key)
+            s[key] = None if value is None else _points(value, f"{where}'s '{key}'", "path")
+        s["hand"] = None if s.get("hand") is None else _points(s["hand"], f"{where}'s 'hand'", "point")
+        icps = _need(s, "icps", dict, where, optional=True) or {}
+        s["icps"] = {k: _points(v, f"{where}'s ICP '{k}'", "point") for k, v in icps.items()}
+        s["value"] = unplain(s.get("value"))
+        env = _need(s, "env", dict, where, optional=True) or {}
+        s["env"] = {k: unplain(v) for k, v in env.items()}
+        if "osila" in s:
+            osila = _need(s, "osila", dict, where)
+            for c in _need(osila, "constraints", list, f"{where}'s 'osila'"):
+                _points(_need(c, "point", list, f"{where}'s constraint"), f"{where}'s constraint point", "point")
+            _need(osila, "options", dict, f"{where}'s 'osila'")
+
+
 def read_record(path) -> dict:
-    """A recording as a dict (points and paths as numpy arrays; ``images``: name -> PNG bytes).
+    """A recording as a dict (points and paths as numpy arrays; ``images``: name -> PNG bytes,
+    read when first used).
 
     Anything that is not a hila recording of a version this hila reads is an
-    :class:`~hila_lang.errors.InputError` naming the file.
+    :class:`~hila_lang.errors.InputError` naming the file and what is wrong (issue 20): a
+    damaged archive or member, an encrypted or unknown compression, ``record.json`` larger than
+    :data:`RECORD_JSON_LIMIT` decompressed, nested too deeply, or missing a field or holding
+    one of the wrong kind.  Only ``record.json`` is read; other members (a huge ``eyes/``) are
+    not, and members hila does not write are ignored.
     """
-    from ..fileio import read_bytes
+    from ..fileio import check_regular
 
-    data = read_bytes(path, "recording")
+    check_regular(path, "recording")
     try:
-        with zipfile.ZipFile(io.BytesIO(data)) as z:
-            doc = json.loads(z.read(RECORD_JSON).decode("utf-8"))
-            images = {n: z.read(n) for n in z.namelist() if n.startswith("eyes/")}
-    except (zipfile.BadZipFile, KeyError):
-        raise InputError(f"not a hila recording (expected a ZIP file holding {RECORD_JSON})", file=str(path)) from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"the recording's {RECORD_JSON} is not valid JSON: {exc}", file=str(path)) from None
-    version = doc.get("hila_record") if isinstance(doc, dict) else None
-    if version != RECORD_VERSION:
-        raise InputError(f"this hila reads recordings of version {RECORD_VERSION}, got {version!r}", file=str(path),
-                         hint="replay it with the hila version that wrote it" if isinstance(version, int) else None)
-    try:
-        for s in doc["steps"]:
-            for key in ("path", "executed", "hand"):
-                s[key] = None if s.get(key) is None else np.asarray(s[key], dtype=float)
-            s["icps"] = {k: np.asarray(v, dtype=float) for k, v in (s.get("icps") or {}).items()}
-            s["value"] = unplain(s.get("value"))
-            s["env"] = {k: unplain(v) for k, v in (s.get("env") or {}).items()}
-        doc["start"]["hand"] = np.asarray(doc["start"]["hand"], dtype=float)
-        for key in ("fsm", "program", "templates", "command", "result"):
-            doc[key]  # noqa: B018 - present
-    except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"the recording is incomplete or damaged ({type(exc).__name__}: {exc})",
-                         file=str(path)) from None
-    doc["images"] = images
+        with zipfile.ZipFile(path) as z:
+            names = [n for n in z.namelist() if n.startswith("eyes/") and n.endswith(".png")]
+            data = _member(z, RECORD_JSON, RECORD_JSON_LIMIT)
+        try:
+            doc = json.loads(data.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise _Damaged(f"its {RECORD_JSON} is not valid JSON: {exc}") from None
+        except RecursionError:
+            raise _Damaged(f"its {RECORD_JSON} is nested too deeply") from None
+        _validate(doc)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"not a hila recording (expected a ZIP file holding {RECORD_JSON})",
+                         file=str(path), hint=f"the file could not be read as one: {exc}") from None
+    except _Damaged as exc:
+        version = doc.get("hila_record") if "doc" in locals() and isinstance(doc, dict) else None
+        hint = ("replay it with the hila version that wrote it"
+                if isinstance(version, int) and version != RECORD_VERSION else None)
+        raise InputError(f"the recording is damaged or not one hila reads: {exc}", file=str(path), hint=hint) from None
+    doc["images"] = RecordImages(path, names)
     return doc

@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HilaError
+from ..errors import EXIT_INTERRUPTED, HilaError, Interrupted
+from ..interrupts import Terminated
 from .interpreter import Interpreter, fmt_point, fmt_value
 
 HISTORY = Path(os.path.expanduser("~")) / ".hila_history"
@@ -56,7 +57,9 @@ class Repl(cmd.Cmd):
             try:
                 super().cmdloop(intro)
                 return
-            except KeyboardInterrupt:
+            except KeyboardInterrupt as stop:
+                if isinstance(stop, Terminated):  # SIGTERM, SIGHUP: the session ends (the world saves)
+                    raise
                 self.say("\ninterrupted: type 'quit' to leave")
                 intro = ""
 
@@ -94,10 +97,14 @@ class Repl(cmd.Cmd):
         try:
             return bool(super().onecmd(line))
         except HilaError as exc:
+            if isinstance(exc, Interrupted) and exc.exit_code != EXIT_INTERRUPTED:  # SIGTERM: end, not go on
+                raise
             self.say(str(exc))
         except (ValueError, OSError) as exc:
             self.say(f"error: {exc}")
-        except KeyboardInterrupt:  # Ctrl-C between two steps, or in another command (path --plot)
+        except KeyboardInterrupt as stop:  # Ctrl-C between two steps, or in another command (path --plot)
+            if isinstance(stop, Terminated):
+                raise
             self.say("\ninterrupted")
             self._at()
         return False

@@ -27,6 +27,10 @@ from .interpreter import Trace, TraceEntry
 from .recording import sha256
 
 
+#: the exit statuses of a recorded run stopped from outside: Ctrl-C, SIGHUP, SIGTERM
+INTERRUPTED_EXITS = (130, 129, 143)
+
+
 def _entry(s: dict) -> TraceEntry:
     return TraceEntry(s["step"], s["state"], s["kind"], s["line"], s["text"], s["next"], path=s["path"],
                       executed=s["executed"], icps=dict(s["icps"]), pen_down=s["pen_down"], value=s["value"])
@@ -51,17 +55,22 @@ class ReplayEngine:
         self._sync()
 
     def _sync(self) -> None:
-        done = self.steps[: self.index]
+        """Rebuild what the steps before ``index`` left (after ``reset`` or ``back``)."""
         self.trace = Trace(0)  # the interpreter's trace type: 'where' and the rest read it alike
-        for s in done:
-            self.trace.record(_entry(s))
         self.env = {}
-        for s in done:
-            self.env.update(s["env"])
-        runs = [s for s in done if s["kind"] == "run"]
-        self.last_path = runs[-1]["path"] if runs else None
-        self.last_run = _entry(runs[-1]) if runs else None
-        self.last_icps = dict(runs[-1]["icps"]) if runs else {}
+        self.last_path, self.last_run, self.last_icps = None, None, {}
+        for s in self.steps[: self.index]:
+            self._take(s)
+        self._where()
+
+    def _take(self, s: dict) -> None:
+        """Add step ``s`` to what has been replayed (one step: replay stays linear in steps)."""
+        self.trace.record(_entry(s))
+        self.env.update(s["env"])
+        if s["kind"] == "run":
+            self.last_path, self.last_run, self.last_icps = s["path"], _entry(s), dict(s["icps"])
+
+    def _where(self) -> None:
         result = self.record["result"]
         if self.index < len(self.steps):
             self.current, self.done = self.steps[self.index]["state"], False
@@ -88,7 +97,8 @@ class ReplayEngine:
             raise HilaRuntimeError("the recording ends here (the run was stopped)")
         s = self.steps[self.index]
         self.index += 1
-        self._sync()
+        self._take(s)
+        self._where()
         return _entry(s)
 
     def run(self, until=None, max_steps: int | None = None, each=None) -> list[TraceEntry]:
@@ -273,7 +283,10 @@ def verify(record: dict, *, tolerance: float = 1e-6) -> tuple[bool, list[str]]:
             result = record["result"]
             n = len(steps) + 1
             limit = command.get("max_steps") or 0  # 0 / None: no limit (recordings before it was kept)
-            if result["status"] == "failed" and limit and len(steps) >= limit:
+            if result["status"] == "failed" and result.get("exit") in INTERRUPTED_EXITS:
+                # stopped by Ctrl-C (SIGTERM, SIGHUP): the re-run is stopped at the same place
+                lines.append(f"note: the recording was interrupted at step {n}; the re-run is stopped there too")
+            elif result["status"] == "failed" and limit and len(steps) >= limit:
                 if interp.done:  # the recording hit --max-steps; the re-run must not have finished either
                     lines.append(f"first difference at step {n}: the recording stopped at the step limit "
                                  f"({limit}), the re-run finished")

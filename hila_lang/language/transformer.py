@@ -38,7 +38,11 @@ class ToAst(Transformer):
 
     # ---- expressions
     def number(self, meta, ch):
-        return A.Number(float(ch[0]), _pos(meta))
+        value = float(ch[0])
+        if value in (float("inf"), float("-inf")):  # 1e309: too large for a float (issue 20)
+            raise HilaSyntaxError(f"the number {ch[0]} is too large (more than {1.7976931348623157e308:g})",
+                                  line=meta.line, column=meta.column)
+        return A.Number(value, _pos(meta))
 
     def string(self, meta, ch):
         return A.String(_unquote(ch[0]), _pos(meta))
@@ -450,6 +454,11 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
         items = parse_items(text)
     except UnexpectedInput as exc:
         raise syntax_error(exc, text, file, ast_parser()) from None
+    except HilaError as exc:  # raised by a rule's callback (a number too large): locate it in the file
+        exc.file = exc.file or file
+        if exc.source_line is None and exc.line:
+            exc.source_line = (text.splitlines() or [""])[min(exc.line, len(text.splitlines()) or 1) - 1]
+        raise
     error = _nesting_error(items, text, file)
     if error is not None:
         raise error

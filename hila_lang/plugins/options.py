@@ -42,6 +42,51 @@ class RunOptions:
     stdout: TextIO = field(default_factory=lambda: sys.stdout)
 
 
+#: the range of every numeric OSILA option a run may be given by ``--set osila.NAME=VALUE``,
+#: checked before OSILA is called at all (issue 20: ``shells=100000000`` hung and grew,
+#: ``directions=1e8`` ran out of memory).  The route search costs O(T·M²) time and memory in
+#: M = 1 + shells·directions candidates per waypoint: M = 2001 took 1.5 s and 130 MB on the
+#: 84-point circle template here (the default M = 29 takes 2 ms), so shells·directions is at
+#: most :data:`MAX_CANDIDATES`; the other bounds are far beyond any use (a threshold, margin in
+#: the template's units, metres or pixels).
+OSILA_RANGES: dict[str, tuple[float, float, str]] = {
+    "threshold": (0, 1e3, "a distance in the template's units"),
+    "rounds": (1, 1000, "plan-adjustment rounds"),
+    "smoothing": (0, 1e6, "TPS smoothing"),
+    "seed": (0, 2**32 - 1, "a seed"),
+    "distortion": (0, 1e6, "a weight"),
+    "margin": (0, 1e3, "a distance in the template's units"),
+    "shells": (0, 100, "candidate shells"),
+    "directions": (1, 2000, "candidate directions per shell"),
+    "timing": (0, 1e6, "a weight"),
+}
+#: most candidate offsets around a waypoint, shells x directions (see :data:`OSILA_RANGES`)
+MAX_CANDIDATES = 2000
+
+
+def check_osila_ranges(options: dict, flag=lambda name: f"--set osila.{name}", typed: dict | None = None) -> None:
+    """Refuse an OSILA option outside :data:`OSILA_RANGES` (and shells x directions above
+    :data:`MAX_CANDIDATES`) before any work: an :class:`InputError` naming ``flag(name)``.
+    Values that are not numbers are left to OSILA's own checks; ``typed`` gives a value as the
+    user typed it, for the message."""
+    from ..errors import InputError
+
+    for name, value in options.items():
+        if name not in OSILA_RANGES or isinstance(value, bool) or not isinstance(value, (int, float)):
+            continue
+        low, high, what = OSILA_RANGES[name]
+        if not low <= value <= high:  # NaN fails too
+            shown = (typed or {}).get(name, value)
+            raise InputError(f"bad value for {flag(name)}={shown}: expected {what} from {low:g} to {high:g}")
+    shells = options.get("shells", 2)
+    directions = options.get("directions") or 14
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (shells, directions)) \
+            and shells * directions > MAX_CANDIDATES:
+        raise InputError(f"bad value for {flag('shells')} and {flag('directions')}: {shells} x {directions} = "
+                         f"{shells * directions:g} candidates around each waypoint, at most {MAX_CANDIDATES} "
+                         "(the route search grows with its square)")
+
+
 def osila_options(settings: dict[str, str]) -> dict:
     """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}`` (other keys are ignored);
     an unknown option or a value OSILA refuses is an InputError naming ``--set KEY=VALUE``."""
@@ -70,11 +115,18 @@ def osila_options(settings: dict[str, str]) -> dict:
             out[name] = yaml.safe_load(text)
         except yaml.YAMLError:
             raise InputError(f"cannot read --set {key}={text}: expected a number, true/false or a list") from None
+        if isinstance(out[name], str):  # YAML 1.1 reads 1e8 (no dot) as text: a number all the same
+            try:
+                out[name] = float(out[name])
+            except ValueError:
+                pass
+        check_osila_ranges({name: out[name]}, typed={name: text})
         try:  # OSILA's own checks, on a path of two points
             imitate([[0.0, 0.0], [1.0, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]], **{name: out[name]})
         except InputError as exc:
             raise InputError(f"bad value for --set {key}={text}: {exc.message}",
                              hint="the OSILA options are described in 'hila imitate --help'") from None
+    check_osila_ranges(out)  # together: shells x directions
     return out
 
 

@@ -78,8 +78,10 @@ def _cached(name: str, load, make, save):
         if (folder / name).is_file():
             try:
                 return load(folder / name)
-            except (InputError, KeyError, TypeError, ValueError):
-                break  # damaged: make it again
+            except (InputError, KeyError, TypeError, ValueError):  # damaged: make it again
+                print(f"note: the cached lens calibration {folder / name} cannot be read; making it again",
+                      file=sys.stderr)
+                break
     value = make(folders[0])
     for folder in folders:
         try:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import sys
 import xml.etree.ElementTree as ET
 from functools import lru_cache
 from pathlib import Path
@@ -255,7 +256,13 @@ def urdf_path() -> Path:
     for folder in cache_folders("robot"):
         path = folder / name
         if path.is_file():
-            return path
+            try:
+                if path.read_text(encoding="utf-8") == text:
+                    return path
+            except (OSError, UnicodeDecodeError):
+                pass
+            print(f"note: the cached robot model {path} is damaged (not what hila generates); "
+                  "writing it again", file=sys.stderr)
         try:
             return atomic_write_text(path, text)
         except OSError:

@@ -90,7 +90,7 @@ def build_report(world, trace=None) -> dict[str, Any]:
         "moves": world.moves,
         "board": list(world.board),
         "board_text": ttt.render(world.board).splitlines(),
-        "result": world.result(),
+        "result": world.result() or "unfinished",  # a game stopped (Ctrl-C) before its end, as the README says
         "winning_line": ttt.winning_line(world.board),
         "marks": marks,
         "marks_outside_cell": sum(1 for m in world.marks if m["outside_cell_m"] > 0),
@@ -248,6 +248,7 @@ def write_outputs(world, report: dict[str, Any]) -> Path:
     if world.fsm is not None:
         folder.write_text("fsm.dot", world.fsm.to_dot())
     folder.file("report.json")
-    report = dict(report, files=folder.close())
+    report = dict(report, files=folder.names())
     folder.write_text("report.json", json.dumps(report, indent=2) + "\n")
+    folder.close()  # the run's files are published together (the manifest names the run)
     return folder.path
