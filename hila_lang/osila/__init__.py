@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..validation import check_int, check_path, check_points, check_positive
-from .adjust import OsilaResult, adjust
+from .adjust import STRETCH, OsilaResult, adjust
 from .timing import TIMING
 from .tps import Warp, fit_warp
 
@@ -35,6 +35,7 @@ OPTIONS: dict[str, Any] = {
     "directions": None,
     "pin": (),
     "timing": TIMING,
+    "stretch": STRETCH,
 }
 
 
@@ -127,6 +128,7 @@ def imitate_detailed(
         directions=directions,
         pin=pin,
         timing=check_positive(opts["timing"], "timing", allow_zero=True),
+        stretch=check_positive(opts["stretch"], "stretch"),
     )
 
 
@@ -183,6 +185,12 @@ def imitate(
             at the same template point, e.g. ``{0: hand, -1: goal}`` to start where the hand
             is and end on a bound target.  A sequence, e.g. ``(0,)``, fixes each stamp at its
             mapped point (no candidate ball there).
+        stretch : float, default 5
+            A repair bends the route between the held targets (the first and last waypoints,
+            and the waypoint nearest each ICP the template passes through), which keep the
+            places the first route gave them: a via never moves the goal.  A forced waypoint
+            that would make the route between its two targets more than ``stretch`` times as
+            long is refused (:class:`ConstraintError` naming it and the target).
         seed : int, default 0
             Accepted for a uniform interface; OSILA makes no random choice, so it has no effect.
 
