@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import InputError
 from ..validation import check_int, check_path, check_points, check_positive
 from .adjust import STRETCH, OsilaResult, adjust
+from .robust import METHODS
 from .timing import TIMING
 from .tps import Warp, fit_warp
 
@@ -36,6 +37,7 @@ OPTIONS: dict[str, Any] = {
     "pin": (),
     "timing": TIMING,
     "stretch": STRETCH,
+    "reject": "auto",
 }
 
 
@@ -81,6 +83,12 @@ def _pin(pin: Any, T: int, D: int) -> tuple[tuple[int, np.ndarray | None], ...]:
             raise InputError(f"expected 'pin' stamps in [-{T}, {T - 1}] for a path of {T} points, got {i}")
         out[int(i) % T] = None if point is None else check_points(point, D, f"pin point for stamp {i}")[0]
     return tuple(out.items())
+
+
+def _reject(value: Any) -> str:
+    if value not in METHODS:
+        raise InputError(f"expected option 'reject' as one of {', '.join(METHODS)}, got {value!r}")
+    return value
 
 
 def imitate_detailed(
@@ -129,6 +137,8 @@ def imitate_detailed(
         pin=pin,
         timing=check_positive(opts["timing"], "timing", allow_zero=True),
         stretch=check_positive(opts["stretch"], "stretch"),
+        reject=_reject(opts["reject"]),
+        seed=int(opts["seed"]),
     )
 
 
@@ -191,8 +201,12 @@ def imitate(
             places the first route gave them: a via never moves the goal.  A forced waypoint
             that would make the route between its two targets more than ``stretch`` times as
             long is refused (:class:`ConstraintError` naming it and the target).
+        reject : {"auto", "none", "loo", "lmeds"}, default "auto"
+            Outlier rejection among the ICP pairs, with at least 10 pairs (:mod:`.robust`):
+            rejected pairs are left out of the warp; :attr:`OsilaResult.pairs` says how many
+            were matched, kept and rejected, and the kept pairs' leave-one-out residual.
         seed : int, default 0
-            Accepted for a uniform interface; OSILA makes no random choice, so it has no effect.
+            Seeds the random sets of ``reject="lmeds"`` (OSILA makes no other random choice).
 
     Returns
     -------

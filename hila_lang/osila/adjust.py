@@ -46,6 +46,7 @@ import numpy as np
 from ..errors import ConstraintError
 from .candidates import ball_offsets
 from .noise import default_threshold
+from .robust import Pairs, screen
 from .route import min_energy_route
 from .timing import retime
 from .tps import MERGE_TOL, Warp, fit_warp
@@ -88,6 +89,8 @@ class OsilaResult:
     retimed : dict of int to int
         On-path ICPs whose template stamp was re-estimated (:mod:`.timing`): stamp -> the template
         stamp whose point the route now has there.
+    pairs : Pairs
+        The ICP pairs matched, kept and rejected as outliers, and their residual (:mod:`.robust`).
     """
 
     path: np.ndarray
@@ -98,6 +101,7 @@ class OsilaResult:
     energy: float
     added: list = field(default_factory=list)
     retimed: dict = field(default_factory=dict)
+    pairs: Pairs | None = None
 
 
 def _fmt(p: np.ndarray) -> str:
@@ -134,14 +138,15 @@ def on_path(path: np.ndarray, src: np.ndarray) -> np.ndarray:
     return np.flatnonzero(gaps <= ON_PATH * size)
 
 
-def _covered(path: np.ndarray, src: np.ndarray, dst: np.ndarray, obstacles: np.ndarray, margin: float) -> list[str]:
+def _covered(path: np.ndarray, src: np.ndarray, dst: np.ndarray, obstacles: np.ndarray, margin: float,
+             index: np.ndarray) -> list[str]:
     """ICPs the path passes through whose task point lies inside an obstacle: no route can both
     go there and keep out (reported before any round, as a contradiction)."""
     out = []
     for k in on_path(path, src):
         for o, ob in enumerate(obstacles):
             if np.linalg.norm(dst[k] - ob[:-1]) < ob[-1] + margin:
-                out.append(f"ICP {k} at {_fmt(dst[k])}, which the template's path passes through, lies inside "
+                out.append(f"ICP {index[k]} at {_fmt(dst[k])}, which the template's path passes through, lies inside "
                            f"obstacle {o} (centre {_fmt(ob[:-1])}, radius {ob[-1]:.4g}, margin {margin:.4g})")
     return out
 
@@ -179,7 +184,7 @@ def _away(point: np.ndarray, centre: np.ndarray, fallback: np.ndarray) -> np.nda
     return np.eye(len(centre))[0]
 
 
-def _targets(path: np.ndarray, src: np.ndarray, pinned: list, exact_pins: list) -> dict[int, str]:
+def _targets(path: np.ndarray, src: np.ndarray, pinned: list, exact_pins: list, index: np.ndarray) -> dict[int, str]:
     """Stamps whose waypoint a repair must not move, with what they are: the first and the last
     (the start and the goal), the stamp nearest each ICP the template passes through
     (:func:`on_path`: the object a reach touches) and other pinned stamps, unless already pinned
@@ -190,7 +195,7 @@ def _targets(path: np.ndarray, src: np.ndarray, pinned: list, exact_pins: list) 
     out.update({0: "the start", last: "the goal"})
     for k in on_path(path, src):
         t = int(((path - src[k]) ** 2).sum(1).argmin())
-        out[t] = f"ICP {k}, which the template's path passes through,"
+        out[t] = f"ICP {index[k]}, which the template's path passes through,"
     return {t: lab for t, lab in sorted(out.items()) if t not in fixed}
 
 
@@ -241,6 +246,8 @@ def adjust(
     pin: tuple[tuple[int, np.ndarray | None], ...] = (),
     timing: float = 0.0,
     stretch: float = STRETCH,
+    reject: str = "auto",
+    seed: int = 0,
 ) -> OsilaResult:
     """Run OSILA with plan adjustment on validated arrays (see the module docstring).
 
@@ -265,9 +272,14 @@ def adjust(
     stretch : float
         How much longer than the first route a repair may make the route between two held
         targets (:data:`STRETCH`).
+    reject, seed
+        Outlier rejection among the ICP pairs (:func:`.robust.screen`; pins are never screened).
     """
     T, D = path.shape
-    covered = _covered(path, src, dst, obstacles, margin) if len(obstacles) else []
+    pairs = screen(src, dst, reject, seed, threshold or 0.0)
+    if len(pairs.rejected):
+        src, dst = src[pairs.kept], dst[pairs.kept]
+    covered = _covered(path, src, dst, obstacles, margin, pairs.kept) if len(obstacles) else []
     if covered:
         raise ConstraintError("contradictory constraints: " + "; ".join(covered))
     given = dict(pin)
@@ -319,7 +331,7 @@ def adjust(
         for t, q in exact_pins:
             route[t] = q  # the warp meets it up to rounding; make it exact
         if not len(forced) and not len(obstacles):
-            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps)
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps, pairs)
         # template indices already pinned by a pair (never reuse them)
         eps = MERGE_TOL * float(span(np.vstack([path, src])).max())
         used = np.zeros(T, bool)
@@ -371,13 +383,13 @@ def adjust(
                         new.append((t, route[t] + shift, label))
                     break
         if not violations:
-            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps)
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps, pairs)
         if not new:
             break
         if rnd == 1:
             # the targets are held where the first route put them: a repair bends the route
             # between them, it never moves them (never trades the goal for a via or an avoid)
-            held = _targets(path, src, pinned, exact_pins)
+            held = _targets(path, src, pinned, exact_pins, pairs.kept)
             for t in held:
                 used[t] = True
             new = [(t, q, lab) for t, q, lab in new if t not in held]

@@ -1,0 +1,200 @@
+"""Many noisy ICP pairs: reject the outliers before the warp, and say how many (issue 24).
+
+Scene matching gives hundreds of pairs, some of them wrong (a feature matched to a look-alike
+elsewhere).  An exact warp through a wrong pair bends the route towards it, however many good
+pairs surround it.  :func:`screen` decides which pairs to keep:
+
+- ``"loo"`` — leave-one-out residuals: each pair is predicted from all the others by the map
+  OSILA would choose (the TPS or the similarity fallback, whichever predicts the pairs better
+  by the median — the mean is what an outlier inflates), with Rippa's closed form (one
+  factorisation for all pairs, :mod:`.tps`).  A pair whose error exceeds :data:`CUT` robust
+  standard deviations (1.4826 × the median absolute error) is rejected; repeated on the pairs
+  kept until none is.  An outlier also spoils its neighbours' predictions, so a few rounds are
+  needed, and a dense cluster of outliers can shield itself.
+- ``"lmeds"`` — least median of squares on a similarity (Rousseeuw 1984): the similarity of a
+  minimal set of pairs (2 in 2-D, 3 in 3-D) whose median squared residual over all pairs is
+  smallest, from :data:`TRIALS` seeded random sets (seed option).  It tolerates up to half the
+  pairs being outliers; pairs beyond :data:`CUT` robust σ of its residuals are dropped, then
+  the ``"loo"`` rounds run on the rest (so a smooth deformation the similarity cannot follow is
+  judged by the TPS, not by the similarity), and finally every dropped pair whose residual
+  against the map of the kept pairs is within the cut comes back.
+- ``"none"`` — keep every pair.
+
+``bench/robust.py`` measures them on seeded synthetic scenes (a smooth true map; ICPs located
+with Gaussian noise; 0-40 % of the task points replaced by uniform points in the scene): see
+:data:`DEFAULT` for the figures.  Rejection runs only with at least :data:`MIN_PAIRS` pairs: with
+fewer, a pair's error cannot be told from a real local deformation (with D + 2 pairs, every
+pair is needed to fit the TPS at all), and hand-typed scenes of a few ICPs keep every pair.
+Pins (the hand, a bound goal) and plan-adjustment pairs are never screened.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: rejection cut in robust standard deviations of the leave-one-out (or LMedS) residuals: 3.5 σ
+#: rejects about 1 in 2000 good pairs of Gaussian noise (a pair's error vector is 2- or 3-D, so
+#: its length is Rayleigh/Maxwell-distributed; 3.5 × the median-based σ is past its 99.9 %).
+CUT = 3.5
+#: fewest pairs for which rejection runs (module docstring)
+MIN_PAIRS = 10
+#: random minimal sets tried by LMedS: with 40 % outliers, the chance that none of 200 sets of 3
+#: is all inliers is (1 - 0.6³)^200 < 1e-21
+TRIALS = 200
+MAX_ROUNDS = 10
+#: errors below this fraction of the task ICPs' extent are never outliers: the ICP location
+#: precision the warp's choice was measured at (``bench/warp.py``); without it a clean scene's
+#: pairs at the rim (extrapolated by the others, so predicted worse) would be cut
+FLOOR = 0.01
+#: ``reject`` default ("auto"): the method bench/robust.py measured best (see :func:`screen`)
+DEFAULT = "lmeds"
+METHODS = ("auto", "none", "loo", "lmeds")
+
+
+@dataclass
+class Pairs:
+    """What happened to the scene's ICP pairs (reported by ``hila explain`` and the REPL).
+
+    Attributes
+    ----------
+    matched : int
+        Pairs given (the scene's ICPs).
+    kept : ndarray of int
+        Indices (into the given pairs) the warp was fitted on.
+    rejected : ndarray of int
+        Indices rejected as outliers.
+    residual : float or None
+        RMS leave-one-out error of the kept pairs (task units): how well each kept pair is
+        predicted by the others (None: fewer pairs than the check needs).
+    method : str
+        The rule applied (``"none"`` below :data:`MIN_PAIRS` pairs).
+    """
+
+    matched: int
+    kept: np.ndarray
+    rejected: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    residual: float | None = None
+    method: str = "none"
+
+    def summary(self, unit: float = 1.0, suffix: str = "") -> str:
+        """``"40 matched, 31 kept, 9 rejected (lmeds), residual 1.2 mm"``."""
+        text = f"{self.matched} matched, {len(self.kept)} kept, {len(self.rejected)} rejected"
+        if self.method != "none":
+            text += f" ({self.method})"
+        if self.residual is not None:
+            text += f", residual {self.residual * unit:.3g}{suffix}"
+        return text
+
+
+def loo_errors(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
+    """Leave-one-out error length per pair (K,) of the better map (by median), or None when the
+    pairs cannot be checked (fewer than D + 2, not spanning D dimensions, a singular system)."""
+    from .tps import SINGULAR_TOL, _choice, affine_rank, merge_pairs
+
+    K, D = src.shape
+    if K < D + 2 or len(merge_pairs(src, dst)[0]) < K or affine_rank(src) < D:
+        return None
+    got = _choice(src, dst, np.zeros(K), K >= 32)
+    if got is None:
+        return None
+    card, _, _, sim_each = got
+    diag = np.diagonal(card[:K])
+    if (np.abs(diag) <= SINGULAR_TOL).any():
+        return np.sqrt(sim_each)
+    tps_each = (((card @ dst)[:K] / diag[:, None]) ** 2).sum(1)
+    best = tps_each if np.median(tps_each) <= np.median(sim_each) else sim_each
+    return np.sqrt(best)
+
+
+def _sigma(e: np.ndarray) -> float:
+    return 1.4826 * float(np.median(np.abs(e)))
+
+
+def _loo_rounds(src, dst, keep: np.ndarray, floor: float) -> np.ndarray:
+    """Drop pairs beyond :data:`CUT` robust σ of the leave-one-out errors until none is."""
+    for _ in range(MAX_ROUNDS):
+        idx = np.flatnonzero(keep)
+        if len(idx) < MIN_PAIRS:
+            break
+        e = loo_errors(src[idx], dst[idx])
+        if e is None:
+            break
+        bad = e > max(CUT * _sigma(e), floor)
+        if not bad.any():
+            break
+        keep = keep.copy()
+        keep[idx[bad]] = False
+    return keep
+
+
+def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int) -> np.ndarray:
+    """Inlier mask of the LMedS similarity (module docstring)."""
+    from .fallback import fit_similarity
+    from .tps import affine_rank
+
+    K, D = src.shape
+    rng = np.random.default_rng(seed)
+    best, best_med = None, np.inf
+    for _ in range(TRIALS):
+        pick = rng.choice(K, D, replace=False)
+        if affine_rank(src[pick]) < min(D - 1, 2) or np.ptp(src[pick], axis=0).max() == 0:
+            continue
+        scale, R, shift = fit_similarity(src[pick], dst[pick], affine_rank(src[pick]))
+        r = np.sqrt(((dst - (scale * src @ R.T + shift)) ** 2).sum(1))
+        med = float(np.median(r))
+        if med < best_med:
+            best, best_med = r, med
+    if best is None:
+        return np.ones(K, bool)
+    return best <= CUT * _sigma(best)
+
+
+def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0, floor: float = 0.0) -> Pairs:
+    """Which ICP pairs to warp on (module docstring).
+
+    Parameters
+    ----------
+    src, dst : ndarray, shape (K, D)
+        Template and task ICPs, paired by row.
+    method : str
+        One of :data:`METHODS` (``"auto"``: :data:`DEFAULT`).
+    seed : int
+        Seeds LMedS's random sets.
+    floor : float
+        Errors up to this (task units) are never outliers (the distortion threshold: a pair
+        within it is "the same place" for the route).
+
+    Returns
+    -------
+    Pairs
+    """
+    K = len(src)
+    method = DEFAULT if method == "auto" else method
+    if method not in METHODS:
+        raise ValueError(f"expected reject as one of {', '.join(METHODS)}, got {method!r}")
+    if K > 1:
+        floor = max(floor, FLOOR * float(np.ptp(dst, axis=0).max()))
+    keep = np.ones(K, bool)
+    if method == "none" or K < MIN_PAIRS:
+        e = loo_errors(src, dst) if K >= MIN_PAIRS else None
+        return Pairs(K, np.arange(K), residual=None if e is None else float(np.sqrt((e**2).mean())))
+    if method == "lmeds":
+        keep = _lmeds(src, dst, seed)
+        if keep.sum() < MIN_PAIRS:
+            keep = np.ones(K, bool)
+    keep = _loo_rounds(src, dst, keep, floor)
+    idx = np.flatnonzero(keep)
+    e = loo_errors(src[idx], dst[idx])
+    if method == "lmeds" and e is not None and not keep.all():
+        # a dropped pair the kept pairs' map predicts within the cut comes back
+        from .tps import fit_warp
+
+        warp = fit_warp(src[idx], dst[idx])
+        back = np.flatnonzero(~keep)
+        miss = np.sqrt(((warp(src[back]) - dst[back]) ** 2).sum(1))
+        keep[back[miss <= max(CUT * _sigma(e), floor)]] = True
+        idx = np.flatnonzero(keep)
+        e = loo_errors(src[idx], dst[idx])
+    return Pairs(K, idx, np.flatnonzero(~keep), None if e is None else float(np.sqrt((e**2).mean())), method)
