@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConstraintError
+from ..jit import min_stamps
 from .candidates import ball_offsets
 from .noise import default_threshold
 from .robust import Pairs, screen
@@ -276,7 +277,7 @@ def adjust(
         Outlier rejection among the ICP pairs (:func:`.robust.screen`; pins are never screened).
     """
     T, D = path.shape
-    pairs = screen(src, dst, reject, seed, threshold or 0.0)
+    pairs = screen(src, dst, reject, seed, threshold or 0.0, fast=T >= min_stamps())
     if len(pairs.rejected):
         src, dst = src[pairs.kept], dst[pairs.kept]
     covered = _covered(path, src, dst, obstacles, margin, pairs.kept) if len(obstacles) else []

@@ -581,9 +581,25 @@ def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     return card, lin, w, _similarity_loo(src, dst, G[:K])
 
 
+_LAST: list = [None, None]  # the last _choice: (key, result); outlier screening and the fit share it
+
+
 def _choice(src, dst, ridge, compiled_kernel: bool = True):
     """(card, lin, w, similarity LOO per pair (K,)) by the compiled kernel (if asked and
-    available), else numpy; None if a system is singular."""
+    available), else numpy; None if a system is singular.  The last result is remembered (the
+    outlier screen of :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn)."""
+    key = (src.tobytes(), dst.tobytes(), np.asarray(ridge, float).tobytes(), src.shape,
+           bool(compiled_kernel and len(src) <= KERNEL_MAX_PAIRS))
+    if _LAST[0] == key:
+        got = _LAST[1]
+        return None if got is None else tuple(a.copy() for a in got)
+    got = _choice_uncached(src, dst, ridge, compiled_kernel)
+    _LAST[0], _LAST[1] = key, got
+    return None if got is None else tuple(a.copy() for a in got)
+
+
+def _choice_uncached(src, dst, ridge, compiled_kernel: bool = True):
+    """:func:`_choice` without the memory."""
     from ..jit import compiled
 
     K, D = src.shape
