@@ -19,7 +19,7 @@ all 17 (2-D) / 29 (3-D) candidates (OSILA's default, 2 σ of the path's noise, w
 nothing on these clean paths).  Times are medians of interleaved repeats (a busy moment hits all
 alike); the load average is printed.  Not a test.
 
-    python bench/osila.py [--repeat 5] [--small-repeat 200] [--sizes 10,50,200,1000] [--numpy]
+    python bench/osila.py [--repeat 5] [--small-repeat 200] [--sizes 10,50,200,1000] [--threads 1] [--numpy]
 """
 
 from __future__ import annotations
@@ -168,10 +168,19 @@ def main() -> None:
     ap.add_argument("--sizes", default="10,50,200,1000", help="K values of the scaling table")
     ap.add_argument("--stamps", default="1000,10000", help="T values of the scaling table")
     ap.add_argument("--numpy", action="store_true", help="also measure the small case with numpy only (HILA_JIT=0)")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="BLAS threads for both sides (default 1: on a shared machine a threaded BLAS spins "
+                         "on small products and the times scatter; 0 = the library's default)")
     args = ap.parse_args()
-    print(f"machine: {os.cpu_count()} cores (shared); load average {os.getloadavg()[0]:.2f} at start")
-    scaling([int(k) for k in args.sizes.split(",")], [int(t) for t in args.stamps.split(",")], args.repeat)
-    small(args.small_repeat, "imitate")
+    from contextlib import nullcontext
+
+    from threadpoolctl import threadpool_limits
+
+    print(f"machine: {os.cpu_count()} cores (shared); load average {os.getloadavg()[0]:.2f} at start; "
+          f"BLAS threads: {args.threads or 'default'}")
+    with threadpool_limits(args.threads) if args.threads else nullcontext():
+        scaling([int(k) for k in args.sizes.split(",")], [int(t) for t in args.stamps.split(",")], args.repeat)
+        small(args.small_repeat, "imitate")
     if args.numpy:
         from hila_lang import jit
 

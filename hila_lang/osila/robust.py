@@ -13,7 +13,8 @@ pairs surround it.  :func:`screen` decides which pairs to keep:
   needed, and a dense cluster of outliers can shield itself.
 - ``"lmeds"`` — least median of squares on a similarity (Rousseeuw 1984): the similarity of a
   minimal set of pairs (2 in 2-D, 3 in 3-D) whose median squared residual over all pairs is
-  smallest, from :data:`TRIALS` seeded random sets (seed option).  It tolerates up to half the
+  smallest, from :data:`TRIALS` seeded random sets (seed option); skipped when every pair's
+  leave-one-out error is already below the floor (a clean scene).  It tolerates up to half the
   pairs being outliers; pairs beyond :data:`CUT` robust σ of its residuals are dropped, then
   the ``"loo"`` rounds run on the rest (so a smooth deformation the similarity cannot follow is
   judged by the TPS, not by the similarity), and finally every dropped pair whose residual
@@ -29,16 +30,16 @@ of the extent:
     D       outliers  none           loo            lmeds
     ======  ========  =============  =============  =============
     2       0 %       0.53 / 0.65    0.53 / 0.65    0.53 / 0.65
-    2       20 %      17.2 / 30.1    0.59 / 1.13    0.53 / 0.75
+    2       20 %      17.2 / 30.1    0.59 / 1.13    0.52 / 0.75
     2       30 %      22.9 / 34.5    16.7 / 33.8    0.59 / 1.20
-    2       40 %      24.3 / 38.8    24.3 / 38.8    0.64 / 23.1
+    2       40 %      24.3 / 38.8    24.3 / 38.8    0.71 / 23.1
     3       0 %       0.89 / 1.32    0.91 / 1.32    0.91 / 1.32
     3       20 %      18.0 / 21.4    1.15 / 19.6    1.01 / 1.54
     3       30 %      24.0 / 27.9    23.1 / 27.9    1.07 / 1.84
-    3       40 %      26.4 / 38.0    26.4 / 38.0    1.10 / 3.72
+    3       40 %      26.4 / 38.0    26.4 / 38.0    1.26 / 13.4
     ======  ========  =============  =============  =============
 
-LMedS cut 99-100 % of the outliers up to 30 % (74 % in 2-D at 40 %: a few scenes fail) and
+LMedS cut 99-100 % of the outliers up to 30 % (72 % in 2-D and 91 % in 3-D at 40 %: a few scenes fail) and
 kept >= 99.6 % of the good pairs; the leave-one-out rounds alone hold up to 20 % only (outliers
 shield each other).  So :data:`DEFAULT` is ``"lmeds"``.  Rejection runs only with at least :data:`MIN_PAIRS` pairs: with
 fewer, a pair's error cannot be told from a real local deformation (with D + 2 pairs, every
@@ -58,9 +59,9 @@ import numpy as np
 CUT = 3.5
 #: fewest pairs for which rejection runs (module docstring)
 MIN_PAIRS = 10
-#: random minimal sets tried by LMedS: with 40 % outliers, the chance that none of 200 sets of 3
-#: is all inliers is (1 - 0.6³)^200 < 1e-21
-TRIALS = 200
+#: random minimal sets tried by LMedS, per dimension: with half the pairs wrong, the chance that
+#: no set is all good is (1 - 0.5²)^50 < 1e-6 in 2-D and (1 - 0.5³)^104 < 1e-6 in 3-D
+TRIALS = {2: 50, 3: 104}
 MAX_ROUNDS = 10
 #: errors below this fraction of the task ICPs' extent are never outliers: the ICP location
 #: precision the warp's choice was measured at (``bench/warp.py``); without it a clean scene's
@@ -152,20 +153,27 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int) -> np.ndarray:
     (Umeyama on each, batched; D points in D-D fix a proper similarity)."""
     K, D = src.shape
     rng = np.random.default_rng(seed)
-    picks = np.argsort(rng.random((TRIALS, K)), axis=1)[:, :D]  # D distinct pairs per trial
+    picks = np.argsort(rng.random((TRIALS[D], K)), axis=1)[:, :D]  # D distinct pairs per trial
     a, b = src[picks], dst[picks]  # (N, D, D): trial, pair, coordinate
     ma, mb = a.mean(1, keepdims=True), b.mean(1, keepdims=True)
     a, b = a - ma, b - mb
     var = (a * a).sum((1, 2))
     ok = var > 1e-24 * max(float(np.ptp(src, axis=0).max()) ** 2, 1e-300)
-    cov = np.matmul(b.transpose(0, 2, 1), a)  # (N, D, D) = Σ b aᵀ
-    U, S, Vt = np.linalg.svd(cov)
-    flip = np.linalg.det(np.matmul(U, Vt)) < 0
-    U[flip, :, -1] *= -1.0
-    S[flip, -1] *= -1.0
-    sR = (S.sum(1) / np.where(ok, var, 1.0))[:, None, None] * np.matmul(U, Vt)  # scale * R
-    pred = np.matmul(src[None] - ma, sR.transpose(0, 2, 1)) + mb  # (N, K, D)
-    r = np.sqrt(((pred - dst[None]) ** 2).sum(2))
+    if D == 2:  # as complex numbers the similarity is z -> c z, c = Σ b conj(a) / Σ |a|²
+        za, zb = a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
+        c = (zb * za.conj()).sum(1) / np.where(ok, var, 1.0)
+        zs = (src[:, 0] + 1j * src[:, 1])[None] - (ma[:, 0, 0] + 1j * ma[:, 0, 1])[:, None]
+        zp = c[:, None] * zs + (mb[:, 0, 0] + 1j * mb[:, 0, 1])[:, None]
+        r = np.abs(zp - (dst[:, 0] + 1j * dst[:, 1])[None])
+    else:
+        cov = np.matmul(b.transpose(0, 2, 1), a)  # (N, D, D) = Σ b aᵀ
+        U, S, Vt = np.linalg.svd(cov)
+        flip = np.linalg.det(np.matmul(U, Vt)) < 0
+        U[flip, :, -1] *= -1.0
+        S[flip, -1] *= -1.0
+        sR = (S.sum(1) / np.where(ok, var, 1.0))[:, None, None] * np.matmul(U, Vt)  # scale * R
+        pred = np.matmul(src[None] - ma, sR.transpose(0, 2, 1)) + mb  # (N, K, D)
+        r = np.sqrt(((pred - dst[None]) ** 2).sum(2))
     med = np.where(ok, np.median(r, axis=1), np.inf)
     if not np.isfinite(med).any():
         return np.ones(K, bool)
@@ -206,7 +214,9 @@ def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0
         e = loo_errors(src, dst, fast) if K >= MIN_PAIRS else None
         return Pairs(K, np.arange(K), residual=None if e is None else float(np.sqrt((e**2).mean())))
     if method == "lmeds":
-        keep = _lmeds(src, dst, seed)
+        e = loo_errors(src, dst, fast)
+        if e is None or e.max() > floor:  # not a clean scene
+            keep = _lmeds(src, dst, seed)
         if keep.sum() < MIN_PAIRS:
             keep = np.ones(K, bool)
     keep = _loo_rounds(src, dst, keep, floor, fast)
