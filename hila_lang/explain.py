@@ -72,6 +72,8 @@ def pairs_line(pairs, names: list[str]) -> str:
         text += ": " + ", ".join(shown) + (f" and {len(pairs.rejected) - 8} more" if len(pairs.rejected) > 8 else "")
     if pairs.residual is not None:
         text += f"; residual {pairs.residual * 1000:.3g} mm (leave-one-out, RMS)"
+    if getattr(pairs, "smoothing", None) is not None:
+        text += f"; smoothing {pairs.smoothing:.3g} (chosen by cross-validation)"
     return text
 
 

@@ -129,7 +129,8 @@ def imitate_detailed(
         obst,
         threshold=threshold,
         rounds=check_int(opts["rounds"], "rounds", minimum=1),
-        smoothing=check_positive(opts["smoothing"], "smoothing", allow_zero=True),
+        smoothing="auto" if opts["smoothing"] == "auto" else check_positive(opts["smoothing"], "smoothing",
+                                                                             allow_zero=True),
         distortion=check_positive(opts["distortion"], "distortion", allow_zero=True),
         margin=check_positive(opts["margin"], "margin", allow_zero=True),
         shells=check_int(opts["shells"], "shells", minimum=0),
@@ -180,8 +181,11 @@ def imitate(
             own stamp (:mod:`.timing`).  0 keeps the template's timing.
         rounds : int, default 10
             Maximum plan-adjustment rounds.
-        smoothing : float, default 0
+        smoothing : float or "auto", default 0
             TPS regulariser λ (unit-free, template normalised to unit extent); 0 = exact.
+            ``"auto"``: chosen by cross-validation on the kept pairs' leave-one-out errors (for
+            noisy pairs, 10 or more; :func:`.robust.choose_smoothing`), reported in
+            :attr:`OsilaResult.pairs`.
         distortion : float, default 0
             Weight of Σ|q_t - f(p_t)|² added to the route energy Σ|q_{t+1} - q_t|².
         margin : float, default 0

@@ -47,7 +47,7 @@ from ..errors import ConstraintError
 from ..jit import min_stamps
 from .candidates import ball_offsets
 from .noise import default_threshold
-from .robust import Pairs, screen
+from .robust import Pairs, choose_smoothing, screen
 from .route import min_energy_route
 from .timing import retime
 from .tps import MERGE_TOL, Warp, fit_warp
@@ -280,6 +280,8 @@ def adjust(
     pairs = screen(src, dst, reject, seed, threshold or 0.0, fast=T >= min_stamps())
     if len(pairs.rejected):
         src, dst = src[pairs.kept], dst[pairs.kept]
+    if smoothing == "auto":  # λ by cross-validation on the kept pairs (:func:`.robust.choose_smoothing`)
+        smoothing = pairs.smoothing = choose_smoothing(src, dst)
     covered = _covered(path, src, dst, obstacles, margin, pairs.kept) if len(obstacles) else []
     if covered:
         raise ConstraintError("contradictory constraints: " + "; ".join(covered))

@@ -89,6 +89,8 @@ class Pairs:
         predicted by the others (None: fewer pairs than the check needs).
     method : str
         The rule applied (``"none"`` below :data:`MIN_PAIRS` pairs).
+    smoothing : float or None
+        The λ chosen by ``smoothing="auto"`` (:func:`choose_smoothing`), else None.
     """
 
     matched: int
@@ -96,6 +98,7 @@ class Pairs:
     rejected: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     residual: float | None = None
     method: str = "none"
+    smoothing: float | None = None
 
     def summary(self, unit: float = 1.0, suffix: str = "") -> str:
         """``"40 matched, 31 kept, 9 rejected (lmeds), residual 1.2 mm"``."""
@@ -179,6 +182,42 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int) -> np.ndarray:
         return np.ones(K, bool)
     best = r[int(np.argmin(med))]
     return best <= CUT * _sigma(best)
+
+
+#: λ tried by ``smoothing="auto"`` (unit-free: the template points are normalised to unit extent)
+LAMBDAS = (0.0, *np.logspace(-6, 0, 13))
+
+
+def choose_smoothing(src: np.ndarray, dst: np.ndarray) -> float:
+    """The TPS regulariser λ for noisy pairs: the one of :data:`LAMBDAS` whose smoothed TPS
+    predicts the pairs best from the others (mean squared leave-one-out error; ordinary
+    cross-validation, of which generalised cross-validation is the rotation-invariant variant).
+
+    Rippa's closed form holds for the smoothed system too (e_k = (A_λ⁻¹ f)_k / (A_λ⁻¹)_kk, the
+    tests check it against refitting), so each λ costs one inverse.  Exact pairs (noise-free)
+    give λ = 0: interpolation predicts them best; noisy pairs a λ that averages the noise out
+    instead of bending the route through it.  0 with fewer than :data:`MIN_PAIRS` pairs.
+    """
+    from .tps import _inverse, _tps_system, merge_pairs
+
+    src, dst, _ = merge_pairs(src, dst)
+    K, D = src.shape
+    if K < MIN_PAIRS:
+        return 0.0
+    best, best_err = 0.0, np.inf
+    for lam in LAMBDAS:
+        _, _, A = _tps_system(src, np.full(K, lam))
+        try:
+            card = _inverse(A[:K, :K], A[:K, K:], 1.0 if D == 2 else -1.0)
+        except np.linalg.LinAlgError:
+            continue
+        diag = np.diagonal(card[:K])
+        if (np.abs(diag) <= 1e-12).any():
+            continue
+        err = float((((card @ dst)[:K] / diag[:, None]) ** 2).sum(1).mean())
+        if err < best_err * (1 - 1e-9):
+            best, best_err = float(lam), err
+    return best
 
 
 def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0, floor: float = 0.0,
