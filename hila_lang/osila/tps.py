@@ -581,36 +581,41 @@ def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     return card, lin, w, _similarity_loo(src, dst, G[:K])
 
 
-_LAST: list = [None, None]  # the last _choice: (key, result); outlier screening and the fit share it
+_LAST: list = [None]  # the last _choice: (key, result), one reference (safe across threads)
 
 
 def _choice(src, dst, ridge, compiled_kernel: bool = True):
     """(card, lin, w, similarity LOO per pair (K,)) by the compiled kernel (if asked and
     available), else numpy; None if a system is singular.  The last result is remembered (the
     outlier screen of :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn)."""
-    key = (src.tobytes(), dst.tobytes(), np.asarray(ridge, float).tobytes(), src.shape,
-           bool(compiled_kernel and len(src) <= KERNEL_MAX_PAIRS))
-    if _LAST[0] == key:
-        got = _LAST[1]
-        return None if got is None else tuple(a.copy() for a in got)
-    got = _choice_uncached(src, dst, ridge, compiled_kernel)
-    _LAST[0], _LAST[1] = key, got
+    use_kernel = bool(compiled_kernel and len(src) <= KERNEL_MAX_PAIRS and _kernel() is not None)
+    key = (src.tobytes(), dst.tobytes(), np.asarray(ridge, float).tobytes(), src.shape, use_kernel)
+    last = _LAST[0]
+    if last is not None and last[0] == key:
+        got = last[1]
+    else:
+        got = _choice_uncached(src, dst, ridge, use_kernel)
+        _LAST[0] = (key, got)
     return None if got is None else tuple(a.copy() for a in got)
 
 
-def _choice_uncached(src, dst, ridge, compiled_kernel: bool = True):
-    """:func:`_choice` without the memory."""
+def _kernel():
+    """The compiled :func:`_choice_kernel`, or None."""
     from ..jit import compiled
 
+    return compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
+                    np.zeros((4, 2)), np.zeros(4))
+
+
+def _choice_uncached(src, dst, ridge, use_kernel: bool):
+    """:func:`_choice` without the memory (``use_kernel``: the compiled kernel, known to exist)."""
     K, D = src.shape
-    kernel = None if not compiled_kernel or K > KERNEL_MAX_PAIRS else compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
-                      np.zeros((4, 2)), np.zeros(4))
     try:
-        if kernel is None:
+        if not use_kernel:
             return _choice_numpy(src, dst, ridge)
         card, lin, w, loo = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D)), np.empty(K)
-        kernel(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
-               card, lin, w, loo)
+        _kernel()(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
+                  card, lin, w, loo)
         return card, lin, w, loo
     except (np.linalg.LinAlgError, ZeroDivisionError):
         return None
