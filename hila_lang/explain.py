@@ -61,6 +61,22 @@ def warp_reason(warp, dim: int) -> str:
     return f"a similarity transform (fallback): {why}"
 
 
+def pairs_line(pairs, names: list[str]) -> str:
+    """``pairs: 40 matched, 38 kept, 2 rejected (lmeds): a, b; residual 0.8 mm`` (metres shown in
+    mm) -- the ICP pairs OSILA was given, kept and rejected as outliers (:mod:`.osila.robust`)."""
+    text = f"pairs: {pairs.matched} matched, {len(pairs.kept)} kept, {len(pairs.rejected)} rejected"
+    if pairs.method != "none":
+        text += f" ({pairs.method})"
+    if len(pairs.rejected):
+        shown = [names[k] if k < len(names) else str(k) for k in pairs.rejected[:8]]
+        text += ": " + ", ".join(shown) + (f" and {len(pairs.rejected) - 8} more" if len(pairs.rejected) > 8 else "")
+    if pairs.residual is not None:
+        text += f"; residual {pairs.residual * 1000:.3g} mm (leave-one-out, RMS)"
+    if getattr(pairs, "smoothing", None) is not None:
+        text += f"; smoothing {pairs.smoothing:.3g} (chosen by cross-validation)"
+    return text
+
+
 def _threshold_origin(options: dict) -> str:
     """Where OSILA's threshold came from: the setting, or its default rule (:mod:`.osila.noise`)."""
     from .osila.noise import NOISE_MULTIPLE
@@ -118,6 +134,8 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
     res = step.result
     lines[0] += f", {len(step.path)} points"
     lines.append(f"  map: {warp_reason(res.warp, template.dim)}")
+    if res.pairs is not None:
+        lines.append("  " + pairs_line(res.pairs, list(icps)))
     lines.append(f"  threshold: {res.threshold * 1000:.3g} mm " + _threshold_origin(options))
     if not constraints and res.rounds == 1:
         lines.append("  plan adjustment: none needed (no via/avoid, 1 round)")

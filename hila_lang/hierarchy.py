@@ -347,6 +347,9 @@ def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: A
     try:
         res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
     except ConstraintError as exc:
+        exc.message = re.sub(r"\bICP (\d+)\b", lambda m: f"ICP '{names[int(m.group(1))]}'"
+                             if int(m.group(1)) < len(names) else m.group(0), exc.message)  # OSILA's rows by name
+        exc.args = (exc.message,)
         raise explain_blocked(exc, template, icps, obstacles, options) from None
     given = {k: v for k, v in options.items() if k != "pin"}
     return Step(np.asarray(res.path, dtype=float), icps, START in icps, res, options=given, notes=notes)

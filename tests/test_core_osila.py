@@ -409,8 +409,10 @@ def test_an_obstacle_that_segments_cannot_avoid_is_an_error():
         imitate(path[[0, -1]], icps, icps, obstacles=[[50.0, 0.0, 10.0]], pin=(0, -1), rounds=3)
 
 
-@pytest.mark.parametrize("dim,K", [(2, 4), (2, 5), (2, 8), (3, 5), (3, 8)])  # K >= D + 2, as the choice needs
+@pytest.mark.parametrize("dim,K", [(2, 4), (2, 5), (2, 8), (3, 5), (3, 8), (2, 90), (3, 90)])  # K >= D + 2, as the choice needs
 def test_similarity_loo_equals_refitting_without_each_pair(dim, K):
+    """Rippa's closed form (one inverse for all K) equals K refits, by the compiled kernel (K <= 64)
+    and by numpy (K = 90)."""
     from hila_lang.osila.tps import _similarity, _similarity_parts, similarity_loo
 
     rng = np.random.default_rng(10 * K + dim)
@@ -424,8 +426,25 @@ def test_similarity_loo_equals_refitting_without_each_pair(dim, K):
     assert similarity_loo(src, dst) == pytest.approx(np.mean(explicit), rel=1e-9)
 
 
+def _compiled_choice(src, dst, ridge):
+    """The compiled choice kernel called directly (``_choice`` uses it only up to KERNEL_MAX_PAIRS)."""
+    from hila_lang import jit
+    from hila_lang.osila import tps
+
+    kernel = jit.compiled(tps._choice_kernel, tps._WARM[0], tps._WARM[1], np.zeros(4), np.zeros((7, 4)),
+                          np.zeros((3, 2)), np.zeros((4, 2)), np.zeros(4))
+    if kernel is None:
+        pytest.skip("numba unavailable")
+    K, D = src.shape
+    card, lin, w, loo = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D)), np.empty(K)
+    kernel(src, dst, ridge, card, lin, w, loo)
+    return card, lin, w, loo
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_choice_kernel_equals_numpy(dim):
+    """The compiled kernel (loops, LU inverses) and its numpy twin (Cholesky of the projected
+    systems) agree to rounding, on small systems and at K = 200 and 260."""
     from hila_lang import jit
     from hila_lang.osila import tps
 
@@ -433,14 +452,50 @@ def test_choice_kernel_equals_numpy(dim):
     if not jit.enabled():
         pytest.skip("HILA_JIT=0")
     rng = np.random.default_rng(dim)
-    for K in (dim + 2, 9):
+    for K in (dim + 2, 9, 200, 260):
         src = rng.normal(size=(K, dim))
         dst = src @ rng.normal(size=(dim, dim)) + rng.normal(0, 0.2, src.shape)
-        ridge = np.where(np.arange(K) % 2, 0.0, 0.1)
-        fast, slow = tps._choice(src, dst, ridge), tps._choice_numpy(src, dst, ridge)
+        ridge = np.where(np.arange(K) % 2, 0.0, 0.1) if K < 100 else np.zeros(K)
+        fast, slow = _compiled_choice(src, dst, ridge), tps._choice_numpy(src, dst, ridge)
         for a, b in zip(fast[:3], slow[:3]):
-            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
-        assert fast[3] == pytest.approx(slow[3], rel=1e-9)
+            np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-10 * np.abs(b).max())
+        np.testing.assert_allclose(fast[3], slow[3], rtol=1e-7, atol=1e-12 * slow[3].max())
+        if K <= tps.KERNEL_MAX_PAIRS:
+            for a, b in zip(tps._choice(src, dst, ridge), fast):
+                np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_choice_at_many_pairs_equals_the_direct_computation(dim):
+    """At K = 220 (numpy path) the TPS's and the fallback's leave-one-out errors equal refitting
+    without each pair (a sample of pairs), and the blockwise amplification check equals the
+    Lebesgue constant of the cardinal functions formed in one piece."""
+    from hila_lang.osila import tps
+
+    rng = np.random.default_rng(30 + dim)
+    K = 220
+    src = rng.uniform(-1, 1, (K, dim))
+    dst = 1.1 * src + 0.1 * np.sin(2 * src[:, ::-1])
+    card, lin, w, sim_each = tps._choice(src, dst, np.zeros(K))
+    sol = card @ dst
+    tps_each = ((sol[:K] / np.diagonal(card[:K])[:, None]) ** 2).sum(1)
+    for k in (0, 57, 219):
+        keep = np.arange(K) != k
+        tps_k = tps._tps(src[keep], dst[keep], np.zeros(K - 1))
+        assert ((tps_k(src[k:k + 1]) - dst[k]) ** 2).sum() == pytest.approx(tps_each[k], rel=1e-6)
+        sim = tps._similarity(src[keep], dst[keep], *tps._similarity_parts(src[keep], dst[keep], np.zeros(K - 1), dim), None)
+        assert ((sim(src[k:k + 1]) - dst[k]) ** 2).sum() == pytest.approx(sim_each[k], rel=1e-6)
+    path = np.column_stack([np.linspace(-0.9, 0.9, 300), 0.5 * np.sin(np.linspace(0, 6, 300)), np.zeros(300)])[:, :dim]
+    mu = src.mean(0)
+    sc = float(np.abs(src - mu).max())
+    old = tps.BLOCK_VALUES
+    try:
+        tps.BLOCK_VALUES = 7 * K  # blocks of 7 stamps: the result cannot depend on the blocking
+        lam, mapped, _ = tps._lebesgue((path - mu) / sc, (src - mu) / sc, card, dst, np.inf, 0.0)
+    finally:
+        tps.BLOCK_VALUES = old
+    assert lam == pytest.approx(tps.amplification(src, path), rel=1e-9)
+    np.testing.assert_allclose(mapped, tps._tps(src, dst, np.zeros(K))(path), atol=1e-8)
 
 
 def test_osila_without_numba_gives_the_same_path(monkeypatch):

@@ -217,6 +217,14 @@ class Repl(cmd.Cmd):
         self.say(f"{what}:")
         for k, v in icps.items():
             self.say(f"  {k:<12} = {fmt_point(v)}")
+        last = it.last_run
+        if last is not None and last.step_result is not None:  # what OSILA did with the last run's pairs
+            from ..explain import pairs_line
+
+            pairs = getattr(last.step_result.result, "pairs", None)
+            if pairs is not None:
+                where = "" if what.startswith("the last run") else f"the last run ({last.state}): "
+                self.say("  " + where + pairs_line(pairs, list(it.last_icps)))
 
     def do_explain(self, arg: str) -> None:
         """explain: what OSILA does in the current run state (or did in the last run): the ICP

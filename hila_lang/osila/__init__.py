@@ -17,7 +17,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..validation import check_int, check_path, check_points, check_positive
-from .adjust import OsilaResult, adjust
+from .adjust import STRETCH, OsilaResult, adjust
+from .robust import METHODS
 from .timing import TIMING
 from .tps import Warp, fit_warp
 
@@ -35,6 +36,8 @@ OPTIONS: dict[str, Any] = {
     "directions": None,
     "pin": (),
     "timing": TIMING,
+    "stretch": STRETCH,
+    "reject": "auto",
 }
 
 
@@ -82,6 +85,12 @@ def _pin(pin: Any, T: int, D: int) -> tuple[tuple[int, np.ndarray | None], ...]:
     return tuple(out.items())
 
 
+def _reject(value: Any) -> str:
+    if value not in METHODS:
+        raise InputError(f"expected option 'reject' as one of {', '.join(METHODS)}, got {value!r}")
+    return value
+
+
 def imitate_detailed(
     path: Any,
     template_icps: Any,
@@ -120,13 +129,17 @@ def imitate_detailed(
         obst,
         threshold=threshold,
         rounds=check_int(opts["rounds"], "rounds", minimum=1),
-        smoothing=check_positive(opts["smoothing"], "smoothing", allow_zero=True),
+        smoothing="auto" if opts["smoothing"] == "auto" else check_positive(opts["smoothing"], "smoothing",
+                                                                             allow_zero=True),
         distortion=check_positive(opts["distortion"], "distortion", allow_zero=True),
         margin=check_positive(opts["margin"], "margin", allow_zero=True),
         shells=check_int(opts["shells"], "shells", minimum=0),
         directions=directions,
         pin=pin,
         timing=check_positive(opts["timing"], "timing", allow_zero=True),
+        stretch=check_positive(opts["stretch"], "stretch"),
+        reject=_reject(opts["reject"]),
+        seed=int(opts["seed"]),
     )
 
 
@@ -168,8 +181,11 @@ def imitate(
             own stamp (:mod:`.timing`).  0 keeps the template's timing.
         rounds : int, default 10
             Maximum plan-adjustment rounds.
-        smoothing : float, default 0
+        smoothing : float or "auto", default 0
             TPS regulariser λ (unit-free, template normalised to unit extent); 0 = exact.
+            ``"auto"``: chosen by cross-validation on the kept pairs' leave-one-out errors (for
+            noisy pairs, 10 or more; :func:`.robust.choose_smoothing`), reported in
+            :attr:`OsilaResult.pairs`.
         distortion : float, default 0
             Weight of Σ|q_t - f(p_t)|² added to the route energy Σ|q_{t+1} - q_t|².
         margin : float, default 0
@@ -183,8 +199,18 @@ def imitate(
             at the same template point, e.g. ``{0: hand, -1: goal}`` to start where the hand
             is and end on a bound target.  A sequence, e.g. ``(0,)``, fixes each stamp at its
             mapped point (no candidate ball there).
+        stretch : float, default 5
+            A repair bends the route between the held targets (the first and last waypoints,
+            and the waypoint nearest each ICP the template passes through), which keep the
+            places the first route gave them: a via never moves the goal.  A forced waypoint
+            that would make the route between its two targets more than ``stretch`` times as
+            long is refused (:class:`ConstraintError` naming it and the target).
+        reject : {"auto", "none", "loo", "lmeds"}, default "auto"
+            Outlier rejection among the ICP pairs, with at least 10 pairs (:mod:`.robust`):
+            rejected pairs are left out of the warp; :attr:`OsilaResult.pairs` says how many
+            were matched, kept and rejected, and the kept pairs' leave-one-out residual.
         seed : int, default 0
-            Accepted for a uniform interface; OSILA makes no random choice, so it has no effect.
+            Seeds the random sets of ``reject="lmeds"`` (OSILA makes no other random choice).
 
     Returns
     -------

@@ -44,14 +44,23 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConstraintError
+from ..jit import min_stamps
 from .candidates import ball_offsets
 from .noise import default_threshold
+from .robust import Pairs, choose_smoothing, screen
 from .route import min_energy_route
 from .timing import retime
 from .tps import MERGE_TOL, Warp, fit_warp
 
 #: least clearance of an obstacle repair, a fraction of the mapped path's bounding-box diagonal
 CLEARANCE = 0.01
+#: a forced waypoint is met by bending the route between the held targets around it (the start,
+#: the goal, an object the path touches); one that needs that stretch of route to become more
+#: than this many times as long is not a deformation of the demonstrated movement but another
+#: movement, and is refused, naming it and the target (option ``stretch``).  A bound, not a
+#: measurement: a detour out and back to a point as far away as the stretch is long already
+#: makes it about 2-3 times as long; 5 leaves room for that and refuses a via metres away
+STRETCH = 5.0
 #: the template's path passes through an ICP when it comes within this fraction of its
 #: bounding-box diagonal (the same 1 % as OSILA's former default ball): such an ICP is a place the
 #: route must go, so an obstacle over its task point contradicts it
@@ -81,6 +90,8 @@ class OsilaResult:
     retimed : dict of int to int
         On-path ICPs whose template stamp was re-estimated (:mod:`.timing`): stamp -> the template
         stamp whose point the route now has there.
+    pairs : Pairs
+        The ICP pairs matched, kept and rejected as outliers, and their residual (:mod:`.robust`).
     """
 
     path: np.ndarray
@@ -91,6 +102,7 @@ class OsilaResult:
     energy: float
     added: list = field(default_factory=list)
     retimed: dict = field(default_factory=dict)
+    pairs: Pairs | None = None
 
 
 def _fmt(p: np.ndarray) -> str:
@@ -127,14 +139,15 @@ def on_path(path: np.ndarray, src: np.ndarray) -> np.ndarray:
     return np.flatnonzero(gaps <= ON_PATH * size)
 
 
-def _covered(path: np.ndarray, src: np.ndarray, dst: np.ndarray, obstacles: np.ndarray, margin: float) -> list[str]:
+def _covered(path: np.ndarray, src: np.ndarray, dst: np.ndarray, obstacles: np.ndarray, margin: float,
+             index: np.ndarray) -> list[str]:
     """ICPs the path passes through whose task point lies inside an obstacle: no route can both
     go there and keep out (reported before any round, as a contradiction)."""
     out = []
     for k in on_path(path, src):
         for o, ob in enumerate(obstacles):
             if np.linalg.norm(dst[k] - ob[:-1]) < ob[-1] + margin:
-                out.append(f"ICP {k} at {_fmt(dst[k])}, which the template's path passes through, lies inside "
+                out.append(f"ICP {index[k]} at {_fmt(dst[k])}, which the template's path passes through, lies inside "
                            f"obstacle {o} (centre {_fmt(ob[:-1])}, radius {ob[-1]:.4g}, margin {margin:.4g})")
     return out
 
@@ -172,6 +185,51 @@ def _away(point: np.ndarray, centre: np.ndarray, fallback: np.ndarray) -> np.nda
     return np.eye(len(centre))[0]
 
 
+def _targets(path: np.ndarray, src: np.ndarray, pinned: list, exact_pins: list, index: np.ndarray) -> dict[int, str]:
+    """Stamps whose waypoint a repair must not move, with what they are: the first and the last
+    (the start and the goal), the stamp nearest each ICP the template passes through
+    (:func:`on_path`: the object a reach touches) and other pinned stamps, unless already pinned
+    to a given point."""
+    fixed = {t for t, _ in exact_pins}
+    last = len(path) - 1
+    out = {t: f"the waypoint at stamp {t}" for t in pinned}
+    out.update({0: "the start", last: "the goal"})
+    for k in on_path(path, src):
+        t = int(((path - src[k]) ** 2).sum(1).argmin())
+        out[t] = f"ICP {index[k]}, which the template's path passes through,"
+    return {t: lab for t, lab in sorted(out.items()) if t not in fixed}
+
+
+def _check_stretch(new: list, anchors: dict, names: dict, route: np.ndarray, stretch: float) -> None:
+    """Refuse a forced waypoint that can be met only by stretching the route between the held
+    targets around it more than ``stretch`` times (see :data:`STRETCH`), naming it and the
+    target after it (the goal, or an object the path touches on the way)."""
+    stamps = sorted(anchors)
+    last = len(route) - 1
+    steps = np.sqrt(((route[1:] - route[:-1]) ** 2).sum(1))
+    length = np.concatenate([[0.0], np.cumsum(steps)])
+    bad = []
+    for t, q, label in new:
+        if not label.startswith("forced"):
+            continue
+        before, after = [a for a in stamps if a < t], [b for b in stamps if b > t]
+        if not before or not after:
+            continue
+        a, b = before[-1], after[0]
+        have = max(float(length[b] - length[a]), 1e-12)
+        need = float(np.linalg.norm(q - anchors[a]) + np.linalg.norm(anchors[b] - q))
+        if need > stretch * have:
+            which = names.get(b, "the goal" if b == last else f"the waypoint at stamp {b}")
+            bad.append(f"{label} cannot be met together with {which} at {_fmt(anchors[b])}: the route from "
+                       f"stamp {a} to {b} would have to be {need / have:.1f} times as long as planned "
+                       f"(limit {stretch:g}, option 'stretch')")
+    if bad:
+        raise ConstraintError(
+            "contradictory constraints: " + "; ".join(bad),
+            hint="move the via nearer the movement, or bind the target elsewhere: OSILA never moves a "
+                 "bound target to meet a via")
+
+
 def adjust(
     path: np.ndarray,
     src: np.ndarray,
@@ -188,6 +246,9 @@ def adjust(
     directions: int | None,
     pin: tuple[tuple[int, np.ndarray | None], ...] = (),
     timing: float = 0.0,
+    stretch: float = STRETCH,
+    reject: str = "auto",
+    seed: int = 0,
 ) -> OsilaResult:
     """Run OSILA with plan adjustment on validated arrays (see the module docstring).
 
@@ -209,9 +270,19 @@ def adjust(
     timing : float
         Prior spread of when the task passes an ICP on the template path (:mod:`.timing`); 0
         keeps the template's timing.
+    stretch : float
+        How much longer than the first route a repair may make the route between two held
+        targets (:data:`STRETCH`).
+    reject, seed
+        Outlier rejection among the ICP pairs (:func:`.robust.screen`; pins are never screened).
     """
     T, D = path.shape
-    covered = _covered(path, src, dst, obstacles, margin) if len(obstacles) else []
+    pairs = screen(src, dst, reject, seed, threshold or 0.0, fast=T >= min_stamps())
+    if len(pairs.rejected):
+        src, dst = src[pairs.kept], dst[pairs.kept]
+    if smoothing == "auto":  # λ by cross-validation on the kept pairs (:func:`.robust.choose_smoothing`)
+        smoothing = pairs.smoothing = choose_smoothing(src, dst)
+    covered = _covered(path, src, dst, obstacles, margin, pairs.kept) if len(obstacles) else []
     if covered:
         raise ConstraintError("contradictory constraints: " + "; ".join(covered))
     given = dict(pin)
@@ -263,7 +334,7 @@ def adjust(
         for t, q in exact_pins:
             route[t] = q  # the warp meets it up to rounding; make it exact
         if not len(forced) and not len(obstacles):
-            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps)
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps, pairs)
         # template indices already pinned by a pair (never reuse them)
         eps = MERGE_TOL * float(span(np.vstack([path, src])).max())
         used = np.zeros(T, bool)
@@ -315,9 +386,26 @@ def adjust(
                         new.append((t, route[t] + shift, label))
                     break
         if not violations:
-            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps)
+            return OsilaResult(route, mapped, warp, threshold, rnd, energy, added, moved.stamps, pairs)
         if not new:
             break
+        if rnd == 1:
+            # the targets are held where the first route put them: a repair bends the route
+            # between them, it never moves them (never trades the goal for a via or an avoid)
+            held = _targets(path, src, pinned, exact_pins, pairs.kept)
+            for t in held:
+                used[t] = True
+            new = [(t, q, lab) for t, q, lab in new if t not in held]
+            hold = {t: route[t].copy() for t in held}
+            anchors = {**dict(exact_pins), **hold}
+            _check_stretch(new, anchors, held, route, stretch)
+            if hold:
+                pin_src = np.vstack([pin_src, path[list(hold)]])
+                pin_dst = np.vstack([pin_dst, np.array(list(hold.values()))])
+                exact_pins = exact_pins + list(hold.items())
+                pinned = sorted({*pinned, *hold})
+            if not new:
+                break
         added.extend(new)
         pinned = sorted({*pinned, *(t for t, _, _ in new)})  # a repaired waypoint stays where the pair puts it
         pairs_src = np.vstack([pairs_src, path[[t for t, _, _ in new]]])

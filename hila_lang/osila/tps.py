@@ -23,7 +23,7 @@ Which map (never a crash, never a blow-up)
   1. at least D+2 pairs spanning D dimensions — with D+1 the TPS is an affine map fitted
      exactly, with no pair left to check it, and any ICP error becomes shear;
   2. it predicts each pair from the others at least as well as the fallback does (leave-one-out
-     error: Rippa's closed form for the TPS, K refits for the fallback) — the data at hand says
+     error: Rippa's closed form for both, one inverse each for all K left-out pairs) — the data at hand says
      whether its ICPs carry a smooth deformation or a rigid placement plus noise.  A pair without
      which the others cannot determine a TPS (the hand above four exactly coplanar corners of a
      drawing surface: the system without it is singular) is left out of both means: no TPS can be fitted without it, so it says
@@ -57,9 +57,21 @@ random stretch/shear of about 10 % plus local bends of about 5 % of the extent) 
 located to 1 % of the extent (OSILA's default threshold), and bins the error of both maps by Λ;
 the TPS's median error passes the fallback's at Λ = 6 in 2-D and Λ = 8 in 3-D (4000 pairs each).
 
-The small systems behind the choice run in a compiled kernel (:func:`_choice_kernel`, numba via
-:mod:`hila_lang.jit`) for paths of at least :data:`hila_lang.jit.MIN_STAMPS` stamps, else in
-numpy (:func:`_choice_numpy`); the tests hold them equal to rounding.
+Cost
+----
+The choice costs two inverses (the TPS system and the fallback's) and O(K²) more: every
+leave-one-out error comes from Rippa's closed form e_k = (A⁻¹f)_k / (A⁻¹)_kk on the inverse of
+the system on all pairs — for the fallback with f = the residuals of the similarity refitted
+without pair k, whose K fits come from the totals of its normal equations (:func:`_similarity_loo`).
+The inverses are taken by Cholesky factorisations of the kernel matrices projected onto the
+polynomial part's null space (:func:`_saddle_inverse`, about K³ flops each).  The amplification
+check forms the cardinal values a block of stamps at a time and stops at the first block above
+the limit (:func:`_lebesgue`): O(T·K²) only when the TPS is kept, memory O(K² + block·K).
+``bench/osila.py`` prints the cost against the cheapest exact TPS fit.
+
+Up to :data:`KERNEL_MAX_PAIRS` pairs the systems run in a compiled kernel (:func:`_choice_kernel`,
+numba via :mod:`hila_lang.jit`) for paths of at least :data:`hila_lang.jit.MIN_STAMPS` stamps,
+else in numpy (:func:`_choice_numpy`); the tests hold them equal to rounding, at K >= 200 too.
 """
 
 from __future__ import annotations
@@ -79,6 +91,12 @@ SINGULAR_TOL = 1e-12
 #: largest Lebesgue constant of a TPS on the mapped path before the similarity fallback is used,
 #: per dimension D (see the module docstring; measured by ``bench/warp.py``)
 MAX_AMPLIFICATION = {2: 6.0, 3: 8.0}
+#: the compiled choice kernel (loops; LU inverses) is used up to this many pairs, numpy (blocked
+#: LAPACK: Cholesky of the projected systems) above: both are equal at K = 64 on this machine
+#: (2-D, 0.2 ms), the kernel is ~10x faster at K = 8 (no call overhead), numpy 3x faster at K = 300
+KERNEL_MAX_PAIRS = 64
+#: stamps per block of the amplification check (T_block x K cardinal values at a time, <= 32 MB)
+BLOCK_VALUES = 4_000_000
 
 
 def kernel(r: np.ndarray, dim: int) -> np.ndarray:
@@ -132,7 +150,9 @@ class Warp:
     scale : float
         Unit of the kernel distances (the template points' extent).
     amplification : float or None
-        Lebesgue constant of the TPS on the path it was checked on (None: not checked).
+        Lebesgue constant of the TPS on the path it was checked on (None: not checked).  Above
+        the limit (a similarity fallback) it may be a lower bound: the check stops at the first
+        block of stamps over the limit.
     mapped : ndarray, shape (T, D), or None
         The image of that path (``on`` of :func:`fit_warp`), computed with the fit.
     at : dict of int to int
@@ -260,15 +280,20 @@ def _tps(src: np.ndarray, dst: np.ndarray, ridge: np.ndarray) -> Warp:
     return _tps_warp(src, dst, mu, sc, _solve(A, rhs))
 
 
-def _similarity_parts(src, dst, ridge, rank) -> tuple[np.ndarray, np.ndarray]:
+def _similarity_parts(src, dst, ridge, rank, inverse=None) -> tuple[np.ndarray, np.ndarray]:
     """(lin (D + 1, D) = [shift; (scale R)ᵀ], w (K, D)): least-squares similarity plus the exact
-    φ(r) = r interpolation of its residuals (φ on distances divided by the points' extent)."""
+    φ(r) = r interpolation of its residuals (φ on distances divided by the points' extent);
+    ``inverse``: the system's inverse when already computed (no ridge)."""
     K, D = src.shape
     scale, R, shift = fit_similarity(src, dst, rank)
     lin = np.vstack([shift, scale * R.T])
     resid = dst - (lin[0] + src @ lin[1:])
     w = np.zeros_like(src)
-    if np.abs(resid).max() > 1e-12 * max(float(np.abs(dst).max()), 1.0):
+    if inverse is not None:
+        sol = inverse[:, :K] @ resid
+        w = sol[:K]
+        lin[0] += sol[K]
+    elif np.abs(resid).max() > 1e-12 * max(float(np.abs(dst).max()), 1.0):
         sc = float(np.abs(src - src.sum(0) / K).max())
         A = np.zeros((K + 1, K + 1))
         A[:K, :K] = _dist(src, src) / sc + np.diag(ridge)
@@ -287,12 +312,13 @@ def _similarity(src, dst, lin, w, amplification) -> Warp:
 
 
 def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - compiled by numba (hila_lang.jit)
-    """The small systems behind :func:`fit_warp`'s choice, as loops (numpy twin: :func:`_choice_numpy`).
+    """The systems behind :func:`fit_warp`'s choice, as loops (numpy twin: :func:`_choice_numpy`).
 
     Fills ``card`` (K + D + 1, K) with A⁻¹[:, :K] of the TPS system on the normalised template
     points, ``lin`` (D + 1, D) and ``w`` (K, D) with the similarity fallback on all pairs, and
-    ``loo`` (K,) with the fallback's leave-one-out squared error per pair.  Needs K >= D + 2
-    points spanning D dimensions.
+    ``loo`` (K,) with the fallback's leave-one-out squared error per pair, by Rippa's closed form
+    on one inverse of the fallback's interpolation system (:func:`_similarity_loo`).  Needs
+    K >= D + 2 points spanning D dimensions.
     """
     K, D = src.shape
     mu = np.zeros(D)
@@ -323,168 +349,273 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
         for d in range(D):
             A[i, K + 1 + d] = (src[i, d] - mu[d]) / sc
             A[K + 1 + d, i] = A[i, K + 1 + d]
-    E = np.zeros((n, K))
-    for i in range(K):
-        E[i, i] = 1.0
-    card[:, :] = np.linalg.solve(A, E)
-    # --- the similarity fallback, fitted on all pairs (skip = -1) and without each pair k
-    phi = np.empty((K, K))
+    Ainv = np.linalg.inv(A)
+    for i in range(n):
+        for j in range(K):
+            card[i, j] = Ainv[i, j]
+    # --- the fallback's interpolation system [[φ(|s_i - s_j| / sc), 1], [1, 0]], without ridge
+    B = np.zeros((K + 1, K + 1))
     for i in range(K):
         for j in range(K):
             r2 = 0.0
             for d in range(D):
                 diff = src[i, d] - src[j, d]
                 r2 += diff * diff
-            phi[i, j] = np.sqrt(r2) / sc
-    for skip in range(-1, K):
-        m = K if skip < 0 else K - 1
-        rows = np.empty(m, dtype=np.int64)
-        u = 0
-        for i in range(K):
-            if i != skip:
-                rows[u] = i
-                u += 1
-        ms = np.zeros(D)
-        md = np.zeros(D)
-        for u in range(m):
-            ms += src[rows[u]]
-            md += dst[rows[u]]
-        ms /= m
-        md /= m
+            B[i, j] = np.sqrt(r2) / sc
+        B[i, K] = 1.0
+        B[K, i] = 1.0
+    Binv = np.linalg.inv(B)
+    # centred pairs (the similarity is fitted on centred points; G 1 = 0 drops the constants)
+    ms = np.zeros(D)
+    md = np.zeros(D)
+    for i in range(K):
+        ms += src[i]
+        md += dst[i]
+    ms /= K
+    md /= K
+    a = np.empty((K, D))
+    b = np.empty((K, D))
+    for i in range(K):
+        for d in range(D):
+            a[i, d] = src[i, d] - ms[d]
+            b[i, d] = dst[i, d] - md[d]
+    # totals of the similarity's normal equations: Σ b aᵀ and Σ |a|²
+    cov = np.zeros((D, D))
+    var = 0.0
+    for i in range(K):
+        for r in range(D):
+            var += a[i, r] * a[i, r]
+            for c in range(D):
+                cov[r, c] += b[i, r] * a[i, c]
+    # --- the similarity on all pairs (k = -1) and without each pair k, from the totals; then the
+    # exact interpolation of the residuals (k = -1), or Rippa's closed form on G = (B⁻¹)[:K, :K]
+    Ga = np.zeros((K, D))
+    Gb = np.zeros((K, D))
+    for i in range(K):
+        for j in range(K):
+            g = Binv[i, j]
+            for d in range(D):
+                Ga[i, d] += g * a[j, d]
+                Gb[i, d] += g * b[j, d]
+    m = K - 1.0
+    covk = np.empty((D, D))
+    for k in range(-1, K):
+        var_k = var
+        for r in range(D):
+            for c in range(D):
+                covk[r, c] = cov[r, c]
+        if k >= 0:  # the other pairs' centroid offsets and normal equations
+            for r in range(D):
+                var_k -= a[k, r] * a[k, r] + a[k, r] * a[k, r] / m
+                for c in range(D):
+                    covk[r, c] -= b[k, r] * a[k, c] + b[k, r] * a[k, c] / m
         sR = np.zeros((D, D))  # scale * R
         if D == 2:
-            re = 0.0
-            im = 0.0
-            var = 0.0
-            for u in range(m):
-                i = rows[u]
-                a0, a1 = src[i, 0] - ms[0], src[i, 1] - ms[1]
-                b0, b1 = dst[i, 0] - md[0], dst[i, 1] - md[1]
-                re += b0 * a0 + b1 * a1
-                im += b1 * a0 - b0 * a1
-                var += a0 * a0 + a1 * a1
-            re /= var
-            im /= var
+            re = (covk[0, 0] + covk[1, 1]) / var_k
+            im = (covk[1, 0] - covk[0, 1]) / var_k
             sR[0, 0], sR[0, 1], sR[1, 0], sR[1, 1] = re, -im, im, re
         else:
-            cov = np.zeros((D, D))
-            var = 0.0
-            for u in range(m):
-                i = rows[u]
-                for r in range(D):
-                    var += (src[i, r] - ms[r]) ** 2
-                    for c in range(D):
-                        cov[r, c] += (dst[i, r] - md[r]) * (src[i, c] - ms[c])
-            U, S, Vt = np.linalg.svd(cov)
+            U, S, Vt = np.linalg.svd(covk)
             if np.linalg.det(U @ Vt) < 0:
                 U[:, D - 1] *= -1.0
                 S[D - 1] *= -1.0
-            sR = (S.sum() / var) * (U @ Vt)
-        # exact interpolation of the residuals: [[phi + ridge, 1], [1, 0]] [w; c] = [resid; 0]
-        B = np.zeros((m + 1, m + 1))
-        R = np.zeros((m + 1, D))
-        for u in range(m):
-            i = rows[u]
-            for v in range(m):
-                B[u, v] = phi[i, rows[v]]
-            B[u, u] += ridge[i] if skip < 0 else 0.0
-            B[u, m] = 1.0
-            B[m, u] = 1.0
+            sR = (S.sum() / var_k) * (U @ Vt)
+        if k >= 0:
+            loo[k] = 0.0
             for d in range(D):
-                pred = md[d]
+                e = Gb[k, d]
                 for c in range(D):
-                    pred += sR[d, c] * (src[i, c] - ms[c])
-                R[u, d] = dst[i, d] - pred
-        sol = np.linalg.solve(B, R)
-        if skip < 0:
+                    e -= sR[d, c] * Ga[k, c]
+                e /= Binv[k, k]
+                loo[k] += e * e
+            continue
+        R = np.zeros((K + 1, D))
+        for i in range(K):
             for d in range(D):
-                shift = md[d] + sol[m, d]
+                pred = 0.0
                 for c in range(D):
-                    shift -= sR[d, c] * ms[c]
-                    lin[1 + c, d] = sR[d, c]
-                lin[0, d] = shift
-            for u in range(m):
-                for d in range(D):
-                    w[rows[u], d] = sol[u, d]
+                    pred += sR[d, c] * a[i, c]
+                R[i, d] = b[i, d] - pred
+        ridged = False
+        for i in range(K):
+            if ridge[i] != 0.0:
+                ridged = True
+        if ridged:
+            Br = B.copy()
+            for i in range(K):
+                Br[i, i] += ridge[i]
+            sol = np.linalg.solve(Br, R)
         else:
-            loo[skip] = 0.0
+            sol = Binv @ R
+        for d in range(D):
+            shift = md[d] + sol[K, d]
+            for c in range(D):
+                shift -= sR[d, c] * ms[c]
+                lin[1 + c, d] = sR[d, c]
+            lin[0, d] = shift
+        for i in range(K):
             for d in range(D):
-                pred = md[d] + sol[m, d]
-                for c in range(D):
-                    pred += sR[d, c] * (src[skip, c] - ms[c])
-                for u in range(m):
-                    pred += phi[skip, rows[u]] * sol[u, d]
-                loo[skip] += (pred - dst[skip, d]) ** 2
+                w[i, d] = sol[i, d]
 
 
-def _similarity_loo_numpy(src: np.ndarray, dst: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """All K leave-one-out fits of the similarity fallback at once: the squared error of each
-    left-out pair, shape (K,) (see :func:`similarity_loo`)."""
+def _similarity_loo(src: np.ndarray, dst: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """Leave-one-out squared error of the similarity fallback per pair, shape (K,), in O(K²).
+
+    Fit k — the least-squares similarity S_k of the pairs other than k plus the exact φ(r) = r
+    interpolation of its residuals — predicts pair k with the error (Rippa 1999)
+
+        e_k = (G r_k)_k / G_kk,   r_k = dst - S_k(src) (all K rows),
+
+    where G is the top-left K × K block of the inverse of the interpolation system
+    [[φ, 1], [1ᵀ, 0]] on ALL pairs (one factorisation for every k).  Since G 1 = 0 the
+    similarity's constant drops out: (G r_k)_k = (G b)_k - sR_k (G a)_k for the centred points a,
+    b, and S_k's scale·rotation sR_k comes from the totals of the normal equations minus pair k's
+    share.  ``G``: (K, K).
+    """
     K, D = src.shape
-    keep = ~np.eye(K, dtype=bool)
-    # centroids without pair k, from the totals
-    ms = (src.sum(0) - src) / (K - 1)  # (K, D)
-    md = (dst.sum(0) - dst) / (K - 1)
-    a = src[None, :, :] - ms[:, None, :]  # (K, K, D): all pairs about the k-th centroid
-    ak = a * keep[:, :, None]  # pair k itself takes no part in fit k
-    bk = (dst[None, :, :] - md[:, None, :]) * keep[:, :, None]
-    if D == 2:  # as complex numbers the similarity is z -> c z, c = Σ b conj(a) / Σ |a|²
-        za, zb = ak[..., 0] + 1j * ak[..., 1], bk[..., 0] + 1j * bk[..., 1]
-        var = (za.real**2 + za.imag**2).sum(1)
-        c = (zb * za.conj()).sum(1) / np.where(var > 0, var, 1.0)
-        z = c[:, None] * (a[..., 0] + 1j * a[..., 1])
-        pred_lin = np.stack([z.real, z.imag], axis=-1) + md[:, None, :]  # S_k(src_i)
+    a, b = src - src.sum(0) / K, dst - dst.sum(0) / K
+    m = K - 1.0
+    msk, mdk = -a / m, -b / m  # the other pairs' centroids, about the centroid of all
+    var = (a * a).sum() - (a * a).sum(1) - m * (msk * msk).sum(1)  # (K,)
+    var = np.where(var > 0, var, 1.0)
+    cov = (b.T @ a)[None] - b[:, :, None] * a[:, None, :] - m * mdk[:, :, None] * msk[:, None, :]  # (K, D, D)
+    if D == 2:
+        re = (cov[:, 0, 0] + cov[:, 1, 1]) / var
+        im = (cov[:, 1, 0] - cov[:, 0, 1]) / var
+        sR = np.stack([np.stack([re, -im], -1), np.stack([im, re], -1)], -2)
     else:
-        cov = np.matmul(bk.transpose(0, 2, 1), ak)  # (K, D, D)
         U, S, Vt = np.linalg.svd(cov)
         flip = np.linalg.det(np.matmul(U, Vt)) < 0
         U[flip, :, -1] *= -1.0
         S[flip, -1] *= -1.0
-        var = (ak * ak).sum((1, 2))
-        scale = S.sum(1) / np.where(var > 0, var, 1.0)
-        pred_lin = scale[:, None, None] * np.matmul(a, np.matmul(U, Vt).transpose(0, 2, 1)) + md[:, None, :]
-    resid = (dst[None] - pred_lin) * keep[:, :, None]  # (K, K, D), zero for the left-out pair
-    A = np.zeros((K, K + 1, K + 1))
-    A[:, :K, :K] = phi
-    A[:, :K, K] = A[:, K, :K] = 1.0
-    # pair k is taken out of system k: its row and column become the identity's
-    idx = np.arange(K)
-    A[idx, idx, :] = 0.0
-    A[idx, :, idx] = 0.0
-    A[idx, idx, idx] = 1.0
-    rhs = np.zeros((K, K + 1, D))
-    rhs[:, :K] = resid
-    sol = np.linalg.solve(A, rhs)  # (K, K + 1, D); weight k of system k is 0
-    pred = pred_lin[idx, idx] + np.einsum("kn,knd->kd", phi * keep, sol[:, :K]) + sol[:, K]
-    return ((pred - dst) ** 2).sum(1)
+        sR = (S.sum(1) / var)[:, None, None] * np.matmul(U, Vt)
+    Ga, Gb = G @ a, G @ b
+    e = (Gb - np.einsum("kdc,kc->kd", sR, Ga)) / np.diagonal(G)[:, None]
+    return (e * e).sum(1)
 
 
-def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _saddle_inverse(phi: np.ndarray, P: np.ndarray, sign: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Blocks of the inverse of the interpolation system [[phi, P], [Pᵀ, 0]], or None.
+
+    ``phi`` (K, K) is a conditionally definite kernel matrix (``sign`` = +1: positive, -1:
+    negative definite on the vectors c with Pᵀ c = 0), ``P`` (K, Q) its polynomial part.  With
+    P = Q R (Householder) and the last K - Q columns Z of Q spanning {c : Pᵀ c = 0}, the inverse's
+    top-left block is G = Z (Zᵀ phi Z)⁻¹ Zᵀ and its bottom-left block Eᵀ = R⁻¹ Q₁ᵀ (I - phi G);
+    Zᵀ phi Z is ``sign`` × positive definite, so a Cholesky factorisation inverts it: about K³
+    flops for the whole inverse, against 2.7 K³ for a general LU inverse.  None when the
+    factorisation fails (a kernel matrix that is not definite: a ridge in 3-D, or rounding),
+    and the caller inverts the whole system instead.
+
+    Returns
+    -------
+    G : ndarray, shape (K, K)
+    Et : ndarray, shape (Q, K)
+    """
+    from scipy.linalg import lapack
+
+    K, Q = P.shape
+    h, tau = np.linalg.qr(P, mode="raw")
+    h = h.T  # (K, Q): R on and above the diagonal, the reflectors below (unit diagonal implied)
+    vs = []
+    for j in range(Q):
+        v = np.zeros(K)
+        v[j] = 1.0
+        v[j + 1:] = h[j + 1:, j]
+        vs.append(v)
+
+    def both_sides(X: np.ndarray, order) -> np.ndarray:  # X <- H_j X H_j for j in order
+        for j in order:
+            v, t = vs[j], tau[j]
+            X -= np.outer(t * v, v @ X)
+            X -= np.outer(X @ v, t * v)
+        return X
+
+    X = both_sides(phi.copy(), range(Q))  # Qᵀ phi Q
+    M = sign * X[Q:, Q:]
+    c, info = lapack.dpotrf(M, lower=0, clean=0, overwrite_a=1)
+    if info != 0:
+        return None
+    Minv, info = lapack.dpotri(c, lower=0, overwrite_c=1)
+    if info != 0:
+        return None
+    Minv = np.triu(Minv)
+    Minv += np.triu(Minv, 1).T
+    Y = np.zeros((K, K))
+    Y[Q:, Q:] = sign * Minv
+    G = both_sides(Y, range(Q - 1, -1, -1))  # Q Y Qᵀ
+    G = 0.5 * (G + G.T)
+    Q1 = _apply_q(vs, tau, np.eye(K, Q))  # the first Q columns of Q
+    W = Q1.T - (Q1.T @ phi) @ G  # Q₁ᵀ (I - phi G)
+    Et = np.linalg.solve(np.triu(h[:Q, :Q]), W)
+    return G, Et
+
+
+def _apply_q(vs, tau, X: np.ndarray) -> np.ndarray:
+    """Q X for Q = H_1 ... H_q (Householder reflectors ``vs``, ``tau``)."""
+    for j in range(len(vs) - 1, -1, -1):
+        X = X - np.outer(tau[j] * vs[j], vs[j] @ X)
+    return X
+
+
+def _inverse(phi: np.ndarray, P: np.ndarray, sign: float) -> np.ndarray:
+    """A⁻¹[:, :K] of A = [[phi, P], [Pᵀ, 0]], shape (K + Q, K): by :func:`_saddle_inverse`, or by
+    a general inverse of A when that fails."""
+    K, Q = P.shape
+    got = _saddle_inverse(phi, P, sign)
+    if got is not None:
+        return np.vstack(got)
+    A = np.zeros((K + Q, K + Q))
+    A[:K, :K] = phi
+    A[:K, K:] = P
+    A[K:, :K] = P.T
+    return np.linalg.inv(A)[:, :K]
+
+
+def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_choice_kernel` in numpy: (card, lin, w, similarity leave-one-out errors (K,))."""
     K, D = src.shape
-    _, _, A = _tps_system(src, ridge)
-    rhs = np.zeros((K + D + 1, K))
-    rhs[:K] = np.eye(K)
-    card = np.linalg.solve(A, rhs)
-    lin, w = _similarity_parts(src, dst, ridge, D)
-    sc = float(np.abs(src - src.sum(0) / K).max())
-    return card, lin, w, _similarity_loo_numpy(src, dst, _dist(src, src) / sc)
+    _, sc, A = _tps_system(src, ridge)
+    card = _inverse(A[:K, :K], A[:K, K:], 1.0 if D == 2 else -1.0)
+    G = _inverse(_dist(src, src) / sc, np.ones((K, 1)), -1.0)  # the fallback's [[φ, 1], [1ᵀ, 0]]
+    lin, w = _similarity_parts(src, dst, ridge, D, inverse=None if ridge.any() else G)
+    return card, lin, w, _similarity_loo(src, dst, G[:K])
+
+
+_LAST: list = [None]  # the last _choice: (key, result), one reference (safe across threads)
 
 
 def _choice(src, dst, ridge, compiled_kernel: bool = True):
     """(card, lin, w, similarity LOO per pair (K,)) by the compiled kernel (if asked and
-    available), else numpy; None if a system is singular."""
+    available), else numpy; None if a system is singular.  The last result is remembered (the
+    outlier screen of :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn)."""
+    use_kernel = bool(compiled_kernel and len(src) <= KERNEL_MAX_PAIRS and _kernel() is not None)
+    key = (src.tobytes(), dst.tobytes(), np.asarray(ridge, float).tobytes(), src.shape, use_kernel)
+    last = _LAST[0]
+    if last is not None and last[0] == key:
+        got = last[1]
+    else:
+        got = _choice_uncached(src, dst, ridge, use_kernel)
+        _LAST[0] = (key, got)
+    return None if got is None else tuple(a.copy() for a in got)
+
+
+def _kernel():
+    """The compiled :func:`_choice_kernel`, or None."""
     from ..jit import compiled
 
+    return compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
+                    np.zeros((4, 2)), np.zeros(4))
+
+
+def _choice_uncached(src, dst, ridge, use_kernel: bool):
+    """:func:`_choice` without the memory (``use_kernel``: the compiled kernel, known to exist)."""
     K, D = src.shape
-    kernel = None if not compiled_kernel else compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
-                      np.zeros((4, 2)), np.zeros(4))
     try:
-        if kernel is None:
+        if not use_kernel:
             return _choice_numpy(src, dst, ridge)
         card, lin, w, loo = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D)), np.empty(K)
-        kernel(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
-               card, lin, w, loo)
+        _kernel()(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
+                  card, lin, w, loo)
         return card, lin, w, loo
     except (np.linalg.LinAlgError, ZeroDivisionError):
         return None
@@ -568,19 +699,48 @@ def fit_warp(
                 # the TPS predicts left-out pairs at least as well: check its amplification on the path
                 mu = src.sum(0) / K
                 sc = float(np.abs(src - mu).max())
-                y, x = (on - mu) / sc, (src - mu) / sc
-                r_on = _dist(y, x)
-                cardinal = kernel(r_on, D) @ card[:K] + card[K] + y @ card[K + 1:]  # (T, K): L_k(p_t)
-                amplification = float(np.abs(cardinal).sum(1).max())
-                if amplification <= (MAX_AMPLIFICATION[D] if max_amplification is None else max_amplification):
+                limit = MAX_AMPLIFICATION[D] if max_amplification is None else max_amplification
+                amplification, mapped, at = _lebesgue((on - mu) / sc, (src - mu) / sc, card, dst, limit,
+                                                      _tol(on, src) / sc)
+                if mapped is not None:
                     return _tps_warp(src, dst, mu, sc, sol, amplification=amplification, loo=tps_loo,
-                                     mapped=cardinal @ dst, at=_at_stamps(r_on, _tol(on, src) / sc))
+                                     mapped=mapped, at=at)
         else:
             lin, w = _similarity_parts(src, dst, ridge, rank)
         warp = _similarity(src, dst, lin, w, amplification)
     if on is not None:
         warp.map_on(on, _tol(on, src))
     return warp
+
+
+def _lebesgue(y, x, card, dst, limit, tol) -> tuple[float, np.ndarray | None, dict | None]:
+    """The TPS's Lebesgue constant Λ on the path, with the mapped path and its stamps at pairs.
+
+    ``y`` (T, D) the path and ``x`` (K, D) the template points, normalised; ``card`` (K + D + 1, K)
+    = A⁻¹[:, :K].  The cardinal values L_k(p_t) are formed a block of stamps at a time
+    (:data:`BLOCK_VALUES`: memory O(K² + block·K), not T·K); the mapped path is Σ_k L_k(p_t)·dst_k.
+    Returns ``(Λ, mapped (T, D), at)``, or ``(Λ so far, None, None)`` as soon as a block exceeds
+    ``limit``: the similarity fallback is then chosen whatever the remaining stamps hold, so they
+    are not evaluated (the decision is the one the full check makes; the Λ reported is a lower
+    bound of the path's, above the limit).
+    """
+    T, D = y.shape
+    K = len(x)
+    step = max(1, BLOCK_VALUES // max(K, 1))
+    mapped = np.empty((T, dst.shape[1]))
+    at: dict[int, int] = {}
+    lam = 0.0
+    for a in range(0, T, step):
+        r = _dist(y[a:a + step], x)
+        L = kernel(r, D) @ card[:K]
+        L += card[K]
+        L += y[a:a + step] @ card[K + 1:]
+        lam = max(lam, float(np.abs(L).sum(1).max()))
+        if lam > limit:
+            return lam, None, None
+        mapped[a:a + step] = L @ dst
+        at.update((t + a, k) for t, k in _at_stamps(r, tol).items())
+    return lam, mapped, at
 
 
 def amplification(src: np.ndarray, on: np.ndarray) -> float:
