@@ -6,12 +6,14 @@ every control (:mod:`.controls`) get that same :class:`~.protocols.Constraints` 
 generated path is then compared with trial j's own human path (:func:`score`): the shorter of the
 two is resampled by cubic spline to the longer's length (as in the paper), then
 
-- ``r`` (eq. 1, pooled over the coordinates) and ``msd`` (eq. 2, squared units),
-- ``frechet`` and ``dtw`` (per sample), ``endpoint`` (units), and
-- ``r_x``, ``r_y`` (, ``r_z``): R of each coordinate (:mod:`hila_lang.metrics`).
+every metric registered in :data:`hila_lang.metrics.METRICS`: ``r`` (eq. 1, pooled over the
+coordinates), ``msd`` (eq. 2, squared units), ``frechet`` and ``dtw`` (per sample), ``endpoint``
+(units), and ``r_x``, ``r_y`` (, ``r_z``): R of each coordinate.
 
-Methods: ``osila`` and the controls ``none``, ``similarity``, ``tps``, ``dmp``, ``dmp-aligned``;
-and ``hila`` (paper protocol only): the segmented template run through the hierarchical
+Methods: ``osila``; the controls ``none``, ``similarity``, ``tps``, ``dmp``, ``dmp-aligned``
+(:mod:`.controls`); the baselines ``promp``, ``laplacian``, ``gp``, each also ``+retime``
+(:mod:`.baselines`); the ablations ``osila-noroute``, ``-noretime``, ``-noadjust``, ``-tps``,
+``-similarity`` (:mod:`.ablation`); and ``hila`` (paper protocol only): the segmented template run through the hierarchical
 generator (:func:`hila_lang.hierarchy.generate`), one OSILA per equal segment, each sub-template
 carrying ``start`` and ``end`` ICPs, the start bound to the task's hand (then to where the
 previous piece ended), each inner ``end`` bound to that boundary's task point, pieces stitched.
@@ -35,13 +37,20 @@ from .controls import generator
 from .dataset import Trial
 from .protocols import Constraints, constraints
 
+from .ablation import ABLATIONS
+from .baselines import BASELINES
+from .controls import CONTROLS
+
 SEGMENTS = (1, 2, 3, 4)
-METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned", "hila")
+METHODS = ("osila", *CONTROLS, *BASELINES, *ABLATIONS, "hila")
 
 
 def metric_names(dim: int) -> tuple[str, ...]:
-    """Names of the scores, in the order of :func:`score`'s values, for D = ``dim``."""
-    return ("r", "msd", "frechet", "dtw", "endpoint") + tuple(f"r_{a}" for a in "xyz"[:dim])
+    """Names of the scores, in the order of :func:`score`'s values, for D = ``dim`` (the registry,
+    :data:`hila_lang.metrics.METRICS`)."""
+    from ..metrics import names
+
+    return names(dim)
 
 
 def score(generated: np.ndarray, target: np.ndarray) -> np.ndarray:
