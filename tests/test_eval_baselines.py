@@ -201,3 +201,8 @@ def test_holm_and_the_shape_level_comparison():
     assert row["median_diff"] == pytest.approx(-0.35) and row["ci_low"] <= -0.35 <= row["ci_high"]
     assert row == stats.compare(osila, other, "lower")  # seeded bootstrap
     assert stats.compare(osila, other, "higher")["osila_better_share"] == pytest.approx(1 / 6)
+
+
+def test_protocols_are_checked_against_the_data(tmp_path, capsys):
+    assert cli.main(["eval", "--protocol", "fractions", "--out", str(tmp_path), "--trials-per-setup", "1"]) == 2
+    assert "--protocol fractions is for --dataset lasa" in capsys.readouterr().err

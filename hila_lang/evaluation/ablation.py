@@ -49,13 +49,13 @@ def variant(path: np.ndarray, c: Constraints, warp: str = "auto", options: dict[
     from ..osila.candidates import ball_offsets
     from ..osila.noise import default_threshold
     from ..osila.route import min_energy_route
-    from ..osila.timing import retime
     from ..osila.tps import fit_warp
+    from .baselines import retime_once
     from .controls import _apply, similarity
 
     opts = {**OPTIONS, **(options or {})}
     T, D = path.shape
-    moved = retime(path, c.src, c.dst, opts["timing"])
+    moved = retime_once(path, c, opts["timing"])
     P, src = moved.path, moved.src
     chosen = moved.warp if moved.warp is not None else fit_warp(src, c.dst, on=P)
     met = {t: chosen.dst[k] for t, k in chosen.at.items()}  # on-path pairs: met exactly at their stamp

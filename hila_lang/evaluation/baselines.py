@@ -109,17 +109,31 @@ def laplacian(path: np.ndarray, c: Constraints) -> np.ndarray:
 # ----------------------------------------------------------------------------- GP
 
 
+#: the length-scale fit sees at most this many template samples, evenly spaced in time (a
+#: fraction of the duration does not depend on the sampling; the fit's cost grows as its cube)
+FIT_SAMPLES = 50
+
+
 def template_length_scale(path: np.ndarray) -> float:
     """The RBF length scale (fraction of the duration) of the template's own movement: maximum
-    marginal likelihood of an RBF + white-noise GP on its centred, unit-scaled coordinates."""
+    marginal likelihood of an RBF + white-noise GP on its centred, unit-scaled coordinates
+    (at most :data:`FIT_SAMPLES` samples; once per template, cached)."""
+    path = np.asarray(path, float)
+    return _length_scale(path.shape, path.tobytes())
+
+
+@lru_cache(maxsize=256)
+def _length_scale(shape: tuple[int, int], data: bytes) -> float:
     import warnings
 
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, WhiteKernel
 
-    u = np.linspace(0.0, 1.0, len(path))[:, None]
-    y = path - path.mean(0)
+    path = np.frombuffer(data).reshape(shape)
+    pick = np.unique(np.round(np.linspace(0, shape[0] - 1, min(shape[0], FIT_SAMPLES))).astype(int))
+    u = np.linspace(0.0, 1.0, shape[0])[pick, None]
+    y = path[pick] - path[pick].mean(0)
     y = y / max(float(np.abs(y).max()), 1e-12)
     kernel = RBF(0.1, (1e-3, 10.0)) + WhiteKernel(1e-4, (1e-10, 1.0))
     with warnings.catch_warnings():  # a bound reached is an answer here (the smoothest or roughest allowed)
@@ -163,11 +177,26 @@ class GpBaseline:
 # ----------------------------------------------------------------------------- re-timing
 
 
+_last: list = []  # the last re-timing: (path, constraints, timing, result)
+
+
+def retime_once(path: np.ndarray, c: Constraints, timing: float):
+    """:func:`hila_lang.osila.timing.retime` of one pair, computed once for the several methods
+    that run on the same pair in a row (the grid passes every method the same objects)."""
+    from ..osila.timing import retime
+
+    if _last and _last[0] is path and _last[1] is c and _last[2] == timing:
+        return _last[3]
+    moved = retime(path, c.src, c.dst, timing)
+    _last[:] = [path, c, timing, moved]
+    return moved
+
+
 def retimed(path: np.ndarray, c: Constraints) -> tuple[np.ndarray, Constraints]:
     """The template and constraints after OSILA's re-timing (its default spread)."""
-    from ..osila.timing import TIMING, retime
+    from ..osila.timing import TIMING
 
-    moved = retime(path, c.src, c.dst, TIMING)
+    moved = retime_once(path, c, TIMING)
     if moved.path is path:
         return path, c
     return moved.path, Constraints(moved.src, c.dst, c.labels, c.at, c.n)

@@ -178,10 +178,15 @@ def evaluate_rows(trials, rows, segments=SEGMENTS, methods=("osila",), options=N
                   mask=None) -> list[RowResult]:
     """:func:`evaluate_row` for several rows (one unit of parallel work); ``mask`` (J, J) selects tasks.
 
-    Runs in :func:`hila_lang.jit.batch`: thousands of paths repay the compiled kernels' start-up.
+    Runs in :func:`hila_lang.jit.batch`: thousands of paths repay the compiled kernels' start-up;
+    and with one BLAS thread (``threadpoolctl``, a scikit-learn dependency): every matrix here is
+    small, and on a loaded machine BLAS threads spinning for each other made a 50 × 50 solve take
+    24 ms instead of microseconds (the parallel backends run one row per process anyway).
     """
+    from threadpoolctl import threadpool_limits
+
     from ..jit import batch
 
-    with batch():
+    with batch(), threadpool_limits(1):
         return [evaluate_row(trials, i, segments, methods, options, protocol, None if mask is None else mask[i])
                 for i in rows]
