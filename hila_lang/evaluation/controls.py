@@ -235,8 +235,7 @@ class DmpControl:
 def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callable[[Constraints], np.ndarray]:
     """A function constraints -> generated path (T, D) for ``method``, prepared once per template.
 
-    ``options`` go to :func:`hila_lang.osila.imitate` (``osila`` and its ablations).  The
-    baselines (:mod:`.baselines`) and the ablations (:mod:`.ablation`) are dispatched from here.
+    ``options`` go to :func:`hila_lang.osila.imitate` (``osila`` only).
     """
     if method == "osila":
         from ..osila import imitate
@@ -252,11 +251,4 @@ def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callabl
         return lambda c: fit_warp(c.src, c.dst)(path)
     if method in ("dmp", "dmp-aligned"):
         return DmpControl(path, aligned=method == "dmp-aligned")
-    from . import ablation, baselines
-
-    if method in baselines.BASELINES:
-        return baselines.generator(method, path)
-    if method in ablation.ABLATIONS:
-        return ablation.generator(method, path, options)
-    raise InputError(f"unknown method {method!r}; expected osila or one of "
-                     f"{', '.join(CONTROLS + baselines.BASELINES + ablation.ABLATIONS)}")
+    raise InputError(f"unknown method {method!r}; expected osila or one of {', '.join(CONTROLS)}")

@@ -33,16 +33,25 @@ from typing import Any
 import numpy as np
 
 from ..errors import HilaError
-from .controls import generator
 from .dataset import Trial
 from .protocols import Constraints, constraints
 
+from . import ablation, baselines, controls
 from .ablation import ABLATIONS
 from .baselines import BASELINES
 from .controls import CONTROLS
 
 SEGMENTS = (1, 2, 3, 4)
 METHODS = ("osila", *CONTROLS, *BASELINES, *ABLATIONS, "hila")
+
+
+def generator(method: str, path: np.ndarray, options: dict[str, Any]):
+    """A function constraints -> path (T, D) for any method but ``hila``, prepared once per template."""
+    if method in BASELINES:
+        return baselines.generator(method, path)
+    if method in ABLATIONS:
+        return ablation.generator(method, path, options)
+    return controls.generator(method, path, options)
 
 
 def metric_names(dim: int) -> tuple[str, ...]:
