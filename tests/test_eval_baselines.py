@@ -187,6 +187,8 @@ def test_the_composed_osila_is_osila_so_the_warp_rows_differ_by_the_warp_only():
     assert np.abs(sim - tps).max() > 1.0
     noroute = ablation.generator("osila-noroute", trials[3].path, {"threshold": 2.0})(c)
     np.testing.assert_array_equal(noroute, imitate(trials[3].path, c.src, c.dst, threshold=0.0))
+    noadjust = ablation.generator("osila-noadjust", trials[3].path, {"threshold": 2.0})(c)
+    np.testing.assert_array_equal(noadjust, imitate(trials[3].path, c.src, c.dst, threshold=2.0, rounds=1))
 
 
 # ----------------------------------------------------------------------------- statistics

@@ -5,9 +5,9 @@
 ``osila-noretime``
     No re-timing of the on-path pairs (option ``timing = 0``).
 ``osila-noadjust``
-    No plan adjustment after the first route (option ``rounds = 1``).  Plan adjustment acts on
-    forced waypoints and obstacles only; the evaluation has neither, so this row equals ``osila``
-    on every pair, by construction — printed so the table says so.
+    No plan adjustment: the first route, never checked or repaired (:func:`variant`).  Plan
+    adjustment acts on forced waypoints and obstacles only; the evaluation has neither, so this
+    row equals ``osila`` on every pair, by construction — printed so the table says so.
 ``osila-tps``
     OSILA with its warp always the thin plate spline (the paper's warp; no similarity fallback,
     no amplification check); re-timing and route as OSILA.
@@ -15,7 +15,9 @@
     OSILA with its warp always the least-squares similarity (the ``similarity`` control's
     placement); re-timing and route as OSILA.
 
-The first three are OSILA's own options.  OSILA has no option that fixes its warp, and its
+``osila-noretime`` runs OSILA itself with that option; the others run :func:`variant` (OSILA's
+parts without the plan-adjustment loop, which the evaluation never enters), so that they share
+one re-timing and one warp per pair.  OSILA has no option that fixes its warp, and its
 package is not changed for an ablation, so the last two are composed here from OSILA's public
 parts in OSILA's order (:func:`variant`): re-time (:func:`~hila_lang.osila.timing.retime`), warp,
 a candidate ball of the default threshold around every mapped point
@@ -35,9 +37,11 @@ import numpy as np
 from .protocols import Constraints
 
 ABLATIONS = ("osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity")
-#: the ablations that are OSILA options
+#: the ablations that are OSILA options (``osila-noretime`` runs through :func:`hila_lang.osila.imitate`;
+#: the others through :func:`variant`, which is OSILA without the plan-adjustment loop, so they share
+#: one re-timing and one warp per pair)
 OPTION_ABLATIONS = {"osila-noroute": {"threshold": 0.0}, "osila-noretime": {"timing": 0.0},
-                    "osila-noadjust": {"rounds": 1}}
+                    "osila-noadjust": {}}
 
 
 def variant(path: np.ndarray, c: Constraints, warp: str = "auto", options: dict[str, Any] | None = None) -> np.ndarray:
@@ -57,7 +61,7 @@ def variant(path: np.ndarray, c: Constraints, warp: str = "auto", options: dict[
     T, D = path.shape
     moved = retime_once(path, c, opts["timing"])
     P, src = moved.path, moved.src
-    chosen = moved.warp if moved.warp is not None else fit_warp(src, c.dst, on=P)
+    chosen = moved.warp if moved.warp is not None else _warp_once(moved, c)
     met = {t: chosen.dst[k] for t, k in chosen.at.items()}  # on-path pairs: met exactly at their stamp
     if warp == "auto":
         mapped = chosen.mapped
@@ -78,12 +82,27 @@ def variant(path: np.ndarray, c: Constraints, warp: str = "auto", options: dict[
     return route
 
 
+_last: list = []  # the last warp fitted: (re-timing, constraints, warp)
+
+
+def _warp_once(moved, c: Constraints):
+    """OSILA's warp of a re-timed pair, fitted once for the ablation rows that share it."""
+    from ..osila.tps import fit_warp
+
+    if not (_last and _last[0] is moved and _last[1] is c):
+        _last[:] = [moved, c, fit_warp(moved.src, c.dst, on=moved.path)]
+    return _last[2]
+
+
 def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callable[[Constraints], np.ndarray]:
     """A function constraints -> path (T, D) for one of :data:`ABLATIONS`, prepared once per template."""
-    if method in OPTION_ABLATIONS:
+    if method == "osila-noretime":
         from ..osila import imitate
 
         opts = {**options, **OPTION_ABLATIONS[method]}
         return lambda c: imitate(path, c.src, c.dst, **opts)
+    if method in OPTION_ABLATIONS:
+        opts = {**options, **OPTION_ABLATIONS[method]}
+        return lambda c: variant(path, c, "auto", opts)
     warp = method.removeprefix("osila-")
     return lambda c: variant(path, c, warp, options)
