@@ -85,6 +85,7 @@ def test_writes_tables_csv_json_and_heatmaps(small_run):
     row = next(r for r in doc["summary"] if r["method"] == "tps" and r["n"] == 3)
     printed = next(ln for ln in text.splitlines() if re.match(r"^tps\s+\|\s+3 \|", ln))
     assert f"{row['frechet']:.4g}" in printed and f"{row['dtw']:.4g}" in printed
+    assert "leaks" in printed and f"{row['msd']:.4g}" not in printed  # the task's boundary times are given
     for metric in ("r", "msd"):
         img = cv2.imread(str(out / f"heatmap_{metric}_osila.png"))
         assert img is not None and img.shape[0] > 200 and img.shape[1] > 4 * 200

@@ -260,13 +260,22 @@ def format_metric_table(result: GridResult, metric: str) -> str:
 
 def format_summary(result: GridResult) -> str:
     """Per method and N: the mean of every metric but R (R stays in results.json); time; failures."""
+    from ..metrics import metric as info_of
+    from .protocols import leaks_time
+
     names = [n for n in result.metrics if not n.startswith("r")]
+
+    def cell(row: dict[str, Any], name: str) -> str:
+        if not info_of(name).time_free and leaks_time(result.protocol, row["n"]):
+            return "leaks"
+        return _fmt(row[name], name)
+
     head = ["method", "N", *names, "pairs", "failed", "ms/path"]
-    body = [[row["method"], str(row["n"]), *(_fmt(row[n], n) for n in names), str(row["pairs"]),
+    body = [[row["method"], str(row["n"]), *(cell(row, n) for n in names), str(row["pairs"]),
              str(row["failed"]), f"{row['ms_per_path']:.2f}"] for row in stats.summary_rows(result)]
     return "\n".join(["Methods side by side (means over pairs of different trials; u = the data's unit: "
-                      "MSD in u², Fréchet, DTW per sample and end-point error in u; R and per-axis R: "
-                      "results.json):", *_table(head, body)])
+                      "MSD in u², Fréchet, DTW per sample and end-point error in u; R and per-axis R, and "
+                      "MSD where the protocol gives timing away ('leaks'): results.json):", *_table(head, body)])
 
 
 def format_tests(result: GridResult) -> str:
