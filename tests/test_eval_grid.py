@@ -242,7 +242,7 @@ def test_table2_table3_group_pairs_by_setup(paper_result):
 
 def test_printed_tables_have_the_papers_layout(paper_result):
     text = tables.render(paper_result)
-    for title in ("Methods side by side", "Paired tests", "TABLE I:", "TABLE II:", "TABLE III:", "claims"):
+    for title in ("Methods side by side", "Tests over shapes", "TABLE I:", "TABLE II:", "TABLE III:", "claims"):
         assert title in text
     assert "the paper's protocol on the stand-in" in text
     t1 = tables.format_table1(paper_result).splitlines()
@@ -280,17 +280,27 @@ def test_summary_rows_are_means_over_pairs_of_different_trials(paper_result):
         assert rows[(m, 2)]["ms_per_path"] > 0
 
 
-def test_paired_tests_count_pairs_where_osila_is_better(paper_result):
+def test_tests_take_the_shape_as_the_unit(paper_result):
     from scipy.stats import wilcoxon
 
-    rows = {(r["method"], r["n"]): r for r in stats.test_rows(paper_result)}
-    assert set(rows) == {(m, n) for m in ALL[1:] for n in (1, 2, 3, 4)}
+    rows = {(r["method"], r["segments"], r["metric"]): r for r in stats.test_rows(paper_result)}
+    # MSD is tested only where no timing is given away (paper protocol: N = 1)
+    assert {k for k in rows if k[2] == "msd"} == {(m, 1, "msd") for m in ALL[1:]}
+    assert {k[:2] for k in rows} == {(m, n) for m in ALL[1:] for n in (1, 2, 3, 4)}
     pairs = ~np.eye(10, dtype=bool)
-    o, c = paper_result.msd["osila"][0][pairs], paper_result.msd["dmp"][0][pairs]
-    row = rows[("dmp", 1)]
+    setup = paper_result.trial_setup
+    per_shape = lambda m: np.array([paper_result.metric(m, "frechet")[1][pairs & (setup == k)[None, :]].mean()  # noqa: E731
+                                    for k in range(5)])
+    o, c = per_shape("osila"), per_shape("dmp")
+    row = rows[("dmp", 2, "frechet")]
+    assert row["unit"] == "shape" and row["n"] == 5 and row["pairs"] == 90
     assert row["osila_better_share"] == pytest.approx(np.mean(o < c))
     assert row["p_value"] == pytest.approx(wilcoxon(o, c).pvalue)
-    assert stats.paired(np.ones(5), np.ones(5)) == (0.0, 1.0, 5)  # identical: no difference
+    assert row["median_diff"] == pytest.approx(np.median(o - c))
+    assert row["ci_low"] <= row["median_diff"] <= row["ci_high"]
+    every = np.array([r["p_value"] for r in rows.values()])
+    assert row["p_holm"] == pytest.approx(min(1.0, max(
+        (len(every) - k) * p for k, p in enumerate(np.sort(every)) if p <= row["p_value"])))
 
 
 def test_joblib_gives_the_local_numbers(trials):

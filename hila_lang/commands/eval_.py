@@ -6,34 +6,44 @@ import argparse
 import sys
 from pathlib import Path
 
-HELP = "evaluate OSILA against controls on the same constraints (stand-in, LASA handwriting, your data)"
+HELP = "evaluate OSILA against controls, baselines and its own ablation on the same constraints"
 DESCRIPTION = """\
 Every trial's path (the template) is imitated under another trial's constraints (the task) and
-compared with the task's own human path.  OSILA and five controls get exactly the same
-constraints: none (no template: a spline through the anchor points), similarity (the template
-moved rigidly), tps (the bare warp), dmp and dmp-aligned (a DMP, and a DMP in the similarity's
-frame).  Printed: per method and N, mean R, MSD, Frechet, DTW, end-point error and per-axis R;
-then, per control, the share of pairs where OSILA is better and a paired Wilcoxon test.
+compared with the task's own human path.  Every method gets exactly the same constraints:
+OSILA; the controls none (a spline through the anchor points), similarity (the template moved
+rigidly), tps (the bare warp), dmp and dmp-aligned; the baselines promp, laplacian (Laplacian
+trajectory editing) and gp, each also +retime (with OSILA's re-timing); and OSILA's ablation
+osila-noroute, -noretime, -noadjust, -tps, -similarity.  Printed: per method and N, mean
+Frechet and DTW (time-free) and MSD where no timing is given away; then tests over shapes
+(Wilcoxon, Holm-corrected, median difference with a bootstrap CI, share of shapes won).
 
 Protocols (what a method is told about the task):
   held-out   (default) the task's scene ICPs only (hand start, object corners, waypoint area),
              nothing from the path that is scored; N = 1
+  positions  leak-free: scene ICPs (if any) plus the task path's points at arc-length fractions
+             k/N (N = 1..4) -- positions only, never when the person passed them; LASA default
   paper      the paper's Experiment A: scene ICPs plus, for N = 2..4 equal segments, each inner
              boundary of the TASK PATH as a constraint; also prints Tables I-III in the paper's
              layout with the paper's figures beside ours (reference only: their data is not public)
+  fractions  LASA: the task's points at TIME fractions k/N (time leaks into MSD at N >= 2)
 
 Data:
   (default)         a seeded STAND-IN for the paper's 75 human trials (5 set-ups x 15 human-like
                     reaches following its Fig. 5, image pixels), saved to OUT/dataset
   --dataset lasa    LASA human handwriting (pip install 'hila-lang[lasa]'): every ordered pair of
-                    the 7 demonstrations of a shape, constraints at time fractions k/N of the task
-                    (N = 1..4); --shapes picks the shapes (default: the 14-shape development set)
+                    the 7 demonstrations of a shape, constraints at arc-length fractions k/N of the
+                    task (N = 1..4); --shapes picks the shapes (default: the 14-shape development set)
   --dataset FOLDER  your trials: FOLDER/<set-up>/<trial>.csv (header t,x,y[,z] or x,y[,z]) and
                     <trial>.icps.yaml beside it ('name: [x, y]'); paired on shared ICP names
 
-Writes tables.txt, pairs.csv, results.json (summary and tests rows) and heatmaps to --out."""
+Writes tables.txt, pairs.csv, results.json (summary and tests rows; byte-identical for the same
+seed), timings.json and heatmaps to --out."""
 
-DEFAULT_METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned")
+DEFAULT_METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned",
+                   "promp", "promp+retime", "laplacian", "laplacian+retime", "gp", "gp+retime",
+                   "osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity")
+#: the defaults that need movement_primitives (the 'peers' extra)
+PEERS = ("dmp", "dmp-aligned", "promp", "promp+retime")
 
 
 def _integer(text: str) -> int:
@@ -90,14 +100,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dataset", default=None, metavar="FOLDER|lasa",
                         help="'lasa' for the LASA handwriting set, or a folder of your own trials (format "
                              "above); default: the generated stand-in")
-    parser.add_argument("--protocol", choices=("held-out", "paper"), default=None,
-                        help="what a method is told about the task (default held-out); not for LASA, whose "
-                             "protocol is fixed (time fractions k/N)")
+    parser.add_argument("--protocol", choices=("held-out", "paper", "positions", "fractions"), default=None,
+                        help="what a method is told about the task (default: held-out; LASA: positions); "
+                             "positions and fractions for LASA, held-out, paper and positions for data with ICPs")
     parser.add_argument("--shapes", default=None, metavar="LIST",
                         help="LASA only: 'dev' (the 14-shape development set, default), 'all', or NAME,NAME")
     parser.add_argument("--methods", type=_methods, default=None, metavar="LIST",
                         help="comma list of methods (default: " + ",".join(DEFAULT_METHODS) +
-                             "; dmp and dmp-aligned need pip install 'hila-lang[peers]'); 'hila' adds the "
+                             "; dmp, dmp-aligned and promp need pip install 'hila-lang[peers]'); 'hila' adds the "
                              "per-segment hierarchical generator (paper protocol)")
     parser.add_argument("--hila", action="store_true", help="shorthand: add the method 'hila'")
     parser.add_argument("--trials-per-setup", type=_positive_int, default=None, metavar="N",
@@ -126,16 +136,19 @@ def _data(args: argparse.Namespace, out: Path):
     if args.dataset == "lasa":
         from ..evaluation import lasa
 
-        if args.protocol is not None:
+        if args.protocol not in (None, "positions", "fractions"):
             raise InputError(f"--protocol {args.protocol} is for data with scene ICPs; LASA has none, its "
-                             "constraints are the task's points at time fractions k/N")
+                             "constraints are the task's points at arc-length (positions, the default) or time "
+                             "(fractions) fractions k/N")
         shapes = lasa.resolve_shapes(args.shapes)
         trials = lasa.load(shapes)
         label = "the development set" if shapes == lasa.DEVELOPMENT else "all shapes" if len(shapes) == 30 else "shapes"
         source = (f"LASA handwriting, {label}: {', '.join(shapes)} ({len(trials)} demonstrations at "
                   f"{lasa.RATE_HZ:g} Hz; pairs of different demonstrations of a shape)")
-        return trials, source, "fractions", pair_mask(trials, within_setup_only=True), args.threshold
+        return trials, source, args.protocol or "positions", pair_mask(trials, within_setup_only=True), args.threshold
     protocol = args.protocol or "held-out"
+    if protocol == "fractions":
+        raise InputError("--protocol fractions is for --dataset lasa (data without scene ICPs); use positions")
     if args.dataset is not None:
         trials = ds.load_dataset(args.dataset)
         source = f"dataset {args.dataset}"
@@ -155,10 +168,10 @@ def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
 
     methods = args.methods
     if methods is None:
-        methods = DEFAULT_METHODS if dmp_available() else tuple(m for m in DEFAULT_METHODS if not m.startswith("dmp"))
+        methods = DEFAULT_METHODS if dmp_available() else tuple(m for m in DEFAULT_METHODS if m not in PEERS)
         if not dmp_available():
-            print("note: the DMP controls need movement_primitives (pip install 'hila-lang[peers]'); "
-                  "running without dmp and dmp-aligned", file=sys.stderr)
+            print("note: the DMP controls and the ProMP baseline need movement_primitives (pip install "
+                  "'hila-lang[peers]'); running without dmp, dmp-aligned, promp and promp+retime", file=sys.stderr)
     if args.hila and "hila" not in methods:
         methods = methods + ("hila",)
     if "hila" in methods and protocol != "paper":
@@ -209,6 +222,6 @@ def run(args: argparse.Namespace) -> int:
         if result.failures[m]:
             print(f"warning: {len(result.failures[m])} {m} pairs failed (scored NaN); first: "
                   f"{result.failures[m][0]}", file=sys.stderr)
-    print(f"wrote {len(written)} files to {out}/ (tables.txt, pairs.csv, results.json"
+    print(f"wrote {len(written)} files to {out}/ (tables.txt, pairs.csv, results.json, timings.json"
           f"{', heatmaps' if len(written) > 3 else ''})", file=sys.stderr)
     return 0

@@ -6,12 +6,14 @@ every control (:mod:`.controls`) get that same :class:`~.protocols.Constraints` 
 generated path is then compared with trial j's own human path (:func:`score`): the shorter of the
 two is resampled by cubic spline to the longer's length (as in the paper), then
 
-- ``r`` (eq. 1, pooled over the coordinates) and ``msd`` (eq. 2, squared units),
-- ``frechet`` and ``dtw`` (per sample), ``endpoint`` (units), and
-- ``r_x``, ``r_y`` (, ``r_z``): R of each coordinate (:mod:`hila_lang.metrics`).
+every metric registered in :data:`hila_lang.metrics.METRICS`: ``r`` (eq. 1, pooled over the
+coordinates), ``msd`` (eq. 2, squared units), ``frechet`` and ``dtw`` (per sample), ``endpoint``
+(units), and ``r_x``, ``r_y`` (, ``r_z``): R of each coordinate.
 
-Methods: ``osila`` and the controls ``none``, ``similarity``, ``tps``, ``dmp``, ``dmp-aligned``;
-and ``hila`` (paper protocol only): the segmented template run through the hierarchical
+Methods: ``osila``; the controls ``none``, ``similarity``, ``tps``, ``dmp``, ``dmp-aligned``
+(:mod:`.controls`); the baselines ``promp``, ``laplacian``, ``gp``, each also ``+retime``
+(:mod:`.baselines`); the ablations ``osila-noroute``, ``-noretime``, ``-noadjust``, ``-tps``,
+``-similarity`` (:mod:`.ablation`); and ``hila`` (paper protocol only): the segmented template run through the hierarchical
 generator (:func:`hila_lang.hierarchy.generate`), one OSILA per equal segment, each sub-template
 carrying ``start`` and ``end`` ICPs, the start bound to the task's hand (then to where the
 previous piece ended), each inner ``end`` bound to that boundary's task point, pieces stitched.
@@ -31,17 +33,33 @@ from typing import Any
 import numpy as np
 
 from ..errors import HilaError
-from .controls import generator
 from .dataset import Trial
 from .protocols import Constraints, constraints
 
+from . import ablation, baselines, controls
+from .ablation import ABLATIONS
+from .baselines import BASELINES
+from .controls import CONTROLS
+
 SEGMENTS = (1, 2, 3, 4)
-METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned", "hila")
+METHODS = ("osila", *CONTROLS, *BASELINES, *ABLATIONS, "hila")
+
+
+def generator(method: str, path: np.ndarray, options: dict[str, Any]):
+    """A function constraints -> path (T, D) for any method but ``hila``, prepared once per template."""
+    if method in BASELINES:
+        return baselines.generator(method, path)
+    if method in ABLATIONS:
+        return ablation.generator(method, path, options)
+    return controls.generator(method, path, options)
 
 
 def metric_names(dim: int) -> tuple[str, ...]:
-    """Names of the scores, in the order of :func:`score`'s values, for D = ``dim``."""
-    return ("r", "msd", "frechet", "dtw", "endpoint") + tuple(f"r_{a}" for a in "xyz"[:dim])
+    """Names of the scores, in the order of :func:`score`'s values, for D = ``dim`` (the registry,
+    :data:`hila_lang.metrics.METRICS`)."""
+    from ..metrics import names
+
+    return names(dim)
 
 
 def score(generated: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -169,10 +187,15 @@ def evaluate_rows(trials, rows, segments=SEGMENTS, methods=("osila",), options=N
                   mask=None) -> list[RowResult]:
     """:func:`evaluate_row` for several rows (one unit of parallel work); ``mask`` (J, J) selects tasks.
 
-    Runs in :func:`hila_lang.jit.batch`: thousands of paths repay the compiled kernels' start-up.
+    Runs in :func:`hila_lang.jit.batch`: thousands of paths repay the compiled kernels' start-up;
+    and with one BLAS thread (``threadpoolctl``, a scikit-learn dependency): every matrix here is
+    small, and on a loaded machine BLAS threads spinning for each other made a 50 × 50 solve take
+    24 ms instead of microseconds (the parallel backends run one row per process anyway).
     """
+    from threadpoolctl import threadpool_limits
+
     from ..jit import batch
 
-    with batch():
+    with batch(), threadpool_limits(1):
         return [evaluate_row(trials, i, segments, methods, options, protocol, None if mask is None else mask[i])
                 for i in rows]

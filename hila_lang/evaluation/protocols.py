@@ -16,10 +16,20 @@ task: the task's human path is used only to score the result.  Three protocols:
     the more segments, the more of it.  That is the paper's protocol; it shows how well a method
     passes through given points, not how well it predicts a movement.
 
-``fractions`` (LASA, whose demonstrations have no scene)
+``positions`` (leak-free; the headline for LASA, and on the stand-in)
+    Positions only: the points at equal fractions k/N of each path's LENGTH (arc length, the
+    nearest sample), template point → task point.  Data with scene ICPs keep them and gain the
+    N − 1 inner points; data without (LASA) get k = 0..N (N = 1: the start and the end).  Arc
+    length is a property of the drawn shape, not of its timing: a user can point at "a third of
+    the way along", and no method is told WHEN the person passed the point.  The scores that
+    cannot reward timing (:data:`hila_lang.metrics.METRICS`, ``time_free``) are the headline;
+    MSD is shown too, because here no timing is given away.
+
+``fractions`` (LASA; the former protocol, kept as a reproduction)
     The points at time fractions k/N, k = 0..N, of both paths: template point → task point.  N = 1
     gives the start and the end (two pairs); every N adds one inner point.  Like ``paper``, these
-    are points of the scored path.
+    are points of the scored path, and for N >= 2 the pairing says WHEN the person passed them:
+    time leaks into MSD, which compares the paths at equal normalised times.
 
 Pairs of trials: for an ICP data set every template with every task (J × J, a trial with itself
 included for the paper's Table I); for LASA every ordered pair of different demonstrations of
@@ -35,7 +45,15 @@ import numpy as np
 from ..errors import InputError
 from .dataset import Trial
 
-PROTOCOLS = ("held-out", "paper", "fractions")
+PROTOCOLS = ("held-out", "paper", "positions", "fractions")
+#: protocols whose constraints never tell a method when the person passed a point (at any N)
+LEAK_FREE = ("held-out", "positions")
+
+
+def leaks_time(protocol: str, n: int) -> bool:
+    """True when the constraints of ``protocol`` at N = ``n`` pair points by their time on the
+    scored path (``paper`` and ``fractions`` for N >= 2): MSD is then not shown as a result."""
+    return protocol not in LEAK_FREE and n > 1
 
 
 @dataclass(frozen=True)
@@ -66,6 +84,17 @@ class Constraints:
 def fraction_index(length: int, k: int, n: int) -> int:
     """Index of time fraction k/N in a path of ``length`` equally spaced samples."""
     return int(round(k * (length - 1) / n))
+
+
+def arc_index(path: np.ndarray, k: int, n: int) -> int:
+    """Index of the sample nearest arc-length fraction k/N of ``path`` (T, D); k = 0 and k = N are
+    the first and last samples."""
+    if k <= 0:
+        return 0
+    if k >= n:
+        return len(path) - 1
+    s = np.concatenate([[0.0], np.cumsum(np.sqrt((np.diff(path, axis=0) ** 2).sum(1)))])
+    return int(np.argmin(np.abs(s - k * s[-1] / n)))
 
 
 def boundaries(length: int, n: int) -> list[int]:
@@ -104,6 +133,19 @@ def constraints(template: Trial, task: Trial, n: int, protocol: str) -> Constrai
                 dst.append(task.path[b])
                 labels.append(f"boundary {k}/{n}")
                 at.append(a)
+    elif protocol == "positions":
+        for name in shared_names(template, task):
+            src.append(template.icps[template.icp_names.index(name)])
+            dst.append(task.icps[task.icp_names.index(name)])
+            labels.append(name)
+            at.append(None)
+        ends = range(1, n) if src else range(n + 1)  # scene data keep their ICPs and gain inner points
+        for k in ends:
+            a, b = arc_index(template.path, k, n), arc_index(task.path, k, n)
+            src.append(template.path[a])
+            dst.append(task.path[b])
+            labels.append(f"s = {k}/{n}")
+            at.append(a)
     else:
         for k in range(n + 1):
             a, b = fraction_index(len(template.path), k, n), fraction_index(len(task.path), k, n)

@@ -5,10 +5,13 @@
                          and the generation time
 - ``results.json``       the contract (:func:`results_dict`): ``summary`` rows
                          ``{"method", "n", "r", "msd", "frechet", "dtw", ...}`` (means over pairs
-                         of different trials), ``tests`` rows ``{"method", "n",
-                         "osila_better_share", "p_value", ...}`` for every control, plus run
+                         of different trials), ``tests`` rows ``{"method", "segments", "metric",
+                         "unit", "n", "osila_better_share", "p_value", "p_holm", "median_diff",
+                         "ci_low", "ci_high"}`` for every other method (:mod:`.stats`), plus run
                          facts, per-set-up means, OSILA's Tables I–III (ICP data sets) and the
-                         paper's figures (paper protocol on the stand-in)
+                         paper's figures (paper protocol on the stand-in).  Byte-identical for the
+                         same data, seed and options, whatever the backend
+- ``timings.json``       what varies from run to run: backend, wall time, ms per path
 - ``heatmap_r_osila.png``, ``heatmap_msd_osila.png``
                          OSILA's J × J matrices, one panel per N; x = input (template) trial,
                          y = output (task) trial, grouped by set-up as in Table II
@@ -66,14 +69,29 @@ def _clean(x: Any) -> Any:
     return x
 
 
+def timings_dict(result: GridResult) -> dict[str, Any]:
+    """The ``timings.json`` document: the backend, wall time and ms per path (what varies run to run)."""
+    return _clean({"backend": result.backend, "wall_seconds": result.wall_seconds,
+                   "ms_per_path": [{"method": r["method"], "n": r["n"], "ms_per_path": r["ms_per_path"]}
+                                   for r in stats.summary_rows(result)]})
+
+
 def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The ``results.json`` document (module docstring); NaN becomes null."""
+    """The ``results.json`` document (module docstring); NaN becomes null.  Nothing in it depends on
+    the clock or the backend: the same data, seed and options give the same bytes."""
+    from ..metrics import metric
+
+    summary = stats.summary_rows(result)
+    for row in summary:
+        del row["ms_per_path"]  # timings.json
     doc: dict[str, Any] = {
-        "run": {"backend": result.backend, "wall_seconds": result.wall_seconds, "trials": len(result.labels),
+        "run": {"trials": len(result.labels),
                 "pairs": int(stats.distinct_pairs(result).sum()), "protocol": result.protocol,
                 "setups": result.setups, "segments": list(result.segments), "methods": list(result.methods),
-                "metrics": list(result.metrics), **(info or {})},
-        "summary": stats.summary_rows(result),
+                "metrics": list(result.metrics),
+                "better": {name: metric(name).better for name in result.metrics},
+                "time_free": {name: metric(name).time_free for name in result.metrics}, **(info or {})},
+        "summary": summary,
         "tests": stats.test_rows(result),
         "by_setup": stats.by_setup(result),
         "failures": {m: result.failures[m] for m in result.methods},
@@ -159,7 +177,8 @@ def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] 
     """Write every output file into ``out``; returns the paths written."""
     out = Path(out)
     written = [atomic_write_text(out / "tables.txt", text), write_csv(result, out / "pairs.csv"),
-               atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n")]
+               atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n"),
+               atomic_write_text(out / "timings.json", json.dumps(timings_dict(result), indent=1) + "\n")]
     if "osila" in result.methods and result.mask.all():
         for metric in ("r", "msd"):
             written.append(write_png(out / f"heatmap_{metric}_osila.png", heatmap(result, "osila", metric), bgr=True))

@@ -236,7 +236,7 @@ def run_grid(
     -------
     GridResult
     """
-    if "dmp" in methods or "dmp-aligned" in methods:
+    if any(m in methods for m in ("dmp", "dmp-aligned", "promp", "promp+retime")):
         from .controls import require_dmp
 
         require_dmp()

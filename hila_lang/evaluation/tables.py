@@ -1,7 +1,9 @@
-"""What ``hila eval`` prints: the methods side by side, the paired tests, and the paper's Tables.
+"""What ``hila eval`` prints: the headline tables, the methods side by side, the tests, the paper's Tables.
 
-- The summary: per method and N, the mean of every metric over pairs of different trials, and
-  the paired tests of OSILA against each control (:mod:`.stats`).
+- The headline: per headline metric (Fréchet and DTW, time-free; MSD where the protocol gives no
+  timing away), every method's mean by N, grouped: OSILA, controls, baselines, ablation.
+- The summary: per method and N, the mean of every metric but R over pairs of different trials,
+  and the tests of OSILA against every other method over shapes (:mod:`.stats`).
 - Table I: mean R of the self-mapping cases (template i onto its own ICPs), per set-up and N.
 - Table II: mean R over all template/task pairs, grouped by input (template, columns) and output
   (task, rows) set-up; each cell holds N = 1..4 on four lines, as in the paper.
@@ -208,26 +210,87 @@ def _table(head: list[str], body: list[list[str]]) -> list[str]:
     return [line(head), "-" * len(line(head)), *(line(b) for b in body)]
 
 
+#: method groups, in print order, for the headline tables
+GROUPS = (("OSILA", ("osila",)), ("controls", ("none", "similarity", "tps", "dmp", "dmp-aligned")),
+          ("baselines", ("promp", "promp+retime", "laplacian", "laplacian+retime", "gp", "gp+retime")),
+          ("ablation", ("osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity")),
+          ("hierarchical", ("hila",)))
+
+
+def _grouped(methods: tuple[str, ...]) -> list[tuple[str, list[str]]]:
+    return [(label, [m for m in members if m in methods]) for label, members in GROUPS
+            if any(m in methods for m in members)]
+
+
+def format_metric_table(result: GridResult, metric: str) -> str:
+    """One headline metric: rows method (grouped), columns N; mean over pairs of different trials.
+
+    ``*`` marks the best mean of a column among OSILA, the controls and the baselines; a cell
+    whose N gives timing away (:func:`.protocols.leaks_time`) for a metric that is not time-free
+    is ``leaks``."""
+    from ..metrics import metric as info_of
+    from .protocols import leaks_time
+
+    info = info_of(metric)
+    rows = {(r["method"], r["n"]): r[metric] for r in stats.summary_rows(result)}
+    contenders = [m for m in result.methods if not m.startswith("osila-") and m != "hila"]
+    best = {}
+    for n in result.segments:
+        vals = [rows[(m, n)] for m in contenders if np.isfinite(rows[(m, n)])]
+        best[n] = (min(vals) if info.better == "lower" else max(vals)) if vals else None
+    head = ["method", *(f"N = {n}" for n in result.segments)]
+    body: list[list[str]] = []
+    for label, members in _grouped(result.methods):
+        body.append([f"-- {label}", *("" for _ in result.segments)])
+        for m in members:
+            cells = []
+            for n in result.segments:
+                if not info.time_free and leaks_time(result.protocol, n):
+                    cells.append("leaks")
+                    continue
+                v = rows[(m, n)]
+                mark = "*" if best[n] is not None and v == best[n] and m in contenders else " "
+                cells.append(_fmt(v, metric) + mark)
+            body.append([m, *cells])
+    unit = f" ({info.unit})" if info.unit else ""
+    title = (f"{metric.upper() if metric != 'frechet' else 'Fréchet'}{unit}, {info.better} is better; "
+             f"mean over pairs of different trials; * best of OSILA, controls and baselines")
+    return "\n".join([title, *_table(head, body)])
+
+
 def format_summary(result: GridResult) -> str:
-    """Per method and N: mean R, MSD, Fréchet, DTW, end-point error, per-axis R; time; failures."""
-    names = list(result.metrics)
+    """Per method and N: the mean of every metric but R (R stays in results.json); time; failures."""
+    from ..metrics import metric as info_of
+    from .protocols import leaks_time
+
+    names = [n for n in result.metrics if not n.startswith("r")]
+
+    def cell(row: dict[str, Any], name: str) -> str:
+        if not info_of(name).time_free and leaks_time(result.protocol, row["n"]):
+            return "leaks"
+        return _fmt(row[name], name)
+
     head = ["method", "N", *names, "pairs", "failed", "ms/path"]
-    body = [[row["method"], str(row["n"]), *(_fmt(row[n], n) for n in names), str(row["pairs"]),
+    body = [[row["method"], str(row["n"]), *(cell(row, n) for n in names), str(row["pairs"]),
              str(row["failed"]), f"{row['ms_per_path']:.2f}"] for row in stats.summary_rows(result)]
     return "\n".join(["Methods side by side (means over pairs of different trials; u = the data's unit: "
-                      "MSD in u², Fréchet, DTW per sample and end-point error in u):", *_table(head, body)])
+                      "MSD in u², Fréchet, DTW per sample and end-point error in u; R and per-axis R, and "
+                      "MSD where the protocol gives timing away ('leaks'): results.json):", *_table(head, body)])
 
 
 def format_tests(result: GridResult) -> str:
-    """OSILA against each control: share of pairs OSILA is better, Wilcoxon p (MSD and Fréchet)."""
+    """OSILA against every other method over shapes: shapes won, median difference [95 % CI], p, Holm p."""
     rows = stats.test_rows(result)
     if not rows:
         return ""
-    head = ["control", "N", "pairs", "OSILA better (MSD)", "p (MSD)", "OSILA better (Fréchet)", "p (Fréchet)"]
-    body = [[r["method"], str(r["n"]), str(r["pairs"]), _pct(r["osila_better_share"]).strip(), _p(r["p_value"]),
-             _pct(r["frechet_better_share"]).strip(), _p(r["frechet_p_value"])] for r in rows]
-    return "\n".join(["Paired tests, OSILA against each control on the same pairs (share of pairs where "
-                      "OSILA's error is lower; two-sided Wilcoxon signed-rank p):", *_table(head, body)])
+    head = ["method", "N", "metric", "shapes", "OSILA better", "median diff [95% CI]", "p", "p (Holm)"]
+    body = [[r["method"], str(r["segments"]), r["metric"], str(r["n"]), _pct(r["osila_better_share"]).strip(),
+             f"{_fmt(r['median_diff'], r['metric'])} [{_fmt(r['ci_low'], r['metric'])}, "
+             f"{_fmt(r['ci_high'], r['metric'])}]", _p(r["p_value"]), _p(r["p_holm"])] for r in rows]
+    return "\n".join([f"Tests over shapes (the unit: one mean per shape and method, {rows[0]['n']} shapes): OSILA "
+                      "against each method; share of shapes where OSILA is better; median over shapes of OSILA "
+                      "minus the method (negative = OSILA lower) with a bootstrap 95% CI; two-sided Wilcoxon "
+                      f"signed-rank p; Holm-corrected over all {len(rows)} tests printed:", *_table(head, body)])
 
 
 def _p(p: float) -> str:
@@ -236,9 +299,19 @@ def _p(p: float) -> str:
     return "< 1e-300" if p == 0 else (f"{p:.2g}" if p < 0.001 else f"{p:.3f}")
 
 
+def headline(result: GridResult) -> str:
+    """The headline: one table per headline metric (:data:`hila_lang.metrics.METRICS`), every method."""
+    from ..metrics import metric as info_of
+
+    names = [n for n in result.metrics if info_of(n).headline]
+    names.sort(key=lambda n: not info_of(n).time_free)  # the time-free scores first
+    return "\n\n".join(format_metric_table(result, n) for n in names)
+
+
 def render(result: GridResult, tables: bool = True) -> str:
-    """Everything ``hila eval`` prints: the summary, the paired tests, then Tables I–III (``tables``)."""
-    parts = [format_summary(result), format_tests(result)]
+    """Everything ``hila eval`` prints: the headline tables, the summary, the tests over shapes, then
+    Tables I–III (``tables``)."""
+    parts = [headline(result), format_summary(result), format_tests(result)]
     if tables and "osila" in result.methods:
         label = ("TABLES I-III: OSILA in the paper's layout, the paper's protocol on the stand-in"
                  if _with_paper(result) else

@@ -1,0 +1,108 @@
+"""OSILA with one part taken away: what does each part add?
+
+``osila-noroute``
+    No minimum-energy route: the warped template itself (OSILA's option ``threshold = 0``).
+``osila-noretime``
+    No re-timing of the on-path pairs (option ``timing = 0``).
+``osila-noadjust``
+    No plan adjustment: the first route, never checked or repaired (:func:`variant`).  Plan
+    adjustment acts on forced waypoints and obstacles only; the evaluation has neither, so this
+    row equals ``osila`` on every pair, by construction — printed so the table says so.
+``osila-tps``
+    OSILA with its warp always the thin plate spline (the paper's warp; no similarity fallback,
+    no amplification check); re-timing and route as OSILA.
+``osila-similarity``
+    OSILA with its warp always the least-squares similarity (the ``similarity`` control's
+    placement); re-timing and route as OSILA.
+
+``osila-noretime`` runs OSILA itself with that option; the others run :func:`variant` (OSILA's
+parts without the plan-adjustment loop, which the evaluation never enters), so that they share
+one re-timing and one warp per pair.  OSILA has no option that fixes its warp, and its
+package is not changed for an ablation, so the last two are composed here from OSILA's public
+parts in OSILA's order (:func:`variant`): re-time (:func:`~hila_lang.osila.timing.retime`), warp,
+a candidate ball of the default threshold around every mapped point
+(:func:`~hila_lang.osila.noise.default_threshold`, :func:`~hila_lang.osila.candidates.ball_offsets`),
+the minimum-energy route (:func:`~hila_lang.osila.route.min_energy_route`) with the ends and the
+on-path pairs pinned.  With OSILA's own warp choice (``warp="auto"``) it returns exactly what
+:func:`hila_lang.osila.imitate` returns on the evaluation's constraints (no forced waypoints, no
+obstacles): the tests check that, so the two rows differ from ``osila`` by the warp only.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from .protocols import Constraints
+
+ABLATIONS = ("osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity")
+#: the ablations that are OSILA options (``osila-noretime`` runs through :func:`hila_lang.osila.imitate`;
+#: the others through :func:`variant`, which is OSILA without the plan-adjustment loop, so they share
+#: one re-timing and one warp per pair)
+OPTION_ABLATIONS = {"osila-noroute": {"threshold": 0.0}, "osila-noretime": {"timing": 0.0},
+                    "osila-noadjust": {}}
+
+
+def variant(path: np.ndarray, c: Constraints, warp: str = "auto", options: dict[str, Any] | None = None) -> np.ndarray:
+    """OSILA on ``c`` with the warp ``"auto"`` (OSILA's choice), ``"tps"`` or ``"similarity"``.
+
+    ``options``: OSILA's ``threshold`` (None: its default), ``timing``, ``shells``, ``directions``.
+    """
+    from ..osila import OPTIONS
+    from ..osila.candidates import ball_offsets
+    from ..osila.noise import default_threshold
+    from ..osila.route import min_energy_route
+    from ..osila.tps import fit_warp
+    from .baselines import retime_once
+    from .controls import _apply, similarity
+
+    opts = {**OPTIONS, **(options or {})}
+    T, D = path.shape
+    moved = retime_once(path, c, opts["timing"])
+    P, src = moved.path, moved.src
+    chosen = moved.warp if moved.warp is not None else _warp_once(moved, c)
+    met = {t: chosen.dst[k] for t, k in chosen.at.items()}  # on-path pairs: met exactly at their stamp
+    if warp == "auto":
+        mapped = chosen.mapped
+    elif warp == "tps":
+        mapped = fit_warp(src, c.dst)(P)  # the bare warp (a fallback only when a TPS cannot be fitted)
+    elif warp == "similarity":
+        mapped = _apply(similarity(Constraints(src, c.dst, c.labels, c.at, c.n)), P)
+        met = {}  # a rigid placement meets no pair exactly: the stamps are pinned at their mapped points
+    else:
+        raise ValueError(f"unknown warp {warp!r}")
+    threshold = default_threshold(mapped) if opts["threshold"] is None else float(opts["threshold"])
+    offsets = ball_offsets(D, threshold, opts["shells"], opts["directions"])
+    pinned = sorted({0, T - 1, *chosen.at})
+    choice, _ = min_energy_route(mapped, offsets, 0.0, None, pinned=pinned)
+    route = mapped + offsets[choice]
+    for t, q in met.items():
+        route[t] = q
+    return route
+
+
+_last: list = []  # the last warp fitted: (re-timing, constraints, warp)
+
+
+def _warp_once(moved, c: Constraints):
+    """OSILA's warp of a re-timed pair, fitted once for the ablation rows that share it."""
+    from ..osila.tps import fit_warp
+
+    if not (_last and _last[0] is moved and _last[1] is c):
+        _last[:] = [moved, c, fit_warp(moved.src, c.dst, on=moved.path)]
+    return _last[2]
+
+
+def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callable[[Constraints], np.ndarray]:
+    """A function constraints -> path (T, D) for one of :data:`ABLATIONS`, prepared once per template."""
+    if method == "osila-noretime":
+        from ..osila import imitate
+
+        opts = {**options, **OPTION_ABLATIONS[method]}
+        return lambda c: imitate(path, c.src, c.dst, **opts)
+    if method in OPTION_ABLATIONS:
+        opts = {**options, **OPTION_ABLATIONS[method]}
+        return lambda c: variant(path, c, "auto", opts)
+    warp = method.removeprefix("osila-")
+    return lambda c: variant(path, c, warp, options)
