@@ -114,7 +114,7 @@ def detect(image, method: str = "sift") -> Features:
     return Features(uv, ideal.reshape(-1, 2), desc, method, size, angle)
 
 
-def ratio_matches(a: Features, b: Features, ratio: float = RATIO) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ratio_matches(a: Features, b: Features, ratio: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lowe's ratio test from ``a`` to ``b``: indices into ``a`` (M,), into ``b`` (M,) and each
     match's ratio best / second-best descriptor distance (M,), one match per feature of ``b``
     (the best of those that chose it)."""
@@ -125,7 +125,7 @@ def ratio_matches(a: Features, b: Features, ratio: float = RATIO) -> tuple[np.nd
     norm = cv2.NORM_L2 if a.method == "sift" else cv2.NORM_HAMMING
     knn = cv2.BFMatcher(norm).knnMatch(a.descriptors, b.descriptors, k=2)
     rows = [(m.queryIdx, m.trainIdx, m.distance / max(n.distance, 1e-9)) for m, n in (p for p in knn if len(p) == 2)
-            if m.distance < ratio * n.distance]
+            if m.distance < (RATIO if ratio is None else ratio) * n.distance]
     best: dict[int, tuple] = {}
     for row in rows:
         if row[1] not in best or row[2] < best[row[1]][2]:
@@ -227,15 +227,31 @@ def stereo_matches(left, right, fl: Features, fr: Features, ratio: float = RATIO
     return np.flatnonzero(ok), order[ok, 0]
 
 
-def scene_features(left, right, method: str = "sift") -> SceneFeatures:
+def scene_features(left, right, method: str = "sift", hidden=None) -> SceneFeatures:
     """Triangulated features of one scene from its left and right eye images (CameraImage):
-    the left eye's features paired with the right eye's by :func:`stereo_matches`."""
+    the left eye's features paired with the right eye's by :func:`stereo_matches`.
+
+    ``hidden``: a function ``image -> bool mask (H, W)`` of the ideal (undistorted) pixels the
+    robot's own body covers (its arm, where its joint angles say it is); features there are not
+    the scene's and are dropped.  A feature detected twice at one place (SIFT gives a keypoint
+    one descriptor per dominant orientation) is kept once, so no two ICPs share a point."""
     fl, fr = detect(left, method), detect(right, method)
+    if hidden is not None:
+        fl, fr = (f.take(_visible(f.ideal, hidden(img))) for f, img in ((fl, left), (fr, right)))
     il, ir = stereo_matches(left, right, fl, fr)
     pts, front = _triangulate(left, right, fl.ideal[il], fr.ideal[ir])
     il, pts = il[front], pts[front]
+    _, first = np.unique(np.round(fl.ideal[il] * 2), axis=0, return_index=True)
+    first = np.sort(first)
+    il, pts = il[first], pts[first]
     counts = {"left": len(fl), "right": len(fr), "stereo": int(len(il))}
     return SceneFeatures(fl.take(il), pts, counts)
+
+
+def _visible(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    h, w = mask.shape
+    c = np.clip(np.round(uv).astype(int), 0, [w - 1, h - 1])
+    return np.flatnonzero(~mask[c[:, 1], c[:, 0]])
 
 
 def verify(uv_a: np.ndarray, uv_b: np.ndarray, model: str = "local") -> tuple[np.ndarray, np.ndarray]:

@@ -86,6 +86,14 @@ class Sheet:
         points[:, 2] += height
         return points
 
+    def to_uv(self, points: np.ndarray) -> np.ndarray:
+        """Texture coordinates (N, 2) of world points (N, 3) on or near the sheet (the inverse of
+        :meth:`to_world` for their position seen from above; truth)."""
+        local = np.atleast_2d(self.flat.to_local(np.asarray(points, dtype=float)))
+        k = _curvature(self.size[0], self.bend)
+        s = local[:, 0] if k == 0.0 else np.arcsin(np.clip(k * local[:, 0], -1, 1)) / k
+        return np.column_stack([s / self.size[0] + 0.5, 0.5 - local[:, 1] / self.size[1]])
+
     def corners(self) -> np.ndarray:
         """World (4, 3) of its corners tl, tr, br, bl (as :meth:`Surface.corners` names them)."""
         return self.to_world(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
