@@ -15,7 +15,7 @@ demonstration features it did not match or rejected, so ``run picture(m.*)`` bin
 ICP and leaves the others out (a point the world does not see binds to none).
 
 At the end the referee (truth: the sheets' geometry, the rendering camera) scores the drawn
-route -- the pen-tip trace of the ``draw`` segment -- against the true route on the task sheet
+route -- the pen-tip trace of the ``draw`` segment (:meth:`PictureWorld.drawn_route`) -- against the true route on the task sheet
 (median and 95th percentile, mm), gives the controls in the same table (OSILA's planned route
 with the matched pairs, without rejection, with the pairs' true points, with the four corners),
 and the matching precision before and after rejection.  ``--out`` (default
@@ -35,7 +35,7 @@ from ...errors import HilaRuntimeError, InputError, UnknownNameError
 from ...fileio import OutputFolder
 from ...sim.surface import Scene
 from . import scenes as S
-from .demonstration import REACH, DRAW, TEXTURE_SEED, ROUTE_SEED, demonstration_features, feature_name
+from .demonstration import DRAW, LIFT, REACH, TEXTURE_SEED, ROUTE_SEED, demonstration_features, feature_name
 
 FILES = ("report.json", "route.png", "eyes.png")
 #: the template's ICPs must be the demonstration's features within this distance, metres
@@ -138,9 +138,8 @@ class PictureWorld:
         route = S.route_uv(ROUTE_SEED, DRAW)
         goal = self.task.to_world(route)
         out: dict[str, Any] = {}
-        if self.drawn:
-            d = self.drawn[-1]
-            drawn = d["executed"] if d["executed"] is not None else d["path"]
+        drawn = self.drawn_route()
+        if drawn is not None:
             err = S.route_error(drawn, goal) * 1000
             out["route_error_mm"] = {"median": round(float(np.median(err)), 2),
                                      "p95": round(float(np.percentile(err, 95)), 2), "points": int(len(drawn))}
@@ -158,6 +157,20 @@ class PictureWorld:
             out["controls_planned_mm"] = {n: {"median": round(m, 2), "p95": round(p, 2)} for n, (m, p) in errors.items()}
         return out
 
+    def drawn_route(self) -> np.ndarray | None:
+        """The pen-tip trace (N, 3) of the route's part of the last pen-down run: the executed
+        points whose nearest planned point is in the template's ``draw`` segment."""
+        if not self.drawn:
+            return None
+        d = self.drawn[-1]
+        planned = d["path"]
+        executed = planned if d["executed"] is None else d["executed"]
+        if len(planned) != REACH + DRAW + LIFT:  # a run of the draw segment alone
+            return executed
+        nearest = np.argmin(np.linalg.norm(executed[:, None, :] - planned[None, :, :], axis=2), axis=1)
+        keep = (nearest >= REACH) & (nearest < REACH + DRAW)
+        return executed[keep] if keep.any() else None
+
     def _route_image(self) -> np.ndarray:
         import cv2
 
@@ -168,9 +181,8 @@ class PictureWorld:
             return (np.asarray(uv) * [w, h] * 16).astype(np.int32).reshape(-1, 1, 2)
 
         cv2.polylines(img, [px(S.route_uv(ROUTE_SEED, DRAW))], False, (0, 170, 0), 4, cv2.LINE_AA, 4)
-        if self.drawn:
-            d = self.drawn[-1]
-            drawn = d["executed"] if d["executed"] is not None else d["path"]
+        drawn = self.drawn_route()
+        if drawn is not None:
             cv2.polylines(img, [px(self.task.to_uv(drawn))], False, (20, 40, 220), 2, cv2.LINE_AA, 4)
         return img
 
