@@ -94,3 +94,12 @@ def test_unknown_method_and_model_are_input_errors():
         M._detector("surf")
     with pytest.raises(InputError, match="unknown verification model"):
         M.verify(np.zeros((5, 2)), np.zeros((5, 2)), "affine")
+
+
+def test_a_bent_sheet_keeps_its_length_rests_on_its_edges_and_maps_back():
+    uv = np.random.default_rng(0).uniform(0, 1, (50, 2))
+    assert np.abs(TASK.to_uv(TASK.to_world(uv)) - uv).max() < 1e-9
+    edge = TASK.to_world(np.column_stack([np.linspace(0, 1, 400), np.full(400, 0.5)]))
+    assert np.linalg.norm(np.diff(edge, axis=0), axis=1).sum() == pytest.approx(TASK.size[0], rel=1e-4)
+    assert TASK.to_world([[0.5, 0.5]])[0, 2] == pytest.approx(TASK.z + TASK.bend)
+    assert np.allclose(TASK.corners()[:, 2], TASK.z)

@@ -184,6 +184,9 @@ class PictureWorld:
         drawn = self.drawn_route()
         if drawn is not None:
             cv2.polylines(img, [px(self.task.to_uv(drawn))], False, (20, 40, 220), 2, cv2.LINE_AA, 4)
+        cv2.rectangle(img, (4, h - 22), (w - 4, h - 4), (255, 255, 255), -1)
+        cv2.putText(img, "green: true route   blue: drawn (on the sheet)", (8, h - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    (0, 0, 0), 1, cv2.LINE_AA)
         return img
 
     def _eyes_image(self) -> np.ndarray:
