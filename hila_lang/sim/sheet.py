@@ -101,8 +101,8 @@ class Sheet:
     def mesh(self, n_across: int = 24, n_depth: int = 8) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A triangle grid of the sheet: vertices (N, 3) world, texture coordinates (N, 2) and
         triangle indices (M,) (both windings, so it is seen from both sides)."""
-        u, v = np.meshgrid(np.linspace(0, 1, n_across + 1), np.linspace(0, 1, n_depth + 1))
-        uv = np.column_stack([u.ravel(), v.ravel()])
+        uv = np.column_stack([np.tile(np.linspace(0, 1, n_across + 1), n_depth + 1),
+                              np.repeat(np.linspace(0, 1, n_depth + 1), n_across + 1)])
         tris = []
         for j in range(n_depth):
             for i in range(n_across):

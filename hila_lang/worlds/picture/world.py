@@ -33,6 +33,7 @@ import numpy as np
 
 from ...errors import HilaRuntimeError, InputError, UnknownNameError
 from ...fileio import OutputFolder
+from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from . import scenes as S
 from .demonstration import DRAW, LIFT, REACH, TEXTURE_SEED, ROUTE_SEED, demonstration_features, feature_name
@@ -44,8 +45,6 @@ SAME_POINT = 1e-4
 
 class PictureWorld:
     """See the module docstring."""
-
-    snapshots = None
 
     def __init__(self, options, settings: dict[str, Any]) -> None:
         self.options = options
@@ -59,15 +58,17 @@ class PictureWorld:
         self.pairs = None
         self.drawn: list[dict] = []
         self.points_now: dict[str, np.ndarray | None] = {}
+        self.light = 1.0
+        self.snapshots = AttributeSnapshots(self, ("pairs", "points_now"), append_only=("drawn",))
 
     # -- plug-in hooks -----------------------------------------------------------------------
     def attach(self, backend) -> None:
+        self.backend = backend
+        backend.reset_hand(S.HOME)
         if backend.eyes is None or getattr(backend, "sim", None) is None:
-            raise InputError("the picture world needs the robot's eyes and a simulated scene: run it with "
-                             "--backend pybullet")
+            return  # nothing to see: 'ask matched' says so
         from .texture import map_texture
 
-        self.backend = backend
         self.seen, self.demo, self.demo_images, self.demo_camera = demonstration_features(backend)
         self.names = [feature_name(i) for i in range(len(self.seen))]
         self.texture = map_texture(S.SIZE, TEXTURE_SEED)
@@ -95,8 +96,9 @@ class PictureWorld:
     def _match(self) -> None:
         from ...perception.matching import match_scenes, scene_features
 
-        if self.backend is None:
-            raise HilaRuntimeError("the picture world has no back end to look with")
+        if self.backend is None or self.backend.eyes is None or getattr(self.backend, "sim", None) is None:
+            raise InputError("the picture world's robot matches what its eyes see: run it with --backend pybullet "
+                             f"(this back end, {getattr(self.backend, 'name', None)!r}, has no eyes)")
         self.backend.reset_hand(S.HOME)  # out of the way (its own arm is masked anyway)
         (left, right), self.task_camera = S.look(self.backend)
         self.task_left = left
@@ -200,12 +202,13 @@ class PictureWorld:
         return cv2.resize(img, None, fx=2, fy=2, interpolation=cv2.INTER_NEAREST)
 
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
-        report = {"world": "picture", "seed": self.seed, "bent_m": round(self.task.bend, 4), "light": round(self.light, 3)
-                  if self.backend is not None else None,
-                  "task_sheet": {"center": list(self.task.center), "rotation_deg": round(float(np.degrees(self.task.rotation)), 2),
-                                 "size": list(self.task.size)},
+        task = S.task_sheet(self.seed, self.mat.z, self.bent)
+        report = {"world": "picture", "seed": self.seed, "bent_m": round(task.bend, 4), "light": round(self.light, 3),
+                  "task_sheet": {"center": list(task.center), "rotation_deg": round(float(np.degrees(task.rotation)), 2),
+                                 "size": list(task.size)},
                   "backend": None if self.backend is None else self.backend.name}
-        if self.backend is not None:
+        seen = hasattr(self, "seen")
+        if seen:
             report.update(self._score())
         r = report.get("route_error_mm")
         m = report.get("matching")
@@ -214,7 +217,7 @@ class PictureWorld:
               file=self.options.stdout)
         if self.outputs is not None:
             self.outputs.write_text("report.json", json.dumps(report, indent=2) + "\n")
-            if self.backend is not None:
+            if seen:
                 self.outputs.write_png("route.png", self._route_image())
                 if self.pairs is not None:
                     self.outputs.write_png("eyes.png", self._eyes_image())
