@@ -67,3 +67,8 @@ def test_four_corners_instead_of_matching_lose_the_route(tmp_path, monkeypatch, 
     monkeypatch.setattr(PictureWorld, "_match", corners_only)
     report, _ = run(tmp_path)
     assert report["route_error_mm"]["median"] > 2 * matched[0]["route_error_mm"]["median"]
+
+
+def test_without_eyes_the_world_says_which_back_end_it_needs(tmp_path, capsys):
+    assert main(["exec", PROGRAM, "--backend", "dry", "--out", str(tmp_path / "out")]) == 1  # a run that cannot go on
+    assert "run it with --backend pybullet" in capsys.readouterr().err
