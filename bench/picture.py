@@ -36,6 +36,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=20)
+    ap.add_argument("--first", type=int, default=0, help="the first seed (seeds first .. first + scenes - 1)")
+    ap.add_argument("--no-3d-check", action="store_true", help="verify in 2-D only (matching.SPATIAL_CHECK off)")
     ap.add_argument("--method", default="sift")
     ap.add_argument("--model", default="local")
     ap.add_argument("--ratio", type=float, default=0.8, help="Lowe's ratio (matching.RATIO)")
@@ -47,7 +49,7 @@ def main(argv=None) -> int:
     from hila_lang.worlds.picture import scenes as S
     from hila_lang.worlds.picture.texture import map_texture
 
-    M.RATIO, M.SIFT_CONTRAST = args.ratio, args.contrast
+    M.RATIO, M.SIFT_CONTRAST, M.SPATIAL_CHECK = args.ratio, args.contrast, not args.no_3d_check
     mat = S.mat()
     b = PyBulletBackend(mat)
     b.reset_hand(S.HOME)
@@ -66,7 +68,7 @@ def main(argv=None) -> int:
     prec = {bent: [0, 0, 0, 0] for bent in (False, True)}  # true, matched, true kept, kept
     counts = {bent: [] for bent in (False, True)}
     clock = time.perf_counter()
-    for seed in range(args.scenes):
+    for seed in range(args.first, args.first + args.scenes):
         tex = map_texture(S.SIZE, seed)
         demo = S.demo_sheet(mat.z)
         (dl, dr), d_truth = look(demo, tex)
@@ -90,7 +92,8 @@ def main(argv=None) -> int:
                 rows[bent][name].append(value)
     b.close()
     seconds = time.perf_counter() - clock
-    print(f"{args.scenes} seeds x (flat, bent); {args.method}, verification {args.model}, ratio {args.ratio}, "
+    print(f"seeds {args.first}..{args.first + args.scenes - 1} x (flat, bent); {args.method}, verification "
+          f"{args.model}{'' if M.SPATIAL_CHECK else ' (2-D only)'}, ratio {args.ratio}, "
           f"SIFT contrast {args.contrast}; "
           f"{seconds:.0f} s; load {os.getloadavg()[0]:.1f}")
     print("| sheet | ICPs | route error median, mm | p95, mm | pairs matched / kept (median) | precision before -> after |")
