@@ -103,3 +103,18 @@ def test_a_bent_sheet_keeps_its_length_rests_on_its_edges_and_maps_back():
     assert np.linalg.norm(np.diff(edge, axis=0), axis=1).sum() == pytest.approx(TASK.size[0], rel=1e-4)
     assert TASK.to_world([[0.5, 0.5]])[0, 2] == pytest.approx(TASK.z + TASK.bend)
     assert np.allclose(TASK.corners()[:, 2], TASK.z)
+
+
+def test_the_3d_check_rejects_task_points_off_the_sheet(scenes):
+    """A wrong stereo pair puts a task point along the eye's ray: the 2-D verification cannot
+    see it, the 3-D check does."""
+    demo, task, _, _ = scenes
+    pairs = M.match_scenes(demo, task, "local")
+    keep = pairs.kept.copy()
+    moved = pairs.task_points.copy()
+    bad = np.flatnonzero(keep)[::4]
+    moved[bad] += [0.0, 0.0, 0.03]
+    ok = M.spatially_consistent(pairs.template_points, moved, keep)
+    assert not ok[bad].any()
+    assert ok[np.setdiff1d(np.flatnonzero(keep), bad)].mean() >= 0.8
+    assert not ok[~keep].any()
