@@ -215,6 +215,12 @@ class PictureWorld:
         print(("route error " + (f"median {r['median']} mm, p95 {r['p95']} mm" if r else "not measured (nothing drawn)"))
               + (f"; pairs matched {m['matched']}, kept {m['kept']}, rejected {m['rejected']}" if m else ""),
               file=self.options.stdout)
+        if m and m.get("precision_before") is not None:
+            print(f"precision of the pairs (referee): {m['precision_before']} before rejection, "
+                  f"{m['precision_after']} after", file=self.options.stdout)
+        for name, e in report.get("controls_planned_mm", {}).items():
+            print(f"  planned with {name + ':':14s} median {e['median']:6.2f} mm, p95 {e['p95']:6.2f} mm",
+                  file=self.options.stdout)
         if self.outputs is not None:
             self.outputs.write_text("report.json", json.dumps(report, indent=2) + "\n")
             if seen:
