@@ -479,8 +479,8 @@ class Interpreter(History):
         if name in self.fsm.points:
             return self.point(self.fsm.points[name])
         points = self.world.points() if points is None else points
-        if name in points:
-            return np.asarray(points[name], dtype=float)
+        if name in points:  # None: a point the world knows of but does not see now (binds an ICP to none)
+            return None if points[name] is None else np.asarray(points[name], dtype=float)
         if any(k.startswith(name + ".") for k in points) or any(k.startswith(name + ".") for k in self.fsm.points):
             return name
         head, _, attr = name.rpartition(".")

@@ -197,7 +197,9 @@ class World(Protocol):
         ...
 
     def points(self) -> Mapping[str, "np.ndarray"]:
-        """Every named scene point known now, e.g. ``{"board.cell5.tl": array([x, y, z]), ...}``."""
+        """Every named scene point known now, e.g. ``{"board.cell5.tl": array([x, y, z]), ...}``;
+        a name mapped to None is a point the world knows of but does not see now (binding an ICP
+        to it leaves the ICP out, as ``icp = none`` does: the picture world's unmatched features)."""
         ...
 
     def query(self, name: str, *args: Any) -> Any:

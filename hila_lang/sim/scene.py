@@ -149,6 +149,28 @@ class SimScene:
         self.set_texture(body, img)
         return body
 
+    def add_mesh(self, image: np.ndarray, vertices, uvs, indices, *, lit: bool = True) -> int:
+        """A visual-only triangle mesh showing ``image`` (H, W, 3) uint8 RGB (a bent sheet,
+        :meth:`hila_lang.sim.sheet.Sheet.mesh`); returns its body id.
+
+        ``vertices`` (N, 3) are world points, ``uvs`` (N, 2) texture coordinates (u along the
+        image's columns, v along its rows from row 0), ``indices`` the triangles' vertex indices.
+        ``lit`` as :meth:`add_quad` (False: ambient light only).
+        """
+        img = np.asarray(image)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise InputError(f"expected an RGB uint8 image (H, W, 3), got {img.dtype} {img.shape}")
+        pb, c = self.pb, self.client
+        uvs = np.asarray(uvs, dtype=float)
+        vis = pb.createVisualShape(
+            pb.GEOM_MESH, vertices=np.asarray(vertices, dtype=float).tolist(),
+            indices=[int(i) for i in indices],
+            uvs=np.column_stack([uvs[:, 0], 1.0 - uvs[:, 1]]).tolist(),  # the renderer samples bottom-up
+            normals=[[0, 0, 1 if lit else -1]] * len(uvs), physicsClientId=c)
+        body = pb.createMultiBody(baseVisualShapeIndex=vis, basePosition=[0, 0, 0], physicsClientId=c)
+        self.set_texture(body, img)
+        return body
+
     def add_surface(self, surface, image: np.ndarray | None = None, *, lit: bool = True) -> int:
         """A :class:`~hila_lang.sim.surface.Surface` as a textured quad (``image``, else its
         texture, else blank); move it with :meth:`set_pose` and ``surface.world_T_surface()``."""
