@@ -37,6 +37,7 @@ COMMANDS = {
     "eval": "eval_",
     "snapshot": "snapshot",
     "lsp": "lsp",
+    "studio": "studio",
 }
 
 
