@@ -73,16 +73,12 @@ def plane_homography(camera, z: float) -> np.ndarray:
 
 
 def tictactoe_features(spec) -> list[dict]:
-    """The grid's 16 line crossings (the cells' corners), named by cell and corner, as the
-    places an ICP snaps to."""
+    """Every cell's corners (the grid's 16 line crossings, each named by every cell it is a corner
+    of: ``cell5.tl`` is ``cell1.br``), as the places an ICP snaps to."""
     from ..worlds.tictactoe.board import cell_corners
 
-    seen: dict[tuple, dict] = {}
-    for cell in range(1, 10):
-        for corner, p in cell_corners(spec, cell).items():
-            key = tuple(np.round(p, 6))
-            seen.setdefault(key, {"name": f"cell{cell}.{corner}", "point": [float(v) for v in p]})
-    return list(seen.values())
+    return [{"name": f"cell{cell}.{corner}", "point": [float(v) for v in p]}
+            for cell in range(1, 10) for corner, p in cell_corners(spec, cell).items()]
 
 
 def scene(name: str, folder: Path) -> dict:

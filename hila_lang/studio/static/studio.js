@@ -134,10 +134,10 @@ function sample(e) {
 }
 function demoPointer(e) {
   if (document.querySelector('input[name="demo-mode"]:checked').value !== "draw" || D.done || !D.scene) return;
-  if (e.type === "pointerdown") $("demo-canvas").setPointerCapture(e.pointerId);
+  if (e.type === "pointerdown") try { $("demo-canvas").setPointerCapture(e.pointerId); } catch (err) { /* a synthesized pointer */ }
   if (!D.recording) { if (D.source) return; D.recording = true; D.samples = []; }
-  for (const ev of (e.getCoalescedEvents && e.type === "pointermove" ? e.getCoalescedEvents() : [e]))
-    D.samples.push(sample(ev.offsetX === undefined ? e : ev));
+  const many = e.type === "pointermove" && e.getCoalescedEvents ? e.getCoalescedEvents() : [];
+  for (const ev of many.length ? many : [e]) D.samples.push(sample(ev));
   if (e.type === "pointerdown" || e.type === "pointerup") D.samples[D.samples.length - 1].down = e.type === "pointerdown";
   drawDemo();
 }

@@ -1,0 +1,145 @@
+"""hila studio in a real browser (Debian's chromium through Playwright, headless): draw a
+demonstration with synthesized pointer events and save it (the same file as ``hila learn``),
+play ``game.hila`` with it, drag an ICP and read OSILA's new path from the page, run a game to
+its end by clicks, open a recording and scrub it.  Screenshots of each view go to the test's
+output folder (``tmp_path``)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from studio_support import BROWSER_ARGS, ROOT, Studio, chromium_or_skip
+
+pytest.importorskip("starlette")
+
+#: a person's reach, circle and retract over cell 5 of the tic-tac-toe sheet, as pointer events
+#: with their own time stamps: hover in from the lower left, pause, pen down, one circle, pen up,
+#: pause, hover out to the upper right and off the canvas
+DRAW_JS = """
+async ({cell}) => {
+  const S = window.hilaStudio.demo, c = document.querySelector('[data-testid=demo-canvas]');
+  const box = c.getBoundingClientRect();
+  const px = (p) => { const H = S.H, w = H[2][0]*p[0] + H[2][1]*p[1] + H[2][2];
+    return [(H[0][0]*p[0] + H[0][1]*p[1] + H[0][2]) / w, (H[1][0]*p[0] + H[1][1]*p[1] + H[1][2]) / w]; };
+  const corners = ['tl','tr','br','bl'].map(k => S.scene.features.find(f => f.name === `cell${cell}.${k}`).point);
+  const cx = corners.reduce((a, p) => a + p[0], 0) / 4, cy = corners.reduce((a, p) => a + p[1], 0) / 4;
+  const r = 0.3 * Math.hypot(corners[0][0] - corners[1][0], corners[0][1] - corners[1][1]);
+  const sleep = (ms) => new Promise(res => setTimeout(res, ms));
+  const fire = (type, p, down) => { const [u, v] = px(p);
+    c.dispatchEvent(new PointerEvent(type, {bubbles: true, clientX: box.left + u, clientY: box.top + v, pointerId: 7,
+      pointerType: 'pen', isPrimary: true, buttons: down ? 1 : 0, pressure: down ? 0.6 : 0})); };
+  const smooth = (s) => s * s * (3 - 2 * s);
+  const leg = async (a, b, n, down) => { for (let i = 1; i <= n; i++) { const s = smooth(i / n);
+    fire('pointermove', [a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s], down); await sleep(16); } };
+  const start = [cx - 0.12, cy - 0.10], touch = [cx + r, cy], end = [cx + 0.10, cy + 0.12];
+  fire('pointermove', start, false); await sleep(16);
+  await leg(start, touch, 45, false);
+  for (let i = 0; i < 10; i++) { fire('pointermove', touch, false); await sleep(16); }
+  fire('pointerdown', touch, true); await sleep(16);
+  for (let i = 1; i <= 70; i++) { const a = 2 * Math.PI * smooth(i / 70);
+    fire('pointermove', [cx + r * Math.cos(a), cy + r * Math.sin(a)], true); await sleep(16); }
+  fire('pointerup', touch, false); await sleep(16);
+  for (let i = 0; i < 10; i++) { fire('pointermove', touch, false); await sleep(16); }
+  await leg(touch, end, 45, false);
+  c.dispatchEvent(new PointerEvent('pointerleave', {bubbles: false, pointerId: 7, pointerType: 'pen'}));
+  return [cx, cy, r];
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def browser():
+    exe, sync_api = chromium_or_skip()
+    with sync_api.sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("studio")
+    shutil.copy(ROOT / "programs" / "game.hila", folder / "game.hila")
+    shutil.copy(ROOT / "primitives" / "reach.yaml", folder / "reach.yaml")
+    s = Studio(folder)
+    yield s
+    assert s.stop() == 130
+
+
+@pytest.fixture()
+def page(browser, studio):
+    p = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = []
+    p.on("pageerror", lambda e: errors.append(str(e)))
+    p.goto(studio.url)
+    p.wait_for_function("window.hilaStudio.demo.scene !== undefined")
+    yield p
+    p.close()
+    assert not errors, errors
+
+
+def click_at(page, testid, u, v):
+    box = page.get_by_test_id(testid).bounding_box()
+    page.mouse.click(box["x"] + u, box["y"] + v)
+
+
+def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
+    page.get_by_test_id("scene-select").select_option("tictactoe")
+    page.wait_for_function("window.hilaStudio.demo.scene.name === 'tictactoe' && window.hilaStudio.demo.image.complete")
+    page.evaluate(DRAW_JS, {"cell": 5})
+    page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.cuts.length === 2")
+    demo = page.evaluate("window.hilaStudio.demo")
+    path = np.array(demo["path"])
+    assert path.shape[1] == 3 and 60 < len(path) < 140
+    z = demo["scene"]["z"]
+    assert abs(path[:, 2].min() - z) < 1e-9 and path[0, 2] > z + 0.05 and path[-1, 2] > z + 0.05  # lifted while up
+    page.get_by_test_id("mode-icp").check()
+    H = np.array(demo["H"])
+    feats = {f["name"]: f["point"] for f in demo["scene"]["features"]}
+
+    def px(p):
+        q = H @ [p[0], p[1], 1.0]
+        return q[0] / q[2], q[1] / q[2]
+
+    for corner in ("tl", "tr", "br", "bl"):
+        page.get_by_test_id("icp-name").fill(corner)
+        u, v = px(feats[f"cell5.{corner}"])
+        click_at(page, "demo-canvas", u + 3, v - 2)  # near the crossing: it snaps
+    page.get_by_test_id("icp-name").fill("hand")
+    u, v = px(path[0])
+    click_at(page, "demo-canvas", u + 2, v + 2)  # near the path's start: it snaps
+    icps = page.evaluate("window.hilaStudio.demo.icps")
+    assert icps["tl"] == feats["cell5.tl"] and icps["hand"] == demo["path"][0]
+    page.get_by_test_id("template-name").fill("circle")
+    page.screenshot(path=tmp_path / "demonstrate.png")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.saved !== undefined")
+    saved = page.evaluate("window.hilaStudio.saved")
+    assert [s["tag"] for s in saved["segments"]] == ["reach", "draw", "retract"]
+    draw = saved["segments"][1]
+    assert abs(path[draw["start"]:draw["stop"], 2] - z).max() < 0.01  # the cut found pen contact
+    page.screenshot(path=tmp_path / "demonstrate-saved.png")
+    if (ROOT / "docs").is_dir():
+        page.screenshot(path=ROOT / "docs" / "img" / "studio-demonstrate.png") if (ROOT / "docs" / "img").is_dir() else None
+
+    # the page's template is the file `hila learn` writes from the same points and ICPs
+    folder = studio.folder
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "learn", str(folder / "circle.demo.csv"),
+                        "--icps", str(folder / "circle.icps.yaml"), "-k", "3", "--tags", "reach,draw,retract",
+                        "--contact", "draw", "--name", "circle", "-o", str(tmp_path / "learned.yaml")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (folder / "circle.yaml").read_text() == (tmp_path / "learned.yaml").read_text()
+
+    # game.hila in the folder imports the drawn circle (beside it) in place of circle.yaml
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "exec", "game.hila", "--backend", "dry",
+                        "--opponent", "minimax", "--out", str(tmp_path / "game")],
+                       capture_output=True, text=True, cwd=folder, timeout=120)
+    assert r.returncode == 0, r.stderr + r.stdout
+    assert "result:" in r.stdout and "circle.draw" in r.stdout
