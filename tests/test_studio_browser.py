@@ -143,3 +143,114 @@ def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
                        capture_output=True, text=True, cwd=folder, timeout=120)
     assert r.returncode == 0, r.stderr + r.stdout
     assert "result:" in r.stdout and "circle.draw" in r.stdout
+
+
+def test_drag_an_icp_and_read_osilas_new_path(page, studio, tmp_path):
+    from hila_lang.hierarchy import hila_step
+    from hila_lang.template import load_template
+
+    page.get_by_test_id("tab-imitate").click()
+    page.get_by_test_id("imitate-template").select_option("reach.yaml")
+    page.wait_for_function("window.hilaStudio.imit.path && window.hilaStudio.imit.shown >= 1")
+    before = np.array(page.evaluate("window.hilaStudio.imit.path"))
+    handle = page.get_by_test_id("icp-object")
+    box = handle.bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    for i in range(1, 11):
+        page.mouse.move(x + 15 * i, y + 9 * i)
+    page.mouse.up()
+    page.wait_for_function("window.hilaStudio.imit.shown === window.hilaStudio.imit.seq")
+    task = page.evaluate("window.hilaStudio.imit.task")
+    after = np.array(page.evaluate("window.hilaStudio.imit.path"))
+    template = load_template(studio.folder / "reach.yaml")
+    assert np.linalg.norm(np.array(task["object"]) - template.icps["object"]) > 0.005  # it moved
+    expected = hila_step(template, {k: np.array(v) for k, v in task.items()}).path
+    assert np.allclose(after, expected, atol=1e-9)  # the page shows THE HILA step's path
+    assert np.abs(after - before).max() > 0.01
+    assert np.linalg.norm(after - np.array(task["object"]), axis=1).min() < 1e-3  # it reaches the new object
+    reason = page.get_by_test_id("imitate-reason").inner_text()
+    assert "map:" in reason and "plan adjustment" in reason
+    page.get_by_test_id("add-avoid").click()
+    mid = after[len(after) // 4]
+    H = np.array(page.evaluate("window.hilaStudio.imit.H"))
+    q = H @ [mid[0], mid[1], 1.0]
+    click_at(page, "imitate-canvas", q[0] / q[2], q[1] / q[2])
+    page.wait_for_function("window.hilaStudio.imit.shown === window.hilaStudio.imit.seq")
+    page.get_by_test_id("show-controls").check()
+    page.wait_for_function("window.hilaStudio.imit.controls && window.hilaStudio.imit.shown === window.hilaStudio.imit.seq")
+    assert "avoid 1" in page.get_by_test_id("imitate-reason").inner_text()
+    page.get_by_test_id("export").click()
+    page.wait_for_function("document.querySelector('[data-testid=export-text]').value.includes('import reach')")
+    snippet = page.get_by_test_id("export-text").input_value().split("# --- path")[0]
+    (studio.folder / "snippet.hila").write_text(snippet)
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "check", "snippet.hila"], capture_output=True, text=True,
+                       cwd=studio.folder)
+    assert r.returncode == 0, r.stdout + r.stderr + snippet
+    page.screenshot(path=tmp_path / "imitate.png")
+
+
+def _wait_status(page, predicate: str, timeout=60000):
+    page.wait_for_function(f"(() => {{ const s = window.hilaStudio.run.state; return s && ({predicate}); }})()",
+                           timeout=timeout)
+
+
+def test_run_game_to_its_end_by_clicks(page, studio, tmp_path):
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.wait_for_function("document.querySelector('[data-testid=program-editor]').value.includes('world tictactoe')")
+    page.wait_for_selector("#problems li")
+    assert page.locator("#problems li").first.inner_text() == "no problems"
+    page.get_by_test_id("backend").select_option("dry")
+    page.get_by_test_id("opponent").select_option("human")
+    page.get_by_test_id("start").click()
+    _wait_status(page, "s.current === 'main/until#1'")
+    page.get_by_test_id("step").click()
+    _wait_status(page, "s.steps === 1")
+    assert page.get_by_test_id("fsm-current").get_attribute("data-state") == page.evaluate("window.hilaStudio.run.state.current")
+    page.get_by_test_id("run").click()
+    moves = 0
+    while True:  # the page's board shows every cross played so far when it asks for the next
+        _wait_status(page, f"s.done || (s.waiting && s.board.filter(m => m === 'X').length === {moves})")
+        state = page.evaluate("window.hilaStudio.run.state")
+        if state["done"]:
+            break
+        if moves == 0:
+            page.screenshot(path=tmp_path / "run-your-move.png")
+        free = [i + 1 for i, m in enumerate(state["board"]) if not m]
+        page.get_by_test_id(f"cell-{free[0]}").click()
+        moves += 1
+    board = page.evaluate("window.hilaStudio.run.state.board")
+    assert moves >= 2 and board.count("X") == moves and board.count("O") >= moves
+    assert "finished" in page.get_by_test_id("run-status").inner_text()
+    assert "result:" in page.get_by_test_id("trace").inner_text() or "end" in page.get_by_test_id("trace").inner_text()
+    page.screenshot(path=tmp_path / "run-finished.png")
+
+
+def test_open_a_recording_and_scrub(page, studio, tmp_path):
+    rec = studio.folder / "game.hilarec"
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "exec", "game.hila", "--backend", "dry", "--opponent", "minimax",
+                        "--record", str(rec), "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                       cwd=studio.folder, timeout=120)
+    assert r.returncode == 0, r.stderr
+    from hila_lang.language.recording import read_record
+
+    steps = read_record(rec)["steps"]
+    page.reload()
+    page.wait_for_function("window.hilaStudio.demo.scene !== undefined")
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("recording-select").select_option("game.hilarec")
+    _wait_status(page, "s.length > 0")
+    scrub = page.get_by_test_id("scrub")
+    for n in (len(steps) // 2, 5, len(steps)):
+        scrub.evaluate("(el, n) => { el.value = n; el.dispatchEvent(new Event('input')); }", n)
+        _wait_status(page, f"s.steps === {n}")
+        state = page.evaluate("window.hilaStudio.run.state")
+        if n < len(steps):
+            assert state["current"] == steps[n]["state"]
+            assert page.get_by_test_id("fsm-current").get_attribute("data-state") == steps[n]["state"]
+        else:
+            assert state["done"]
+        assert f"step {n} of {len(steps)}" in page.get_by_test_id("scrub-at").inner_text()
+    page.screenshot(path=tmp_path / "recording.png")

@@ -292,6 +292,10 @@ def make_app(folder: Path, token: str, port: int):
                         raise InputError(f"unknown command {cmd!r}")
                 except (HilaError, ValueError, OSError) as exc:
                     emit({"type": "error", "text": getattr(exc, "message", None) or str(exc)})
+                except Exception as exc:  # noqa: BLE001 - a bug: said on the page, the studio goes on
+                    from ..errors import internal_error_message
+
+                    emit({"type": "error", "text": internal_error_message(exc)})
         except WebSocketDisconnect:
             pass
         finally:
@@ -301,6 +305,7 @@ def make_app(folder: Path, token: str, port: int):
 
     routes = [
         Route("/", index),
+        Route("/favicon.ico", lambda request: Response(status_code=204)),
         Route("/api/files", files),
         Route("/api/file", file, methods=["GET", "PUT"]),
         Route("/api/raw", raw),

@@ -66,7 +66,7 @@ def fsm_graph(fsm) -> dict:
     """Nodes and edges of the state machine, for drawing."""
     return dict(start=fsm.start,
                 nodes=[dict(name=s.name, kind=s.kind, line=s.line) for s in fsm.states.values()],
-                edges=[list(e) for e in fsm.edges()])
+                edges=[[s.name, target, label] for s in fsm.states.values() for target, label in s.edges()])
 
 
 def _png(rgb) -> str:

@@ -46,11 +46,12 @@ function handle(layer, testid, cls, label, u, v, onDrag, onEnd, onDbl) {
   el.style.left = u + "px"; el.style.top = v + "px";
   if (label) { const l = document.createElement("label"); l.textContent = label; el.appendChild(l); }
   el.addEventListener("pointerdown", (e) => {
-    e.preventDefault(); e.stopPropagation(); el.setPointerCapture(e.pointerId);
+    e.preventDefault(); e.stopPropagation(); el.setPointerCapture(e.pointerId); layer.dataset.dragging = "1";
     const box = layer.getBoundingClientRect();
     const move = (ev) => { const x = ev.clientX - box.left, y = ev.clientY - box.top;
       el.style.left = x + "px"; el.style.top = y + "px"; onDrag && onDrag(x, y); };
-    const up = () => { el.removeEventListener("pointermove", move); el.removeEventListener("pointerup", up); onEnd && onEnd(); };
+    const up = () => { el.removeEventListener("pointermove", move); el.removeEventListener("pointerup", up);
+      delete layer.dataset.dragging; onEnd && onEnd(); };
     el.addEventListener("pointermove", move); el.addEventListener("pointerup", up);
   });
   if (onDbl) el.addEventListener("dblclick", (e) => { e.stopPropagation(); onDbl(); });
@@ -120,7 +121,8 @@ function drawDemo() {
       for (const p of seg) { const [u, v] = applyH(D.H, p[0], p[1]); ctx.fillStyle = colours[k % 5]; ctx.fillRect(u - 1.5, v - 1.5, 3, 3); }
     }
   }
-  const layer = $("demo-handles"); layer.innerHTML = "";
+  const layer = $("demo-handles"); if (layer.dataset.dragging) return;   // the handle being dragged stays
+  layer.innerHTML = "";
   for (const [name, p] of Object.entries(D.icps)) {
     const [u, v] = applyH(D.H, p[0], p[1]);
     handle(layer, "demo-icp-" + name, "", name, u, v, (x, y) => { const q = planeAt(x, y); p[0] = q[0]; p[1] = q[1]; },
@@ -288,7 +290,8 @@ function drawImitate() {
     ctx.beginPath(); ctx.fillStyle = "rgba(239,108,0,.2)"; ctx.arc(u, v, Math.abs(r), 0, 7); ctx.fill(); }
   for (const [k, p] of Object.entries(I.t.icps)) { const [u, v] = applyH(I.H, p[0], p[1]);
     ctx.fillStyle = "#aaa"; ctx.fillRect(u - 3, v - 3, 6, 6); ctx.fillText(k, u + 5, v + 12); }
-  const layer = $("imitate-handles"); layer.innerHTML = "";
+  const layer = $("imitate-handles"); if (layer.dataset.dragging) return;   // the handle being dragged stays
+  layer.innerHTML = "";
   const dragTo = (p) => (x, y) => { const q = applyH(I.Hinv, x, y); p[0] = q[0]; p[1] = q[1]; request(); };
   for (const [name, p] of Object.entries(I.task)) {
     const [u, v] = applyH(I.H, p[0], p[1]);
@@ -354,7 +357,7 @@ function onRun(msg) {
       (msg.waiting ? "your move: click a free cell" : `at ${msg.current} (step ${msg.steps})`);
     $("run-status").dataset.done = msg.done ? "1" : "0";
     drawBoard(msg.board, msg.waiting);
-    if (msg.eye) $("eye").src = "data:image/png;base64," + msg.eye;
+    if (msg.eye) { $("eye").src = "data:image/png;base64," + msg.eye; $("eye").hidden = false; }
     drawTop(msg.path);
     if (msg.length != null) $("scrub-at").textContent = `step ${msg.steps} of ${msg.length}` + (msg.entry ? ": " + msg.entry : "");
   }
