@@ -254,3 +254,23 @@ def test_open_a_recording_and_scrub(page, studio, tmp_path):
             assert state["done"]
         assert f"step {n} of {len(steps)}" in page.get_by_test_id("scrub-at").inner_text()
     page.screenshot(path=tmp_path / "recording.png")
+
+
+def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.get_by_test_id("backend").select_option("pybullet")
+    page.get_by_test_id("opponent").select_option("minimax")
+    page.get_by_test_id("start").click()
+    _wait_status(page, "s.robot && s.steps === 0", timeout=120000)
+    first = page.get_by_test_id("robot-view").get_attribute("src")
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    _wait_status(page, "s.steps === 5 && s.eye", timeout=120000)  # reach ran: the robot looked
+    assert page.get_by_test_id("robot-view").get_attribute("src") != first  # the arm moved
+    assert page.get_by_test_id("eye").is_visible()
+    page.screenshot(path=tmp_path / "run-pybullet.png")
+    page.get_by_test_id("stop").click()

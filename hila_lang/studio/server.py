@@ -284,6 +284,9 @@ def make_app(folder: Path, token: str, port: int):
                     elif cmd == "stop":
                         if hasattr(session, "stop"):
                             session.stop()
+                    elif cmd == "view":
+                        if hasattr(session, "turn"):
+                            await run_in_threadpool(session.turn, float(doc.get("azimuth", 35)))
                     elif cmd == "move":
                         session.move(int(doc["cell"]))
                     elif cmd == "scrub":

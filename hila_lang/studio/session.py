@@ -115,6 +115,9 @@ class RunSession(_Session):
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
         self.interp.observers.append(self._observe)
         self.last_eye: str | None = None
+        self.azimuth = 35.0
+        self.robot: str | None = None
+        self._view()
 
     def _observe(self, entry) -> None:
         eyes = getattr(self.interp.backend, "eyes", None)
@@ -123,7 +126,28 @@ class RunSession(_Session):
                 self.last_eye = _png(eyes.camera_image("left").rgb)
             except Exception:  # noqa: BLE001 - no picture is not a failed step
                 self.last_eye = None
+        if entry.kind == "run":
+            self._view(entry)
         self.emit(dict(self.snapshot(), type="step", entry=str(entry)))
+
+    def _view(self, entry=None) -> None:
+        """The 3-D view (:mod:`.view3d`) now, with the last run state's planned and executed paths."""
+        from .view3d import render
+
+        entry = entry or self.interp.last_run
+        try:
+            rgb = render(self.interp.backend, self.azimuth, None if entry is None else entry.path,
+                         None if entry is None else entry.executed)
+        except Exception:  # noqa: BLE001 - no picture is not a failed step
+            rgb = None
+        self.robot = None if rgb is None else _png(rgb)
+
+    def turn(self, azimuth: float) -> None:
+        """Turn the 3-D view's camera to ``azimuth`` degrees and send the view again."""
+        self.azimuth = float(azimuth) % 360.0
+        with self._lock:
+            self._view()
+            self.emit(self.snapshot())
 
     def snapshot(self) -> dict:
         it = self.interp
@@ -132,7 +156,7 @@ class RunSession(_Session):
         return dict(type="state", current=None if it.done else it.current, done=it.done,
                     steps=it.trace.total, waiting=self.stdin.waiting,
                     board=None if board is None else [str(c) for c in board],
-                    path=None if path is None else path.tolist(), eye=self.last_eye,
+                    path=None if path is None else path.tolist(), eye=self.last_eye, robot=self.robot,
                     breakpoints=list(self.repl.breakpoints) if self.repl else [])
 
     def move(self, cell: int) -> None:

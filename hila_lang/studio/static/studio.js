@@ -359,6 +359,7 @@ function onRun(msg) {
     drawBoard(msg.board, msg.waiting);
     if (msg.eye) { $("eye").src = "data:image/png;base64," + msg.eye; $("eye").hidden = false; }
     drawTop(msg.path);
+    if (msg.robot) { $("robot").src = "data:image/png;base64," + msg.robot; $("robot-box").hidden = false; }
     if (msg.length != null) $("scrub-at").textContent = `step ${msg.steps} of ${msg.length}` + (msg.entry ? ": " + msg.entry : "");
   }
 }
@@ -423,6 +424,7 @@ $("btn-start").addEventListener("click", () => { R.breaks.clear();
   send({ cmd: "start", path: $("program").value, backend: $("backend").value, opponent: $("opponent").value }); });
 for (const c of ["step", "run", "back", "reload", "stop"]) $("btn-" + c).addEventListener("click", () => send({ cmd: c }));
 $("recording").addEventListener("change", () => { if ($("recording").value) send({ cmd: "open", path: $("recording").value }); });
+$("azimuth").addEventListener("change", () => send({ cmd: "view", azimuth: +$("azimuth").value }));
 $("scrub").addEventListener("input", () => send({ cmd: "scrub", n: +$("scrub").value }));
 
 // ---------------------------------------------------------------- start
