@@ -125,8 +125,6 @@ def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
     draw = saved["segments"][1]
     assert abs(path[draw["start"]:draw["stop"], 2] - z).max() < 0.01  # the cut found pen contact
     page.screenshot(path=tmp_path / "demonstrate-saved.png")
-    if (ROOT / "docs").is_dir():
-        page.screenshot(path=ROOT / "docs" / "img" / "studio-demonstrate.png") if (ROOT / "docs" / "img").is_dir() else None
 
     # the page's template is the file `hila learn` writes from the same points and ICPs
     folder = studio.folder
