@@ -1,6 +1,7 @@
 """hila studio's live imitation, measured in the real browser: pointer move -> redrawn OSILA path.
 
-A seeded synthetic 2-D template of T = 1000 waypoints (a smooth random curve, metres) with K = 8
+A seeded synthetic 2-D template of T = 1000 waypoints (a smooth random curve, metres, with 0.5 mm
+of white noise, so OSILA's candidate ball -- 2 sigma of the path's noise -- is not empty) with K = 8
 ICPs -- its two ends, three points on the path and three off it -- is opened in the studio's
 Imitate view in Debian's chromium (Playwright, headless).  Each drag step moves the ICP handle
 ``icp-p3`` by a few pixels with a real pointer move (the browser's own input pipeline), and the
@@ -41,6 +42,7 @@ def template(seed: int):
     coef = rng.normal(scale=0.05, size=(2, 4))
     path = np.column_stack([0.2 * s + sum(coef[0, k] * np.sin((k + 1) * np.pi * s) for k in range(4)),
                             sum(coef[1, k] * np.sin((k + 1) * np.pi * s) for k in range(4))])
+    path += rng.normal(scale=0.0005, size=path.shape)  # 0.5 mm of hand/camera noise: OSILA's ball is not empty
     on = path[[0, 250, 500, 750, T - 1]]
     off = path[[120, 380, 630]] + rng.normal(scale=0.03, size=(3, 2))
     icps = {f"p{i + 1}": p for i, p in enumerate(np.vstack([on, off]))}
