@@ -116,6 +116,15 @@ def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
     click_at(page, "demo-canvas", u + 2, v + 2)  # near the path's start: it snaps
     icps = page.evaluate("window.hilaStudio.demo.icps")
     assert icps["tl"] == feats["cell5.tl"] and icps["hand"] == demo["path"][0]
+    page.get_by_test_id("rename-icp-tl").fill("corner")
+    page.get_by_test_id("rename-icp-tl").dispatch_event("change")
+    assert list(page.evaluate("window.hilaStudio.demo.icps")) == ["corner", "tr", "br", "bl", "hand"]  # order kept
+    page.get_by_test_id("rename-icp-corner").fill("tl")
+    page.get_by_test_id("rename-icp-corner").dispatch_event("change")
+    page.get_by_test_id("icp-name").fill("extra")
+    click_at(page, "demo-canvas", 20, 20)
+    page.get_by_test_id("remove-icp-extra").click()
+    assert list(page.evaluate("window.hilaStudio.demo.icps")) == ["tl", "tr", "br", "bl", "hand"]
     page.get_by_test_id("template-name").fill("circle")
     page.screenshot(path=tmp_path / "demonstrate.png")
     page.get_by_test_id("save-template").click()

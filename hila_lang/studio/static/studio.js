@@ -121,12 +121,32 @@ function drawDemo() {
       for (const p of seg) { const [u, v] = applyH(D.H, p[0], p[1]); ctx.fillStyle = colours[k % 5]; ctx.fillRect(u - 1.5, v - 1.5, 3, 3); }
     }
   }
+  if (!D.samples.length && !D.path) {
+    ctx.fillStyle = "rgba(0,0,0,.55)"; ctx.font = "15px sans-serif";
+    ctx.fillText("move in from the side, press and draw, lift, move out", 12, c.height - 14);
+  }
   const layer = $("demo-handles"); if (layer.dataset.dragging) return;   // the handle being dragged stays
+  listIcps();
   layer.innerHTML = "";
   for (const [name, p] of Object.entries(D.icps)) {
     const [u, v] = applyH(D.H, p[0], p[1]);
     handle(layer, "demo-icp-" + name, "", name, u, v, (x, y) => { const q = planeAt(x, y); p[0] = q[0]; p[1] = q[1]; },
       drawDemo, () => { delete D.icps[name]; drawDemo(); });
+  }
+}
+function listIcps() {   // rename (keeps the order) and remove
+  const box = $("demo-icps"); box.innerHTML = "";
+  for (const name of Object.keys(D.icps)) {
+    const row = document.createElement("div"), input = document.createElement("input"), del = document.createElement("button");
+    input.value = name; input.size = 10; input.setAttribute("data-testid", "rename-icp-" + name);
+    input.addEventListener("change", () => { const to = input.value.trim();
+      if (!to || to in D.icps) { input.value = name; return; }
+      D.icps = Object.fromEntries(Object.entries(D.icps).map(([k, v]) => [k === name ? to : k, v])); drawDemo(); });
+    del.textContent = "×"; del.title = "remove " + name; del.setAttribute("data-testid", "remove-icp-" + name);
+    del.onclick = () => { delete D.icps[name]; drawDemo(); };
+    const at = document.createElement("span"); at.className = "muted";
+    at.textContent = " (" + D.icps[name].map((v) => v.toFixed(3)).join(", ") + ")";
+    row.append(input, del, at); box.appendChild(row);
   }
 }
 function sample(e) {
