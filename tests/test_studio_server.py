@@ -142,3 +142,17 @@ def test_taken_port_is_one_line_exit_2_and_ctrl_c_is_130(tmp_path):
         assert r.stderr.count("\n") == 1 and f"port {s.port}" in r.stderr and "taken" in r.stderr
     finally:
         assert s.stop() == 130
+
+
+def test_bad_websocket_messages_are_answered_and_the_socket_lives(studio):
+    from websockets.sync.client import connect
+
+    url = f"ws://127.0.0.1:{studio.port}/ws/imitate?token={studio.token}"
+    with connect(url, origin=f"http://127.0.0.1:{studio.port}", open_timeout=10) as ws:
+        ws.send("not json")
+        assert "error" in json.loads(ws.recv(timeout=10))
+        ws.send("[1, 2]")
+        assert "JSON object" in json.loads(ws.recv(timeout=10))["error"]
+        ws.send(json.dumps({"template": "prog.hila", "seq": 3}))
+        reply = json.loads(ws.recv(timeout=10))
+        assert reply["seq"] == 3 and "error" in reply

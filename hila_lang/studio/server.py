@@ -65,6 +65,10 @@ def make_app(folder: Path, token: str, port: int):
                 if isinstance(exc, OSError) and not isinstance(exc, HilaError):
                     return problem(InputError(f"{exc.filename or ''}: {exc.strerror or exc}"), 400)
                 return problem(exc, 403 if str(getattr(exc, "message", exc)).startswith("refused") else 400)
+            except Exception as exc:  # noqa: BLE001 - a bug in hila: said as such, the studio goes on
+                from ..errors import internal_error_message
+
+                return JSONResponse({"error": internal_error_message(exc)}, status_code=500)
         return wrapped
 
     def template(name: str):
@@ -226,11 +230,20 @@ def make_app(folder: Path, token: str, port: int):
         await ws.accept()
         try:
             while True:
-                doc = json.loads(await ws.receive_text())
+                doc: dict = {}
+                text = await ws.receive_text()
                 try:
+                    doc = json.loads(text)
+                    if not isinstance(doc, dict):
+                        doc = {}
+                        raise InputError("expected a JSON object")
                     out = await run_in_threadpool(imitate.imitate, template(str(doc.get("template", ""))), doc)
                 except (HilaError, ValueError, OSError) as exc:
-                    out = {"error": getattr(exc, "message", str(exc))}
+                    out = {"error": getattr(exc, "message", None) or str(exc)}
+                except Exception as exc:  # noqa: BLE001 - a bug: said on the page, the studio goes on
+                    from ..errors import internal_error_message
+
+                    out = {"error": internal_error_message(exc)}
                 out["seq"] = doc.get("seq")
                 await ws.send_text(json.dumps(out))
         except WebSocketDisconnect:
@@ -254,9 +267,10 @@ def make_app(folder: Path, token: str, port: int):
         session = None
         try:
             while True:
-                doc = json.loads(await ws.receive_text())
-                cmd = doc.get("cmd")
+                text = await ws.receive_text()
                 try:
+                    doc = json.loads(text)
+                    cmd = doc.get("cmd") if isinstance(doc, dict) else None
                     if cmd in ("start", "open"):
                         if session is not None:
                             await run_in_threadpool(session.close)
