@@ -281,3 +281,29 @@ def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
     assert page.get_by_test_id("eye").is_visible()
     page.screenshot(path=tmp_path / "run-pybullet.png")
     page.get_by_test_id("stop").click()
+
+
+def test_open_a_template_move_a_cut_and_save(page, studio):
+    from hila_lang.template import load_template
+
+    page.get_by_test_id("open-source").select_option("template:reach.yaml")
+    page.wait_for_function("window.hilaStudio.demo.speed && window.hilaStudio.demo.source")
+    original = load_template(studio.folder / "reach.yaml")
+    cuts = page.evaluate("window.hilaStudio.demo.cuts")
+    assert cuts == [s.start for s in original.segments[1:]]
+    assert page.get_by_test_id("segment-tags").input_value() == ",".join(s.tag for s in original.segments)
+    plot = page.get_by_test_id("speed-plot").bounding_box()
+    T = len(original.path)
+    x = plot["x"] + 4 + (plot["width"] - 8) * cuts[0] / (T - 1)
+    page.mouse.move(x, plot["y"] + 60)
+    page.mouse.down()
+    page.mouse.move(x + 5 * (plot["width"] - 8) / (T - 1), plot["y"] + 60)
+    page.mouse.up()
+    moved = page.evaluate("window.hilaStudio.demo.cuts")
+    assert moved[0] == cuts[0] + 5
+    page.get_by_test_id("template-name").fill("reach2")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.saved && window.hilaStudio.saved.template === 'reach2.yaml'")
+    saved = load_template(studio.folder / "reach2.yaml")
+    assert [s.start for s in saved.segments[1:]] == moved
+    assert np.allclose(saved.path, original.path) and saved.icps.keys() == original.icps.keys()
