@@ -60,6 +60,10 @@ def test_save_is_hila_learn_and_moved_cuts_replace_the_segments(tmp_path):
     assert "moved by hand" in tpl.description
     with pytest.raises(InputError, match="letter or '_'"):
         demonstrate.save(tmp_path, dict(req, name="../x"))
+    opened = demonstrate.open_source(tmp_path, "csv", "swipe.demo.csv")  # its ICPs come from beside it
+    assert opened["name"] == "swipe" and opened["icps"] == req["icps"] and np.allclose(opened["path"], path)
+    with pytest.raises(InputError, match="goes up a folder"):
+        demonstrate.open_source(tmp_path, "template", "../swipe.yaml")
 
 
 def test_open_a_lasa_shape():
