@@ -6,7 +6,6 @@ output folder (``tmp_path``)."""
 
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
 import sys

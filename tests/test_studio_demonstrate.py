@@ -17,12 +17,12 @@ def test_lift_rises_and_falls_at_45_degrees_no_higher_than_the_cap():
     xy = np.column_stack([np.linspace(0, 0.5, 51), np.zeros(51)])  # 1 cm apart
     down = np.zeros(51, bool)
     down[20:25] = True
-    p = demonstration = demonstrate.lift(xy, down, 0.3, lift_max=0.13)
+    p = demonstrate.lift(xy, down, 0.3, lift_max=0.13)
     assert np.allclose(p[20:25, 2], 0.3)  # on the paper while the pen is down
     assert np.isclose(p[19, 2] - 0.3, 0.01) and np.isclose(p[17, 2] - 0.3, 0.03)  # comes down at 45 degrees
     assert np.isclose(p[26, 2] - 0.3, 0.02)  # rises at 45 degrees
     assert np.isclose(p[0, 2] - 0.3, 0.13) and np.isclose(p[-1, 2] - 0.3, 0.13)  # capped
-    assert np.allclose(demonstration[:, :2], xy)
+    assert np.allclose(p[:, :2], xy)
     none = demonstrate.lift(xy, np.zeros(51, bool), 0.3, lift_max=0.13)
     assert np.allclose(none[:, 2], 0.43)
 
