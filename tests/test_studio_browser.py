@@ -215,6 +215,14 @@ def test_run_game_to_its_end_by_clicks(page, studio, tmp_path):
     page.get_by_test_id("step").click()
     _wait_status(page, "s.steps === 1")
     assert page.get_by_test_id("fsm-current").get_attribute("data-state") == page.evaluate("window.hilaStudio.run.state.current")
+    page.locator('#fsm g[data-state="main/mark/draw"]').click()  # a breakpoint
+    _wait_status(page, "s.breakpoints.includes('main/mark/draw')")
+    page.get_by_test_id("run").click()
+    _wait_status(page, "s.current === 'main/mark/draw' && s.steps === 5")  # stopped before entering it
+    page.get_by_test_id("back").click()
+    _wait_status(page, "s.steps === 4")
+    page.locator('#fsm g[data-state="main/mark/draw"]').click()  # cleared
+    _wait_status(page, "s.breakpoints.length === 0")
     page.get_by_test_id("run").click()
     moves = 0
     while True:  # the page's board shows every cross played so far when it asks for the next

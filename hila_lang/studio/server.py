@@ -293,8 +293,8 @@ def make_app(folder: Path, token: str, port: int):
                             session.resume(line)
                         else:
                             session.command(line)
-                    elif cmd == "break":
-                        session.command(f"break {doc.get('state', '')}")
+                    elif cmd in ("break", "clear"):
+                        session.command(f"{cmd} {doc.get('state', '')}")
                     elif cmd == "stop":
                         if hasattr(session, "stop"):
                             session.stop()

@@ -407,7 +407,10 @@ function drawFSM(current) {
       `<rect x="${x - 62}" y="${y - 9}" width="124" height="18" rx="4"/><text x="${x}" y="${y + 4}" text-anchor="middle">${label}</text><title>${n.name} (${n.kind}, line ${n.line})</title></g>`; }
   svg.innerHTML = s;
   svg.querySelectorAll(".node").forEach((g) => g.addEventListener("click", () => {
-    const st = g.dataset.state; if (R.breaks.has(st)) return; R.breaks.add(st); send({ cmd: "break", state: st }); drawFSM(current); }));
+    const st = g.dataset.state;   // a click sets a breakpoint there, a second click clears it
+    if (R.breaks.has(st)) { R.breaks.delete(st); send({ cmd: "clear", state: st }); }
+    else { R.breaks.add(st); send({ cmd: "break", state: st }); }
+    drawFSM(R.state ? R.state.current : current); }));
 }
 function drawBoard(board, waiting) {
   const el = $("board"); el.innerHTML = ""; el.classList.toggle("waiting", !!waiting);
