@@ -156,3 +156,24 @@ def test_bad_websocket_messages_are_answered_and_the_socket_lives(studio):
         ws.send(json.dumps({"template": "prog.hila", "seq": 3}))
         reply = json.loads(ws.recv(timeout=10))
         assert reply["seq"] == 3 and "error" in reply
+
+
+def test_ctrl_c_with_a_game_waiting_for_a_move_exits_130(tmp_path):
+    import shutil
+
+    from websockets.sync.client import connect
+
+    from studio_support import ROOT
+
+    shutil.copy(ROOT / "programs" / "game.hila", tmp_path)
+    s = Studio(tmp_path)
+    try:
+        with connect(f"ws://127.0.0.1:{s.port}/ws/run?token={s.token}", origin=f"http://127.0.0.1:{s.port}",
+                     open_timeout=10) as ws:
+            ws.send(json.dumps({"cmd": "start", "path": "game.hila", "backend": "dry", "opponent": "human"}))
+            ws.send(json.dumps({"cmd": "run"}))
+            while not json.loads(ws.recv(timeout=30)).get("waiting"):
+                pass  # the run waits in a worker thread for the person's cell
+            assert s.stop() == 130
+    finally:
+        s.stop()
