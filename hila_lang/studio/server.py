@@ -46,7 +46,7 @@ def make_app(folder: Path, token: str, port: int):
     from starlette.websockets import WebSocket, WebSocketDisconnect
 
     from . import demonstrate, imitate
-    from .frontend import diagnostics
+    from .frontend import analyse
 
     folder = Path(folder).resolve()
     templates: dict[str, tuple[float, object]] = {}
@@ -202,7 +202,7 @@ def make_app(folder: Path, token: str, port: int):
     async def check(request: Request) -> Response:
         doc = await json_body(request)
         path = inside(folder, str(doc.get("path") or "untitled.hila"))
-        return JSONResponse({"problems": await run_in_threadpool(diagnostics, path, str(doc.get("text", "")))})
+        return JSONResponse(await run_in_threadpool(analyse, path, str(doc.get("text", ""))))
 
     @guarded
     async def export(request: Request) -> Response:
@@ -277,9 +277,14 @@ def make_app(folder: Path, token: str, port: int):
                             session = None
                         path = inside(folder, str(doc.get("path", "")))
                         if cmd == "start":
+                            from ..fileio import read_text
+
+                            # an opponent only for a world that has one (the page offers it to every program)
+                            known = (await run_in_threadpool(analyse, path, read_text(path, "program")))["settings"]
+                            opponent = doc.get("opponent") if "opponent" in known else None
                             session = await run_in_threadpool(lambda: RunSession(
                                 path, emit, backend=doc.get("backend") or None,
-                                opponent=doc.get("opponent") or None, seed=int(doc.get("seed", 0))))
+                                opponent=opponent or None, seed=int(doc.get("seed", 0))))
                         else:
                             session = await run_in_threadpool(ReplaySession, path, emit)
                         emit(dict(type="fsm", graph=fsm_graph(session.interp.fsm),

@@ -39,8 +39,8 @@ def render(backend, azimuth_deg: float, planned=None, executed=None) -> np.ndarr
 
     cam = camera(azimuth_deg)
     rgb = np.ascontiguousarray(sim.render(cam))
-    for path, colour in ((planned, (21, 101, 192)), (executed, (239, 108, 0))):
+    for path, colour, width in ((executed, (239, 108, 0), 4), (planned, (21, 101, 192), 2)):  # planned on top
         if path is not None and len(path) > 1 and np.asarray(path).shape[1] == 3:
             uv = cam.project(np.asarray(path, float))
-            cv2.polylines(rgb, [np.round(uv * 4).astype(np.int32)], False, colour, 2, cv2.LINE_AA, shift=2)
+            cv2.polylines(rgb, [np.round(uv * 4).astype(np.int32)], False, colour, width, cv2.LINE_AA, shift=2)
     return rgb

@@ -433,6 +433,7 @@ let checkTimer = null;
 $("program-editor").addEventListener("input", () => { clearTimeout(checkTimer); checkTimer = setTimeout(check, 250); });
 async function check() {
   const r = await post("/api/check", { path: $("program").value || "untitled.hila", text: $("program-editor").value });
+  $("opponent").disabled = !r.settings.includes("opponent");
   const ul = $("problems"); ul.innerHTML = "";
   if (!r.problems.length) { const li = document.createElement("li"); li.className = "ok"; li.textContent = "no problems"; ul.appendChild(li); }
   for (const p of r.problems) { const li = document.createElement("li"); li.className = p.severity;
