@@ -52,6 +52,31 @@ async ({cell}) => {
 """
 
 
+#: docs/studio.md's walk-through: a straight stroke across the tic-tac-toe grid, corner to corner
+SWIPE_JS = """
+async () => {
+  const S = window.hilaStudio.demo, c = document.querySelector('[data-testid=demo-canvas]'), box = c.getBoundingClientRect();
+  const px = (p) => { const H = S.H, w = H[2][0]*p[0] + H[2][1]*p[1] + H[2][2];
+    return [(H[0][0]*p[0] + H[0][1]*p[1] + H[0][2]) / w, (H[1][0]*p[0] + H[1][1]*p[1] + H[1][2]) / w]; };
+  const f = (n) => S.scene.features.find(x => x.name === n).point;
+  const a = f('cell1.tl'), b = f('cell9.br');
+  const sleep = (ms) => new Promise(res => setTimeout(res, ms));
+  const fire = (type, p, down) => { const [u, v] = px(p); c.dispatchEvent(new PointerEvent(type, {bubbles: true,
+      clientX: box.left + u, clientY: box.top + v, pointerId: 3, pointerType: 'mouse', buttons: down ? 1 : 0})); };
+  const sm = (s) => s * s * (3 - 2 * s);
+  const leg = async (p, q, n, down) => { for (let i = 1; i <= n; i++) { const s = sm(i / n);
+      fire('pointermove', [p[0] + (q[0] - p[0]) * s, p[1] + (q[1] - p[1]) * s], down); await sleep(16); } };
+  const start = [a[0] - 0.08, a[1] + 0.08], end = [b[0] + 0.06, b[1] - 0.08];
+  fire('pointermove', start, false); await leg(start, a, 30, false);
+  for (let i = 0; i < 8; i++) { fire('pointermove', a, false); await sleep(16); }
+  fire('pointerdown', a, true); await leg(a, b, 50, true); fire('pointerup', b, false);
+  for (let i = 0; i < 8; i++) { fire('pointermove', b, false); await sleep(16); }
+  await leg(b, end, 30, false);
+  c.dispatchEvent(new PointerEvent('pointerleave', {pointerId: 3}));
+}
+"""
+
+
 @pytest.fixture(scope="module")
 def browser():
     exe, sync_api = chromium_or_skip()
@@ -314,3 +339,39 @@ def test_open_a_template_move_a_cut_and_save(page, studio):
     saved = load_template(studio.folder / "reach2.yaml")
     assert [s.start for s in saved.segments[1:]] == moved
     assert np.allclose(saved.path, original.path) and saved.icps.keys() == original.icps.keys()
+
+
+def test_the_docs_walk_through_swipe_save_two_line_program_run(page, studio, tmp_path):
+    page.on("dialog", lambda d: d.accept("mine.hila"))
+    page.get_by_test_id("scene-select").select_option("tictactoe")
+    page.wait_for_function("window.hilaStudio.demo.scene.name === 'tictactoe' && window.hilaStudio.demo.image.complete")
+    page.get_by_test_id("segment-tags").fill("reach,stroke,retract")
+    page.get_by_test_id("segment-contact").fill("stroke")
+    page.evaluate(SWIPE_JS)
+    page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.cuts.length === 2")
+    demo = page.evaluate("window.hilaStudio.demo")
+    H = np.array(demo["H"])
+    feats = {f["name"]: f["point"] for f in demo["scene"]["features"]}
+    page.get_by_test_id("mode-icp").check()
+    for name, corner in (("from", "cell1.tl"), ("to", "cell9.br")):
+        page.get_by_test_id("icp-name").fill(name)
+        q = H @ [feats[corner][0], feats[corner][1], 1.0]
+        click_at(page, "demo-canvas", q[0] / q[2] + 3, q[1] / q[2] - 3)
+    page.get_by_test_id("template-name").fill("swipe")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.saved && window.hilaStudio.saved.template === 'swipe.yaml'")
+    assert [s["contact"] for s in page.evaluate("window.hilaStudio.saved.segments")] == [False, True, False]
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-editor").fill(
+        "import swipe\nmain { run swipe(from = (0.25, -0.02, 0.571), to = (0.38, -0.16, 0.571)) }\n")
+    page.wait_for_function("document.querySelector('#problems').innerText.includes('no problems')")
+    assert page.get_by_test_id("opponent").is_disabled()  # the scripted world has no opponent
+    page.get_by_test_id("program-save").click()
+    page.wait_for_function("document.querySelector('[data-testid=program-select]').value === 'mine.hila'")
+    page.get_by_test_id("backend").select_option("dry")
+    page.get_by_test_id("start").click()
+    _wait_status(page, "s.current === 'main/swipe'")
+    page.get_by_test_id("run").click()
+    _wait_status(page, "s.done")
+    assert "finished after 2 steps" in page.get_by_test_id("run-status").inner_text()
+    page.screenshot(path=tmp_path / "walk-through.png")
