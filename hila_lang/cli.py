@@ -38,6 +38,7 @@ COMMANDS = {
     "snapshot": "snapshot",
     "lsp": "lsp",
     "show": "show",
+    "studio": "studio",
 }
 
 
