@@ -82,10 +82,12 @@ def _end(stdout: str) -> np.ndarray:
 
 
 def test_exec_via_unreachable_is_a_located_failure_and_reachable_keeps_the_cup(tmp_path):
-    proc, prog = _exec(tmp_path, " via (1.0, 1.0, 1.0)")
+    # within the arm's reach (hila check refuses (1, 1, 1) before the run: tests/test_reach.py), but
+    # not on the way to the cup
+    proc, prog = _exec(tmp_path, " via (0.5, 0.3, 0.9)")
     assert proc.returncode == 1, proc.stdout + proc.stderr
     first = proc.stderr.splitlines()[0]
-    assert first.startswith(f"{prog}:6:5: error: contradictory constraints: via (1, 1, 1) at 6:48 cannot be met "
+    assert first.startswith(f"{prog}:6:5: error: contradictory constraints: via (0.5, 0.3, 0.9) at 6:48 cannot be met "
                             "together with ICP 'object'")
     assert "Traceback" not in proc.stderr
     bare, _ = _exec(tmp_path, "")
