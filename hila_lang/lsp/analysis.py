@@ -31,7 +31,6 @@ from ..language import ast as A
 
 #: a line that starts a top-level item
 _TOP = re.compile(r"(?:world|import|point|hand|task|main)\b")
-_WARNING = re.compile(r"^(.*):(\d+):(\d+): warning: (.*)$")
 _WORD = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 KEYWORDS = ("world", "import", "point", "hand", "at", "task", "main", "run", "let", "wait", "ask", "if", "else",
             "while", "until", "repeat", "pen", "up", "down", "via", "avoid", "radius", "not", "and", "or",
@@ -73,29 +72,6 @@ class Completion:
     insert: str | None = None
 
 
-class TemplateCache:
-    """``load_template`` that keeps templates by (path, size, modification time)."""
-
-    def __init__(self) -> None:
-        self._cache: dict[str, tuple[tuple, object]] = {}
-
-    def __call__(self, path):
-        from ..template import load_template
-
-        key = str(path)
-        try:
-            st = os.stat(path)
-            stamp = (st.st_size, st.st_mtime_ns)
-        except OSError:
-            return load_template(path)  # its own error
-        hit = self._cache.get(key)
-        if hit is not None and hit[0] == stamp:
-            return hit[1]
-        template = load_template(path)
-        self._cache[key] = (stamp, template)
-        return template
-
-
 def chunks(text: str) -> list[tuple[int, str]]:
     """``(first line, 1-based; text)`` of each top-level chunk (see the module docstring)."""
     lines = text.split("\n")
@@ -107,9 +83,12 @@ def chunks(text: str) -> list[tuple[int, str]]:
 class Document:
     """One program being edited: its path (imports are found from it) and the last analysis."""
 
-    def __init__(self, path: str, templates: TemplateCache | None = None) -> None:
+    def __init__(self, path: str, env=None) -> None:
+        from ..language.environment import Environment
+
         self.path = str(path)
-        self.templates = templates or TemplateCache()
+        self.env = env if env is not None else Environment()  # its own template cache
+        self.templates = self.env.templates
         self._parsed: dict[str, tuple] = {}  # chunk text -> (first line, (items, error))
         self.text = ""
         self.items: tuple = ()  # the items that parsed (all of them when the text parses)
@@ -120,8 +99,7 @@ class Document:
         """The program's AST, as :func:`hila_lang.language.transformer.parse_program` gives it
         (its :class:`~hila_lang.errors.HilaSyntaxError` too), chunk by chunk from the cache.
         :attr:`items` gets every item that parsed, for hover and completion in a broken text."""
-        from ..language.transformer import parse_program
-
+        parse_program = self.env.parse
         parsed, items, first = {}, [], None
         pieces = chunks(text)
         for k, (line, chunk) in enumerate(pieces):
@@ -155,23 +133,19 @@ class Document:
 
     def analyse(self, text: str) -> list[Problem]:
         """Parse, check and compile ``text`` as ``hila check`` does; the problems found."""
-        from ..language.checker import check
-        from ..language.compiler import compile_program
-
         self.text = text
         problems = []
         try:
             program = self.parse(text)
             self.items = program.items
-            checked = check(program, self.templates)
-            compile_program(checked)
+            checked, _ = self.env.compile(program)
         except HilaError as exc:
             problems.append(self._problem(exc, "error"))
         else:
             for warning in checked.warnings:
-                m = _WARNING.match(warning)
-                if m:
-                    problems.append(self._span(int(m.group(2)), int(m.group(3)), m.group(4), "warning"))
+                p = warning.pos
+                problems.append(Problem(p.line - 1, p.column - 1, p.end_line - 1, p.end_column - 1,
+                                        warning.message, warning.severity))
         self.problems = problems
         return problems
 

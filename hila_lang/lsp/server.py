@@ -12,7 +12,8 @@ from lsprotocol import types as T
 from pygls.lsp.server import LanguageServer
 
 from .. import __version__
-from .analysis import Document, TemplateCache
+from ..language.environment import Environment
+from .analysis import Document
 
 _KINDS = {"tag": T.CompletionItemKind.Function, "icp": T.CompletionItemKind.Field,
           "question": T.CompletionItemKind.Value, "event": T.CompletionItemKind.Event,
@@ -23,7 +24,7 @@ _KINDS = {"tag": T.CompletionItemKind.Function, "icp": T.CompletionItemKind.Fiel
 class HilaServer(LanguageServer):
     def __init__(self) -> None:
         super().__init__("hila", __version__)
-        self.templates = TemplateCache()
+        self.env = Environment()  # one grammar, one template cache for the session
         self.documents: dict[str, Document] = {}
 
     def document(self, uri: str, *, again: bool = False) -> Document:
@@ -32,7 +33,7 @@ class HilaServer(LanguageServer):
         text_doc = self.workspace.get_text_document(uri)
         doc = self.documents.get(uri)
         if doc is None:
-            doc = self.documents[uri] = Document(text_doc.path, self.templates)
+            doc = self.documents[uri] = Document(text_doc.path, self.env)
             again = True
         if again or doc.text != text_doc.source:
             doc.analyse(text_doc.source)
