@@ -36,6 +36,7 @@ class HilaServer(LanguageServer):
         self.env = Environment()  # one grammar, one template cache for the session
         self.documents: dict[str, Document] = {}
         self.started = False  # 'initialize' received
+        self.early_logs: list[tuple[str, int]] = []  # said before it
         self.stopping = False  # 'shutdown' received
 
     def document(self, uri: str, *, again: bool = False) -> Document:
@@ -64,7 +65,11 @@ class HilaServer(LanguageServer):
 
     # ------------------------------------------------------------------ the stream
     def log(self, message: str, level: int = logging.WARNING) -> None:
-        """Say ``message`` to the client (``window/logMessage``)."""
+        """Say ``message`` to the client (``window/logMessage``; kept until ``initialize`` has been
+        answered, as the protocol asks)."""
+        if not self.started:
+            self.early_logs.append((message, level))
+            return
         kind = T.MessageType.Error if level >= logging.ERROR else (
             T.MessageType.Warning if level >= logging.WARNING else T.MessageType.Info)
         self.window_log_message(T.LogMessageParams(type=kind, message=message))
@@ -103,9 +108,7 @@ class HilaServer(LanguageServer):
             if is_request:
                 self.send_error(rid, -32602, f"invalid parameters for '{method}'")
             return
-        if method == "initialize":
-            self.started = True
-        elif method == "shutdown":
+        if method == "shutdown":
             self.stopping = True
         try:
             self.protocol.handle_message(message)
@@ -113,6 +116,11 @@ class HilaServer(LanguageServer):
             self.log(f"'{method}' failed: {type(exc).__name__}: {exc}", logging.ERROR)
             if is_request:
                 self.send_error(rid, -32603, f"internal error in '{method}'")
+        if method == "initialize" and not self.started:
+            self.started = True
+            for said in self.early_logs:
+                self.log(*said)
+            self.early_logs.clear()
 
 
 def _clamp_positions(params) -> None:
