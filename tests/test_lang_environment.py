@@ -93,3 +93,29 @@ def test_the_default_environment_is_shared_and_keywords_come_from_the_grammar():
     assert {"run", "ask", "wait", "via", "avoid", "radius", "up", "down", "true", "none"} <= set(words)
     assert all(f'"{w}"' in grammar for w in words)
     assert "NAME" not in words and "." not in words
+
+
+def test_the_call_checks_state_count_is_the_compilers(monkeypatch):
+    """calls.py counts the states each statement compiles to (to refuse a program that inlines
+    too big before compiling it); one statement of every kind: its count is the FSM's."""
+    from hila_lang.language.calls import _body
+
+    monkeypatch.chdir(ROOT)
+    src = """import reach
+point home = (0.18, -0.25, 0.75)
+task t(p) { run reach.reach(object = p, home = home) }
+main {
+  run reach.reach(object = home, home = home)
+  let a = 1
+  let b = wait e
+  wait e
+  t(home)
+  if a > 1 { let c = 2 } else if a > 2 { let d = 1 } else { let e = 3 }
+  while a < 1 { let a = a + 1 }
+  until a > 3 { let a = a + 1 }
+  repeat 3 { let f = 1 }
+}
+"""
+    checked, fsm = Environment().compile(src, "x.hila")
+    own = _body(checked.main).states + _body(checked.tasks["t"]).states
+    assert own + 1 == len(fsm.states)  # and the end state
