@@ -7,14 +7,10 @@ answers -32603, drops a request or prints a traceback.
 
 from __future__ import annotations
 
-import json
-import queue
-import subprocess
-import sys
-import threading
 from pathlib import Path
 
 import pytest
+from test_lsp import Client
 
 from hila_lang.language import ast as A
 from hila_lang.lsp.analysis import MAX_CHARACTERS, Document, path_at
@@ -44,39 +40,18 @@ main {
 """
 
 
-class Raw:
-    """Bytes in, framed JSON out: a client that can also send what a broken client sends."""
+class Raw(Client):
+    """:class:`test_lsp.Client` that can also send what a broken client sends, keeps every
+    message it reads, and returns whole replies (result or error)."""
 
     def __init__(self) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "hila_lang", "lsp"], cwd=ROOT, stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        self.messages: queue.Queue = queue.Queue()
         self.seen: list[dict] = []  # every message read, kept or passed over
+        super().__init__(ROOT)
         self.ids = 0
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self) -> None:
-        out = self.proc.stdout
-        while True:
-            length = None
-            while True:
-                line = out.readline()
-                if not line:
-                    self.messages.put(None)
-                    return
-                if line in (b"\r\n", b"\n"):
-                    break
-                if line.lower().startswith(b"content-length"):
-                    length = int(line.split(b":")[1])
-            self.messages.put(json.loads(out.read(length)))
 
     def raw(self, data: bytes) -> None:
         self.proc.stdin.write(data)
         self.proc.stdin.flush()
-
-    def send(self, message: dict) -> None:
-        body = json.dumps({"jsonrpc": "2.0", **message}).encode()
-        self.raw(b"Content-Length: %d\r\n\r\n" % len(body) + body)
 
     def wait(self, accept, timeout: float = 30) -> dict:
         while True:

@@ -259,8 +259,10 @@ class Streaming(Transformer):
 
     @staticmethod
     def _reducer(name: str, method):
-        def reduce(children):
-            return _Node(name, method, [_value(c) for c in children])
+        node = _Node
+
+        def reduce(children):  # _value inlined: this runs once per rule reduced
+            return node(name, method, [c.build(c.meta, c.children) if type(c) is node else c for c in children])
 
         return reduce
 
