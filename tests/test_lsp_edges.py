@@ -143,6 +143,9 @@ def test_every_position_is_answered(server, tmp_path):
             assert "error" not in reply, (method, position, reply)
     hover = server.request("textDocument/hover", {**doc, "position": end})["result"]
     assert hover["contents"]["value"].startswith("**task mark(c)**")  # clamped onto the line's last word
+    unopened = {"textDocument": {"uri": (tmp_path / "never-opened.hila").as_uri()}, "position": end}
+    assert server.request("textDocument/hover", unopened) == {"jsonrpc": "2.0", "id": server.ids, "result": None}
+    assert server.request("textDocument/definition", unopened)["result"] is None
     assert "Traceback" not in server.finish()
 
 

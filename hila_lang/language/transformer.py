@@ -1,4 +1,6 @@
-"""lark tree -> AST (:mod:`hila_lang.language.ast`); the only place that reads ``Tree.children``."""
+"""Text -> AST (:mod:`hila_lang.language.ast`): the grammar's one parser (:func:`grammar`), which
+builds the AST while parsing, and the ``ToAst`` rules it builds with; the only place that reads
+a rule's children."""
 
 from __future__ import annotations
 
@@ -204,12 +206,10 @@ def _is_expr(x) -> bool:
 
 
 def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
-    """Transform a lark parse tree (:func:`~hila_lang.language.parser.parse_text`) to a
-    :class:`~hila_lang.language.ast.Program` (VisitError unwrapped).
-
-    The reference path, a tree walk (for a tree from a parser built without :class:`Streaming`):
-    :func:`parse_program` builds the same AST while parsing, and ``tests/test_lang_limits.py``
-    holds the two equal.
+    """Transform a lark parse tree to a :class:`~hila_lang.language.ast.Program` (VisitError
+    unwrapped): the reference path, a tree walk, for a tree from a plain tree parser of the
+    grammar (the tests and ``bench/parse.py`` build one).  :func:`parse_program` builds the same
+    AST while parsing, and ``tests/test_lang_limits.py`` holds the two equal.
     """
     try:
         items = ToAst().transform(tree)

@@ -41,7 +41,10 @@ class HilaServer(LanguageServer):
 
     def document(self, uri: str, *, again: bool = False) -> Document:
         """The analysis of the document's current text (``again``: even if the text is the same,
-        e.g. on save, when an imported template may have changed)."""
+        e.g. on save, when an imported template may have changed).  A document the editor has not
+        opened is empty here (its requests are answered with nothing found)."""
+        if uri not in self.workspace.text_documents:
+            return Document(uri, self.env)
         text_doc = self.workspace.get_text_document(uri)
         doc = self.documents.get(uri)
         if doc is None:
