@@ -158,11 +158,11 @@ def test_a_document_over_the_limit_gets_one_stated_diagnostic_at_once(server, tm
         server.open(uri, text)
         (diag,) = server.diagnostics(uri, timeout=20)
         assert f"hila lsp analyses documents of up to {MAX_CHARACTERS:,} characters" in diag["message"]
-        assert f"{len(text):,} characters" in diag["message"]
+        assert f"{len(text):,} characters" in diag["message"] and diag["code"] == "too-large"
     small = (tmp_path / "small.hila").as_uri()
     server.open(small, "main { let x = }\n")  # the server is free again: the next document is analysed
     (diag,) = server.diagnostics(small, timeout=20)
-    assert diag["message"].startswith("unexpected '}'")
+    assert diag["message"].startswith("unexpected '}'") and diag["code"] == "syntax"
     assert "Traceback" not in server.finish()
 
 
@@ -183,8 +183,8 @@ def test_path_at_finds_the_innermost_node(monkeypatch):
 def test_warnings_are_the_checkers_own_span(monkeypatch):
     monkeypatch.chdir(ROOT)
     (warning,) = Document(str(ROOT / "game.hila")).analyse(GAME)
-    assert (warning.severity, warning.line, warning.character, warning.end_line, warning.end_character) == (
-        "warning", 9, 0, 9, 4)  # 'task' of 'task spare(c) {', not the whole task
+    assert (warning.severity, warning.code, warning.line, warning.character, warning.end_line,
+            warning.end_character) == ("warning", "unused-task", 9, 0, 9, 4)  # 'task' of 'task spare(c) {', not the whole task
 
 
 def _pos(text: str, needle: str, offset: int = 0) -> tuple[int, int]:

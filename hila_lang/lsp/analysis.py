@@ -49,7 +49,8 @@ MAX_CHARACTERS = 256_000
 
 @dataclass
 class Problem:
-    """A diagnostic: 0-based start and end (line, character), ``severity`` "error" or "warning"."""
+    """A diagnostic: 0-based start and end (line, character), ``severity`` "error" or "warning",
+    ``code``: a stable name (``syntax``, ``check``, ``too-large``, or the checker's warning code)."""
 
     line: int
     character: int
@@ -57,6 +58,7 @@ class Problem:
     end_character: int
     message: str
     severity: str = "error"
+    code: str = "error"
 
 
 @dataclass
@@ -149,7 +151,7 @@ class Document:
             self.problems = [Problem(
                 0, 0, 0, 0, f"this document has {len(text):,} characters; hila lsp analyses documents of up to "
                 f"{MAX_CHARACTERS:,} characters (no diagnostics, hover or completion here)\nhint: run "
-                "'hila check FILE' for the whole program", "warning")]
+                "'hila check FILE' for the whole program", "warning", "too-large")]
             return self.problems
         problems = []
         try:
@@ -160,27 +162,31 @@ class Document:
             problems.append(self._problem(exc))
         else:
             for w in checked.warnings:
-                problems.append(self._located(w.pos, w.message, w.severity))
+                problems.append(self._located(w.pos, w.message, w.severity, w.code))
         self.problems = problems
         return problems
 
     def _problem(self, exc: HilaError) -> Problem:
+        from ..errors import CheckError, HilaSyntaxError
+
         message = exc.message + (f"\nhint: {exc.hint}" if exc.hint else "")
+        code = "syntax" if isinstance(exc, HilaSyntaxError) else "check" if isinstance(exc, CheckError) else "error"
         if exc.line is None:
-            return Problem(0, 0, 0, 0, message, "error")
+            return Problem(0, 0, 0, 0, message, "error", code)
         span = getattr(exc, "span", None)  # the checker's node; other errors: one character
         if span is None or span.line != exc.line:
             span = A.Pos(exc.line, exc.column or 1, exc.line, (exc.column or 1) + 1)
-        return self._located(A.Pos(exc.line, exc.column or 1, span.end_line, span.end_column), message, "error")
+        return self._located(A.Pos(exc.line, exc.column or 1, span.end_line, span.end_column), message, "error",
+                             code)
 
-    def _located(self, pos: A.Pos, message: str, severity: str) -> Problem:
+    def _located(self, pos: A.Pos, message: str, severity: str, code: str) -> Problem:
         """A problem at a 1-based span, kept to its first line (a whole task is not underlined)."""
         lines = self._lines()
         line = min(max(pos.line, 1), max(len(lines), 1)) - 1
         width = len(lines[line]) if line < len(lines) else 0
         start = min(max(pos.column - 1, 0), width)
         end = pos.end_column - 1 if pos.end_line == pos.line else width
-        return Problem(line, start, line, min(max(end, start), width), message, severity)
+        return Problem(line, start, line, min(max(end, start), width), message, severity, code)
 
     # ------------------------------------------------------------------ what the program names
     def _lines(self) -> list[str]:

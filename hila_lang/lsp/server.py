@@ -60,7 +60,7 @@ class HilaServer(LanguageServer):
         diagnostics = [
             T.Diagnostic(
                 range=T.Range(T.Position(p.line, p.character), T.Position(p.end_line, p.end_character)),
-                message=p.message, source="hila",
+                message=p.message, source="hila", code=p.code,
                 severity=T.DiagnosticSeverity.Error if p.severity == "error" else T.DiagnosticSeverity.Warning)
             for p in doc.problems]
         self.text_document_publish_diagnostics(
