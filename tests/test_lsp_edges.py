@@ -220,6 +220,9 @@ def test_completion_keeps_what_begins_with_the_word_typed(monkeypatch):
     assert {c.label for c in doc.completion(*_pos(typing, "c.*, ha", 5))} >= {"tl", "hand", "start"}
     labels = [c.label for c in doc.completion(*_pos(GAME, "    mark(c)\n    }", 6))]
     assert labels == ["main", "mark"]  # the keyword and the task that begin with 'ma'
+    typing = GAME.replace("run circle.draw(", "run circ")
+    doc.analyse(typing)
+    assert [(c.label, c.kind) for c in doc.completion(*_pos(typing, "run circ", 8))] == [("circle", "template")]
     typing = GAME.replace("until ask", "until as")
     doc.analyse(typing)
     assert [c.label for c in doc.completion(*_pos(typing, "until as", 8))] == ["as", "ask"]

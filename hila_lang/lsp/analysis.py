@@ -79,7 +79,7 @@ class Location:
 @dataclass
 class Completion:
     label: str
-    kind: str  # "tag", "icp", "question", "event", "task", "point", "keyword"
+    kind: str  # "tag", "icp", "question", "event", "template", "task", "point", "keyword"
     detail: str = ""
     insert: str | None = None
 
@@ -397,6 +397,7 @@ class Document:
                 names = list(sub.icps) + [g for g in dict.fromkeys(k.rsplit(".", 1)[0] for k in sub.icps if "." in k)]
                 return [Completion(n, "icp", f"ICP of {ref[0]}.{ref[1]}", f"{n} = ") for n in names]
         out = [Completion(k, "keyword") for k in self.env.keywords]
+        out += [Completion(alias, "template", f"template {file}") for alias, (file, _) in imports.items()]
         out += [Completion(t.name, "task", f"task {t.name}({', '.join(t.params)})") for t in self.tasks().values()]
         out += [Completion(p, "point", A.expr_text(d.value)) for p, d in self.points().items()]
         return out

@@ -26,7 +26,7 @@ from .analysis import Document
 
 _KINDS = {"tag": T.CompletionItemKind.Function, "icp": T.CompletionItemKind.Field,
           "question": T.CompletionItemKind.Value, "event": T.CompletionItemKind.Event,
-          "task": T.CompletionItemKind.Method, "point": T.CompletionItemKind.Constant,
+          "task": T.CompletionItemKind.Method, "template": T.CompletionItemKind.Module, "point": T.CompletionItemKind.Constant,
           "keyword": T.CompletionItemKind.Keyword}
 
 
