@@ -54,6 +54,9 @@ class ToAst(Transformer):
     def none(self, meta, ch):
         return A.NoneLit(_pos(meta))
 
+    def paren(self, meta, ch):  # ( expr ): the expression keeps its own position
+        return ch[0]
+
     def dotted(self, meta, ch):
         return A.Name(tuple(str(t) for t in ch), _pos(meta))
 
@@ -225,14 +228,23 @@ def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
 #
 # The LALR parser calls a rule's callback as it reduces the rule, so the AST can be built while
 # parsing: no lark tree is ever held whole, and nothing recurses however deep the program nests.
-# lark refuses ``v_args(meta=True)`` callbacks during parsing, because a rule's position is known
-# only after its callback returns: lark's ``propagate_positions`` then writes the span of the raw
-# children (keywords and brackets included: a ``run`` statement starts at ``run``) into the meta
-# of the tree the callback returned.  So each callback returns a one-level :class:`_Node` (a
-# ``Tree`` holding the ``ToAst`` method and its children's values), lark fills in its meta, and
-# the parent's callback -- or :func:`parse_items` for the root -- builds the AST node from the two.
+# lark refuses ``v_args(meta=True)`` callbacks during parsing, because a rule's span can include
+# keywords and brackets its callback never sees (a ``run`` statement starts at ``run``); lark's
+# public ``propagate_positions`` works it out from the raw children after the callback returns,
+# and writes it into the meta of the tree the callback returned.  So:
+#
+# - a rule that may start or end with a dropped keyword or bracket (``run_stmt``, ``block``,
+#   ``vector``, ``paren`` ...) returns a one-level :class:`_Node` (a ``Tree`` holding the ``ToAst``
+#   method and its children's values); lark fills in its meta, and the parent's callback -- or
+#   :func:`parse_items` for the root -- builds the AST node from the two;
+# - a rule whose first and last children are always kept (``dotted``, ``sum``, ``number`` ...;
+#   worked out from the grammar's rules once, :meth:`Streaming.learn`) is spanned by them, so its
+#   AST node is built at once and handed up as a :class:`_Span`, which lark reads through the
+#   public ``__lark_meta__`` hook (no tree, and nothing for lark to do on the way up).
+#
 # lark's own child filter still drops keywords and inserts ``None`` for an absent ``[optional]``
-# before a ``ToAst`` method sees the children, so ``ToAst`` is the same for both paths.
+# before a ``ToAst`` method sees the children, so ``ToAst`` is the same for both paths, and
+# ``tests/test_lang_limits.py`` holds the result equal to the tree walk's, positions included.
 
 
 class _Node(Tree):
@@ -243,28 +255,118 @@ class _Node(Tree):
         self.build = build
 
 
-def _value(child):
-    return child.build(child.meta, child.children) if type(child) is _Node else child
+class _Span:
+    """A rule's AST value with the span it came from, for a rule whose first and last children are
+    never a dropped keyword or bracket (so its children give its span): built at once, no tree.
+    lark's ``propagate_positions`` reads its span through ``__lark_meta__``."""
+
+    __slots__ = ("value", "line", "column", "start_pos", "end_line", "end_column", "end_pos")
+    empty = False
+
+    def __lark_meta__(self):
+        return self
+
+
+def _edges(c):
+    """(line, column, start_pos, end_line, end_column, end_pos) of a positioned child, as lark's
+    propagate_positions reads it (a container's span when it has one); None for a placeholder."""
+    t = type(c)
+    if t is _Span or t is Token:
+        return c
+    if t is _Node:
+        m = c.meta
+        return None if m.empty else _Container(m)
+    return None
+
+
+class _Container:
+    __slots__ = ("line", "column", "start_pos", "end_line", "end_column", "end_pos")
+
+    def __init__(self, m) -> None:
+        self.line = getattr(m, "container_line", m.line)
+        self.column = getattr(m, "container_column", m.column)
+        self.start_pos = getattr(m, "container_start_pos", m.start_pos)
+        self.end_line = getattr(m, "container_end_line", m.end_line)
+        self.end_column = getattr(m, "container_end_column", m.end_column)
+        self.end_pos = getattr(m, "container_end_pos", m.end_pos)
 
 
 class Streaming(Transformer):
     """The ``ToAst`` methods as lark's in-parse callbacks (one attribute per rule, see above);
-    what :func:`grammar` is built with."""
+    what :func:`grammar` is built with.  :meth:`learn` tells each callback, from the grammar's
+    rules, whether its rule spans its own children (:class:`_Span`) or needs lark's positions
+    (:class:`_Node`)."""
 
     def __init__(self) -> None:
         builder = ToAst()
+        self.spans_itself: dict[str, bool] = {}
         for name, member in vars(ToAst).items():
             if not name.startswith("_") and callable(member):
                 setattr(self, name, self._reducer(name, getattr(builder, name)))
 
-    @staticmethod
-    def _reducer(name: str, method):
-        node = _Node
+    def learn(self, rules) -> None:
+        """Which callbacks' rules always start and end with a kept child (see :func:`_kept_edge`)."""
+        by_origin: dict[str, list] = {}
+        for r in rules:
+            by_origin.setdefault(r.origin.name, []).append(r)
+        memo: dict = {}
+        names: dict[str, bool] = {}
+        for r in rules:
+            name = r.alias or r.options.template_source or r.origin.name
+            ok = bool(r.expansion) and _kept_edge(r.expansion[0], 0, by_origin, memo) and \
+                _kept_edge(r.expansion[-1], -1, by_origin, memo)
+            names[name] = names.get(name, True) and ok
+        self.spans_itself.update(names)
 
-        def reduce(children):  # _value inlined: this runs once per rule reduced
-            return node(name, method, [c.build(c.meta, c.children) if type(c) is node else c for c in children])
+    def _reducer(self, name: str, method):
+        node, span, edges, modes = _Node, _Span, _edges, self.spans_itself
+
+        def reduce(children):  # runs once per rule reduced: kept small
+            values = [c.value if type(c) is span else c.build(c.meta, c.children) if type(c) is node else c
+                      for c in children]
+            if not modes.get(name):
+                return node(name, method, values)
+            first = last = None
+            for c in children:
+                first = edges(c)
+                if first is not None:
+                    break
+            for c in reversed(children):
+                last = edges(c)
+                if last is not None:
+                    break
+            if first is None:
+                return node(name, method, values)
+            out = span()
+            out.line, out.column, out.start_pos = first.line, first.column, first.start_pos
+            out.end_line, out.end_column, out.end_pos = last.end_line, last.end_column, last.end_pos
+            out.value = method(out, values)
+            return out
 
         return reduce
+
+
+def _kept_edge(symbol, which: int, by_origin, memo) -> bool:
+    """Whether ``symbol``, at the start (``which`` 0) or end (-1) of an expansion, always gives the
+    rule a positioned child there: a kept terminal, a rule of its own, or an inlined ``_rule`` all
+    of whose expansions do (a dropped keyword or bracket does not)."""
+    if symbol.is_term:
+        return not symbol.filter_out
+    if not symbol.name.startswith("_"):
+        return True
+    key = (symbol.name, which)
+    if key not in memo:
+        memo[key] = True  # a rule that recurses on this edge: its other expansions decide
+        memo[key] = all(r.expansion and _kept_edge(r.expansion[which], which, by_origin, memo)
+                        for r in by_origin.get(symbol.name, ()))
+    return memo[key]
+
+
+def _value(child):
+    t = type(child)
+    if t is _Span:
+        return child.value
+    return child.build(child.meta, child.children) if t is _Node else child
 
 
 @functools.lru_cache(maxsize=1)
@@ -277,8 +379,11 @@ def grammar():
 
     from ..resources import grammar_path
 
-    return Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,
-                     maybe_placeholders=True, transformer=Streaming())
+    streaming = Streaming()
+    lark = Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,
+                     maybe_placeholders=True, transformer=streaming)
+    streaming.learn(lark.rules)
+    return lark
 
 
 def keywords() -> tuple[str, ...]:
