@@ -184,7 +184,8 @@ def test_warnings_are_the_checkers_own_span(monkeypatch):
     monkeypatch.chdir(ROOT)
     (warning,) = Document(str(ROOT / "game.hila")).analyse(GAME)
     assert (warning.severity, warning.code, warning.line, warning.character, warning.end_line,
-            warning.end_character) == ("warning", "unused-task", 9, 0, 9, 4)  # 'task' of 'task spare(c) {', not the whole task
+            warning.end_character) == ("warning", "unused-task", 9, 0, 9, 4)  # 'task' of 'task spare(c) {'
+
 
 
 def _pos(text: str, needle: str, offset: int = 0) -> tuple[int, int]:

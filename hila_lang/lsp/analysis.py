@@ -323,7 +323,8 @@ class Document:
             return None
         file, template = found
         sub, seg = template.sub(run.tag), template.segment(run.tag)
-        return self._hover(f"**{run.template}.{run.tag}**: sub-template of `{file}`, points {seg.start}..{seg.stop - 1} "
+        return self._hover(f"**{run.template}.{run.tag}**: sub-template of `{file}`, "
+                           f"points {seg.start}..{seg.stop - 1} "
                            f"({len(sub.path)} points), pen {'down' if seg.contact else 'up'}\n\n"
                            f"ICPs: {', '.join(sub.icps)}", pos, column=pos.column + len(run.template) + 1,
                            width=len(run.tag))

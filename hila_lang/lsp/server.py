@@ -26,8 +26,8 @@ from .analysis import Document
 
 _KINDS = {"tag": T.CompletionItemKind.Function, "icp": T.CompletionItemKind.Field,
           "question": T.CompletionItemKind.Value, "event": T.CompletionItemKind.Event,
-          "task": T.CompletionItemKind.Method, "template": T.CompletionItemKind.Module, "point": T.CompletionItemKind.Constant,
-          "keyword": T.CompletionItemKind.Keyword}
+          "task": T.CompletionItemKind.Method, "template": T.CompletionItemKind.Module,
+          "point": T.CompletionItemKind.Constant, "keyword": T.CompletionItemKind.Keyword}
 
 
 class HilaServer(LanguageServer):
@@ -71,7 +71,8 @@ class HilaServer(LanguageServer):
         """Say ``message`` to the client (``window/logMessage``; kept until ``initialize`` has been
         answered, as the protocol asks)."""
         if not self.started:
-            self.early_logs.append((message, level))
+            if len(self.early_logs) < 100:  # a client sending garbage forever costs no memory
+                self.early_logs.append((message, level))
             return
         kind = T.MessageType.Error if level >= logging.ERROR else (
             T.MessageType.Warning if level >= logging.WARNING else T.MessageType.Info)
