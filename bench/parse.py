@@ -29,6 +29,10 @@ CHILD = r"""
 import gc, json, resource, sys, time
 mode, path = sys.argv[1], sys.argv[2]
 text = open(path, encoding="utf-8").read()
+def tree_parser():  # lark's plain tree parser of the same grammar (hila itself parses to the AST)
+    from lark import Lark
+    from hila_lang.resources import grammar_path
+    return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 t0 = time.perf_counter()
 if mode == "now":
     from hila_lang.language import load_program
@@ -37,13 +41,11 @@ if mode == "now":
 elif mode == "before":
     from hila_lang.language.checker import check
     from hila_lang.language.compiler import compile_program
-    from hila_lang.language.parser import parse_text
     from hila_lang.language.transformer import to_ast
-    fsm = compile_program(check(to_ast(parse_text(text, path), text, path)))
+    fsm = compile_program(check(to_ast(tree_parser().parse(text), text, path)))
     states = len(fsm.states)
 else:
-    from hila_lang.language.parser import parser
-    states = sum(1 for _ in parser().lex(text))  # tokens, for the floor
+    states = sum(1 for _ in tree_parser().lex(text))  # tokens, for the floor
 seconds = time.perf_counter() - t0
 print(json.dumps({"seconds": seconds, "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                   "count": states}))

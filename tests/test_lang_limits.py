@@ -7,6 +7,8 @@ tree walk builds, positions included.
 
 from __future__ import annotations
 
+import functools
+
 import sys
 from pathlib import Path
 
@@ -21,7 +23,7 @@ from hila_lang.language.calls import MAX_STATES
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
 from hila_lang.language.limits import MAX_NESTING
-from hila_lang.language.parser import decode_source, parse_text
+from hila_lang.language.parser import decode_source, syntax_error
 from hila_lang.language.transformer import parse_program, to_ast
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -197,8 +199,25 @@ def _spans(node) -> list:
     return out
 
 
+@functools.lru_cache(maxsize=1)
+def _tree_parser():
+    """lark's plain tree parser of the same grammar (tests may build their own: the package
+    builds exactly one, the in-parse AST builder)."""
+    from lark import Lark
+
+    from hila_lang.resources import grammar_path
+
+    return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
+
+
 def _reference(text: str):
-    return to_ast(parse_text(text, "r.hila"), text, "r.hila")
+    from lark.exceptions import UnexpectedInput
+
+    try:
+        tree = _tree_parser().parse(text)
+    except UnexpectedInput as exc:
+        raise syntax_error(exc, text, "r.hila", _tree_parser()) from None
+    return to_ast(tree, text, "r.hila")
 
 
 @pytest.mark.parametrize("program", PROGRAMS, ids=lambda p: p.stem)

@@ -24,14 +24,15 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from ..errors import HilaError
-    from ..language import load_program
+    from ..language.environment import Environment
     from ..language.runopts import settings_of
 
     settings = settings_of(args)
     status = 0
+    env = Environment.default()
     for path in args.programs:
         try:
-            checked, fsm = load_program(path, settings=settings, backend=args.backend)
+            checked, fsm = env.load(path, settings=settings, backend=args.backend)
         except HilaError as exc:
             print(str(exc), file=sys.stderr)
             status = max(status, exc.exit_code)

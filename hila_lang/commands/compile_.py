@@ -17,15 +17,14 @@ def add_arguments(parser) -> None:
 
 def render(path: str, fmt: str) -> str:
     """The requested stage of ``path`` as text."""
-    from ..language import load_program
     from ..language.ast import dump
-    from ..language.parser import read_source
-    from ..language.transformer import parse_program
+    from ..language.environment import Environment
 
-    if fmt == "ast":
-        program = parse_program(read_source(path), str(path))
+    env = Environment.default()
+    if fmt == "ast":  # stops after parsing
+        program = env.load(path, stop="ast")
         return dump(program.items) + "\n"
-    _, fsm = load_program(path)
+    _, fsm = env.load(path)  # parsed once, checked, compiled
     return {"text": fsm.to_text, "dot": fsm.to_dot, "json": fsm.to_json}[fmt]()
 
 

@@ -8,8 +8,9 @@ DESCRIPTION = (
     "you type (the errors 'hila check' reports, at the same place), hover (a template's tags and "
     "ICPs, a world's questions and events, a task's parameters), go to definition (tasks, points, "
     "imports to their YAML file) and completion (tags after 'circle.', ICP names inside a run, "
-    "ask/wait names of the world). Needs pygls: pip install 'hila-lang[lsp]'. The README shows "
-    "how to hook it into VS Code, Neovim and Helix."
+    "ask/wait names of the world), narrowed to the word being typed. Documents over 256,000 "
+    "characters get one diagnostic saying so instead. Needs pygls: pip install 'hila-lang[lsp]'. "
+    "docs/lsp.md shows how to hook it into VS Code, Neovim and Helix."
 )
 
 

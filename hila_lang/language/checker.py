@@ -22,16 +22,43 @@ Unreachable statements are found by the compiler on the FSM graph (also a CheckE
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from . import ast as A
 from ..errors import CheckError, HilaError, did_you_mean
 from ..plugins import registry
-from ..resources import template_search_path
+from .loader import TemplateLoader
 from .parser import source_line
 from .worldcheck import WorldCheck
 
 START, END = "start", "end"
+
+
+class Diagnostic(str):
+    """A warning: the text ``hila check`` prints (``FILE:LINE:COL: warning: MESSAGE``), with its
+    parts kept for tools: ``code`` (a stable name, e.g. ``unused-task``), ``message``, ``pos``
+    (the node's :class:`~hila_lang.language.ast.Pos`, start and end) and ``severity``."""
+
+    code: str
+    message: str
+    pos: A.Pos
+    severity: str
+
+    def __new__(cls, code: str, message: str, file: str, pos: A.Pos, severity: str = "warning"):
+        self = super().__new__(cls, f"{file}:{pos.line}:{pos.column}: {severity}: {message}")
+        self.code, self.message, self.pos, self.severity = code, message, pos, severity
+        return self
+
+
+def loader_of(templates) -> TemplateLoader:
+    """``templates`` as a :class:`~hila_lang.language.loader.TemplateLoader`: itself, a new one
+    (None), or one that loads with the ``load_template(path)`` callable given."""
+    if templates is None:
+        return TemplateLoader()
+    if isinstance(templates, TemplateLoader):
+        return templates
+    loader = TemplateLoader()
+    loader.load = templates
+    return loader
 RESERVED = {"hand", "main"}
 
 
@@ -47,7 +74,7 @@ class CheckedProgram:
     main: A.MainDef
     points: dict  # name -> Expr
     hand: A.Expr | None
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[Diagnostic] = field(default_factory=list)  # each also its printed text
     #: the ``--set`` pairs it was checked with, parsed: (OSILA options, world settings,
     #: back-end settings); None when checked without them
     run_settings: tuple | None = None
@@ -71,19 +98,21 @@ class _Defined(set):
 
 
 class _Checker(A.Visitor):
-    def __init__(self, program: A.Program, load_template=None, settings: dict[str, str] | None = None,
+    def __init__(self, program: A.Program, templates=None, settings: dict[str, str] | None = None,
                  backend: str | None = None) -> None:
         self.p = program
-        self.warnings: list[str] = []
-        self.load_template = load_template  # path -> Template; None: hila_lang.template.load_template
+        self.warnings: list[Diagnostic] = []
+        self.loader = loader_of(templates)
         self.settings, self.backend = settings, backend
 
     def error(self, message: str, pos: A.Pos, hint: str | None = None) -> CheckError:
         line = pos.line or None
-        return CheckError(
+        exc = CheckError(
             message, file=self.p.file, line=line, column=pos.column or None,
             source_line=source_line(self.p.source, line) if line else None, hint=hint,
         )
+        exc.span = pos  # the whole node, for tools that underline it (the language server)
+        return exc
 
     # ------------------------------------------------------------------ top level
     def run(self) -> CheckedProgram:
@@ -150,24 +179,17 @@ class _Checker(A.Visitor):
                               hands[0].value if hands else None, self.warnings, self.world.run_settings)
 
     def load(self, imp: A.ImportDecl):
-        from ..template import load_template
-
-        load_template = self.load_template or load_template
-        if imp.is_path:
-            base = Path(self.p.file).parent if not self.p.file.startswith("<") else Path.cwd()
-            candidates = [base / imp.source]
-        else:
-            candidates = [d / f"{imp.source}.yaml" for d in template_search_path(self.p.file)]
-        found = next((c for c in candidates if c.is_file()), None)
+        found = self.loader.find(imp.source, imp.is_path, self.p.file)
         if found is None:
-            known = sorted({f.stem for d in template_search_path(self.p.file) if d.is_dir() for f in d.glob("*.yaml")})
+            candidates = self.loader.candidates(imp.source, imp.is_path, self.p.file)
+            known = self.loader.known(self.p.file)
             hint = did_you_mean(imp.source, known) if not imp.is_path else None
             where = str(candidates[0]) if imp.is_path else ", ".join(str(c.parent) for c in candidates)
             raise self.error(f"template '{imp.source}' not found (looked in {where})", imp.pos,
                              hint or (f"templates found: {', '.join(known)}" if known else
                                       "add the folder that holds it to HILA_PATH"))
         try:
-            return found, load_template(found)
+            return found, self.loader.load(found)
         except HilaError as exc:
             raise self.error(f"cannot load template '{imp.source}': {exc.message}", imp.pos,
                              f"in {exc.location() or found}") from None
@@ -258,7 +280,8 @@ class _Checker(A.Visitor):
             hint = did_you_mean(s.tag, tags) or (
                 f"its tags are: {', '.join(tags)}" if tags else "it has no sub-templates; run it whole: "
                 f"'run {s.template}(...)'")
-            at = A.Pos(s.ref_pos.line, s.ref_pos.column + len(s.template) + 1)
+            at = A.Pos(s.ref_pos.line, s.ref_pos.column + len(s.template) + 1, s.ref_pos.end_line,
+                       s.ref_pos.end_column)
             raise self.error(f"template '{s.template}' has no sub-template '{s.tag}'", at, hint)
         return [k for k in template.icps if k not in (START, END)] + [START, END]
 
@@ -389,7 +412,9 @@ class _Checker(A.Visitor):
 
         for name in check_calls(self.tasks, main, self.error):
             t = self.tasks[name]
-            self.warnings.append(f"{self.p.file}:{t.pos.line}:{t.pos.column}: warning: task '{name}' is never called")
+            self.warnings.append(Diagnostic(
+                "unused-task", f"task '{name}' is never called", self.p.file,
+                A.Pos(t.pos.line, t.pos.column, t.pos.line, t.pos.column + len("task"))))
 
 
 def _names_in(e) -> list:
@@ -445,21 +470,23 @@ class _Names(A.Visitor):
         self.generic_visit(e)
 
 
-def check(program: A.Program, load_template=None, *, settings: dict[str, str] | None = None,
+def check(program: A.Program, templates=None, *, settings: dict[str, str] | None = None,
           backend: str | None = None) -> CheckedProgram:
-    """Check ``program``; raise :class:`CheckError` at the first mistake.
+    """Check ``program``; raise :class:`CheckError` at the first mistake (its ``span``: the
+    offending node's :class:`~hila_lang.language.ast.Pos`); warnings are :class:`Diagnostic`.
 
-    ``load_template(path) -> Template`` reads an imported template (default
-    :func:`hila_lang.template.load_template`; the language server passes one that caches).
+    ``templates``: the :class:`~hila_lang.language.loader.TemplateLoader` that finds and reads
+    imported templates (the :class:`~hila_lang.language.environment.Environment`'s, with its
+    cache; None: a new one on the default search path).
     ``settings`` (the ``--set`` pairs as typed) and ``backend`` are what the program will run
     with: they are parsed here (a bad one is an InputError naming it) and the world's questions,
     events and points are those it declares with them (:mod:`.worldcheck`).  Without settings
     (None) a world whose names follow from its settings is not checked by name.
     """
-    return _Checker(program, load_template, settings, backend).run()
+    return _Checker(program, templates, settings, backend).run()
 
 
-def resolve_import(program: A.Program, imp: A.ImportDecl, load_template=None):
+def resolve_import(program: A.Program, imp: A.ImportDecl, templates=None):
     """``(path, Template)`` of one import of ``program``, found as :func:`check` finds it
     (CheckError when it is not found or does not load)."""
-    return _Checker(program, load_template).load(imp)
+    return _Checker(program, templates).load(imp)

@@ -1,7 +1,9 @@
-"""Text -> lark parse tree, with errors a student can act on.
+"""Reading program text and reporting its syntax errors in words a student can act on.
 
-The grammar is data (``grammar/hila.lark``), loaded once by :func:`parser` (LALR, positions
-kept).  :func:`parse_text` turns every lark failure into a :class:`HilaSyntaxError` that says
+The grammar is data (``grammar/hila.lark``), loaded once (LALR, positions kept) by
+:func:`hila_lang.language.transformer.grammar` for the
+:class:`~hila_lang.language.environment.Environment`.  :func:`syntax_error` turns every lark
+failure into a :class:`HilaSyntaxError` that says
 what was found, what was expected, names a common slip when it recognises one
 (``match_examples``) and, at the end of the file, the innermost block left open.
 """
@@ -13,7 +15,6 @@ import os
 
 from ..errors import HilaSyntaxError
 from ..fileio import read_bytes
-from ..resources import grammar_path
 
 #: common slips -> small programs that make the parser fail the same way (lark match_examples)
 COMMON_SLIPS: dict[str, list[str]] = {
@@ -64,16 +65,6 @@ _FRIENDLY = {
 }
 
 _OPENERS = ("task", "main", "if", "else", "while", "until", "repeat")
-
-
-@functools.lru_cache(maxsize=1)
-def parser():
-    """The cached LALR parser for ``grammar/hila.lark`` that returns lark's parse tree (for tools
-    that want the tree; the language itself parses straight to its AST:
-    :func:`hila_lang.language.transformer.parse_program`)."""
-    from lark import Lark
-
-    return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 
 
 def read_source(path: str | os.PathLike) -> str:
@@ -225,7 +216,8 @@ def syntax_error(exc, text: str, file: str, lark) -> HilaSyntaxError:
         message = str(exc).splitlines()[0]
     if not at_end:
         try:
-            label = exc.match_examples(lark.parse, COMMON_SLIPS, use_accepts=True)
+            label = exc.match_examples(functools.partial(lark.parse, start="start"), COMMON_SLIPS,
+                                       use_accepts=True)
         except Exception:  # noqa: BLE001 - a failed guess must never hide the real error
             label = None
         if label:
@@ -234,13 +226,3 @@ def syntax_error(exc, text: str, file: str, lark) -> HilaSyntaxError:
         message, file=file, line=line, column=column,
         source_line=source_line(text, line) if line else None, hint=hint,
     )
-
-
-def parse_text(text: str, file: str = "<program>"):
-    """Parse ``text`` to a lark tree; raise :class:`HilaSyntaxError` (line, column, hint)."""
-    from lark.exceptions import UnexpectedInput
-
-    try:
-        return parser().parse(text.removeprefix("\ufeff"))
-    except UnexpectedInput as exc:
-        raise syntax_error(exc, text, file, parser()) from None

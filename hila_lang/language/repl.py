@@ -278,11 +278,11 @@ class Repl(cmd.Cmd):
         """reload: re-read the program and the templates it imports and go on from the same state
         (the world and the back end keep theirs).  A program that does not load is reported and the
         old one keeps running."""
-        from . import load_program
+        from .environment import Environment
 
         file = self.interp.fsm.file
         try:
-            checked, fsm = load_program(file)
+            checked, fsm = Environment.default().load(file)
         except HilaError as exc:
             self.say(str(exc))
             self.say(f"reload failed: the program as it was keeps running (at {self.interp.current})")

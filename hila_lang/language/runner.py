@@ -20,7 +20,7 @@ import sys
 
 from ..plugins import registry
 from ..plugins.options import RunOptions
-from . import load_program
+from .environment import Environment
 from .interpreter import Interpreter
 from .limits import DEFAULT_STEP_LIMIT
 
@@ -29,7 +29,7 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
             step_limit: int | None = DEFAULT_STEP_LIMIT) -> Interpreter:
     """Program + world + back end -> a ready :class:`Interpreter` (at its start state);
     ``step_limit`` bounds each run (:data:`~hila_lang.language.limits.DEFAULT_STEP_LIMIT`)."""
-    checked, fsm = load_program(path, settings=options.settings, backend=backend)
+    checked, fsm = Environment.default().load(path, settings=options.settings, backend=backend)
     world_info = registry.world(checked.world)
     backend_info = registry.backend(backend or world_info.default_backend)
     osila, world_settings, backend_settings = checked.run_settings

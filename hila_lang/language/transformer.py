@@ -1,4 +1,6 @@
-"""lark tree -> AST (:mod:`hila_lang.language.ast`); the only place that reads ``Tree.children``."""
+"""Text -> AST (:mod:`hila_lang.language.ast`): the grammar's one parser (:func:`grammar`), which
+builds the AST while parsing, and the ``ToAst`` rules it builds with; the only place that reads
+a rule's children."""
 
 from __future__ import annotations
 
@@ -55,6 +57,9 @@ class ToAst(Transformer):
 
     def none(self, meta, ch):
         return A.NoneLit(_pos(meta))
+
+    def paren(self, meta, ch):  # ( expr ): the expression keeps its own position
+        return ch[0]
 
     def dotted(self, meta, ch):
         return A.Name(tuple(str(t) for t in ch), _pos(meta))
@@ -208,11 +213,10 @@ def _is_expr(x) -> bool:
 
 
 def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
-    """Transform a lark parse tree (:func:`~hila_lang.language.parser.parse_text`) to a
-    :class:`~hila_lang.language.ast.Program` (VisitError unwrapped).
-
-    The reference path, a tree walk: :func:`parse_program` builds the same AST while parsing
-    (:func:`ast_parser`), without the tree, and ``tests/test_lang_parse.py`` holds the two equal.
+    """Transform a lark parse tree to a :class:`~hila_lang.language.ast.Program` (VisitError
+    unwrapped): the reference path, a tree walk, for a tree from a plain tree parser of the
+    grammar (the tests and ``bench/parse.py`` build one).  :func:`parse_program` builds the same
+    AST while parsing, and ``tests/test_lang_limits.py`` holds the two equal.
     """
     try:
         items = ToAst().transform(tree)
@@ -227,120 +231,181 @@ def to_ast(tree, text: str = "", file: str = "<program>") -> A.Program:
 # --------------------------------------------------------------------------- parsing to the AST
 #
 # The LALR parser calls a rule's callback as it reduces the rule, so the AST can be built while
-# parsing: no lark tree (with a position record per node) is ever held, and nothing recurses
-# however deep the program nests.  lark refuses ``v_args(meta=True)`` callbacks during parsing,
-# so positions are found here the way lark's ``propagate_positions`` finds them: a node spans
-# from its first child's start to its last child's end, keywords and brackets included (a
-# ``run`` statement starts at ``run``).  Each value on the parser's stack is a :class:`_Val`
-# carrying that span; lark's own child filter still drops keywords and inserts ``None`` for an
-# absent ``[optional]`` before a ``ToAst`` method sees the children, so ``ToAst`` is unchanged.
+# parsing: no lark tree is ever held whole, and nothing recurses however deep the program nests.
+# lark refuses ``v_args(meta=True)`` callbacks during parsing, because a rule's span can include
+# keywords and brackets its callback never sees (a ``run`` statement starts at ``run``); lark's
+# public ``propagate_positions`` works it out from the raw children after the callback returns,
+# and writes it into the meta of the tree the callback returned.  So:
+#
+# - a rule that may start or end with a dropped keyword or bracket (``run_stmt``, ``block``,
+#   ``vector``, ``paren`` ...) returns a one-level :class:`_Node` (a ``Tree`` holding the ``ToAst``
+#   method and its children's values); lark fills in its meta, and the parent's callback -- or
+#   :func:`parse_items` for the root -- builds the AST node from the two;
+# - a rule whose first and last children are always kept (``dotted``, ``sum``, ``number`` ...;
+#   worked out from the grammar's rules once, :meth:`Streaming.learn`) is spanned by them, so its
+#   AST node is built at once and handed up as a :class:`_Span`, which lark reads through the
+#   public ``__lark_meta__`` hook (no tree, and nothing for lark to do on the way up).
+#
+# lark's own child filter still drops keywords and inserts ``None`` for an absent ``[optional]``
+# before a ``ToAst`` method sees the children, so ``ToAst`` is the same for both paths, and
+# ``tests/test_lang_limits.py`` holds the result equal to the tree walk's, positions included.
 
 
-class _Val:
-    """A value on the parser's stack and the span of source text it came from."""
+class _Node(Tree):
+    """A rule just reduced: ``build(meta, values)`` makes its AST node once lark has set its meta."""
 
-    __slots__ = ("value", "line", "column", "end_line", "end_column")
-
-    def __init__(self, value) -> None:
-        self.value = value
-
-
-class _Meta:
-    """What a ``ToAst`` method reads of lark's ``Meta``."""
-
-    __slots__ = ("line", "column", "end_line", "end_column", "empty")
-
-    def __init__(self, first=None, last=None) -> None:
-        self.empty = first is None
-        if first is not None:
-            self.line, self.column, self.end_line, self.end_column = (
-                first.line, first.column, last.end_line, last.end_column)
+    def __init__(self, name: str, build, values: list) -> None:
+        super().__init__(name, values)
+        self.build = build
 
 
-_EMPTY = _Meta()
-#: (first, last) positioned child of the rule being reduced (reductions never nest)
-_span: list = [None, None]
+class _Span:
+    """A rule's AST value with the span it came from, for a rule whose first and last children are
+    never a dropped keyword or bracket (so its children give its span): built at once, no tree.
+    lark's ``propagate_positions`` reads its span through ``__lark_meta__``."""
+
+    __slots__ = ("value", "line", "column", "start_pos", "end_line", "end_column", "end_pos")
+    empty = False
+
+    def __lark_meta__(self):
+        return self
 
 
-def _positioned(children):
-    """The first child with a position: a value, a token, or an inlined ``_rule`` about to be
-    spliced in (its meta); None when there is none."""
-    for c in children:
-        t = type(c)
-        if t is _Val or t is Token:
-            return c
-        if t is Tree and not c.meta.empty:
-            return c.meta
+def _edges(c):
+    """(line, column, start_pos, end_line, end_column, end_pos) of a positioned child, as lark's
+    propagate_positions reads it (a container's span when it has one); None for a placeholder."""
+    t = type(c)
+    if t is _Span or t is Token:
+        return c
+    if t is _Node:
+        m = c.meta
+        return None if m.empty else _Container(m)
     return None
 
 
-def _located(callback):
-    """``callback`` (lark's filter chain around a ``ToAst`` method) with the span of the raw
-    children (every token included) worked out first and handed on through :data:`_span`."""
+class _Container:
+    __slots__ = ("line", "column", "start_pos", "end_line", "end_column", "end_pos")
 
-    def reduce(children):
-        first = _positioned(children)
-        last = first if first is None or len(children) == 1 else _positioned(reversed(children))
-        _span[0], _span[1] = first, last
-        out = callback(children)
-        if first is not None:
-            if type(out) is _Val:  # new, or a single child passed up: it spans this rule now
-                out.line, out.column, out.end_line, out.end_column = (
-                    first.line, first.column, last.end_line, last.end_column)
-            elif type(out) is Tree and out.meta.empty:
-                m = out.meta
-                m.line, m.column, m.end_line, m.end_column, m.empty = (
-                    first.line, first.column, last.end_line, last.end_column, False)
-        return out
-
-    return reduce
+    def __init__(self, m) -> None:
+        self.line = getattr(m, "container_line", m.line)
+        self.column = getattr(m, "container_column", m.column)
+        self.start_pos = getattr(m, "container_start_pos", m.start_pos)
+        self.end_line = getattr(m, "container_end_line", m.end_line)
+        self.end_column = getattr(m, "container_end_column", m.end_column)
+        self.end_pos = getattr(m, "container_end_pos", m.end_pos)
 
 
-def _calling(method, name: str):
-    """A lark callback for rule ``name``: unwrap the children and call the ``ToAst`` method."""
-    wrapper = method.visit_wrapper
-
-    def call(children):
-        values = [c.value if type(c) is _Val else c for c in children]
-        return _Val(wrapper(method, name, values, _Meta(*_span)))
-
-    return call
-
-
-class _Callbacks:
-    """The ``ToAst`` methods as lark inline callbacks (attributes named after the rules)."""
+class Streaming(Transformer):
+    """The ``ToAst`` methods as lark's in-parse callbacks (one attribute per rule, see above);
+    what :func:`grammar` is built with.  :meth:`learn` tells each callback, from the grammar's
+    rules, whether its rule spans its own children (:class:`_Span`) or needs lark's positions
+    (:class:`_Node`)."""
 
     def __init__(self) -> None:
         builder = ToAst()
-        for name in dir(ToAst):
-            method = getattr(builder, name)
-            if getattr(method, "visit_wrapper", None) is not None:
-                setattr(self, name, _calling(method, name))
+        self.spans_itself: dict[str, bool] = {}
+        for name, member in vars(ToAst).items():
+            if not name.startswith("_") and callable(member):
+                setattr(self, name, self._reducer(name, getattr(builder, name)))
+
+    def learn(self, rules) -> None:
+        """Which callbacks' rules always start and end with a kept child (see :func:`_kept_edge`)."""
+        by_origin: dict[str, list] = {}
+        for r in rules:
+            by_origin.setdefault(r.origin.name, []).append(r)
+        memo: dict = {}
+        names: dict[str, bool] = {}
+        for r in rules:
+            name = r.alias or r.options.template_source or r.origin.name
+            ok = bool(r.expansion) and _kept_edge(r.expansion[0], 0, by_origin, memo) and \
+                _kept_edge(r.expansion[-1], -1, by_origin, memo)
+            names[name] = names.get(name, True) and ok
+        self.spans_itself.update(names)
+
+    def _reducer(self, name: str, method):
+        node, span, edges, modes = _Node, _Span, _edges, self.spans_itself
+
+        def reduce(children):  # runs once per rule reduced: kept small
+            values = [c.value if type(c) is span else c.build(c.meta, c.children) if type(c) is node else c
+                      for c in children]
+            if not modes.get(name):
+                return node(name, method, values)
+            first = last = None
+            for c in children:
+                first = edges(c)
+                if first is not None:
+                    break
+            for c in reversed(children):
+                last = edges(c)
+                if last is not None:
+                    break
+            if first is None:
+                return node(name, method, values)
+            out = span()
+            out.line, out.column, out.start_pos = first.line, first.column, first.start_pos
+            out.end_line, out.end_column, out.end_pos = last.end_line, last.end_column, last.end_pos
+            out.value = method(out, values)
+            return out
+
+        return reduce
 
 
-def ast_parser(start: str = "start"):
-    """The LALR parser of ``grammar/hila.lark`` that returns the AST of ``start`` (a
-    :class:`_Val`) instead of a tree: the one the language uses (see the comment above).
-    One instance per start rule (an error's parser state is matched against the same one)."""
-    return _ast_parser(start)
+def _kept_edge(symbol, which: int, by_origin, memo) -> bool:
+    """Whether ``symbol``, at the start (``which`` 0) or end (-1) of an expansion, always gives the
+    rule a positioned child there: a kept terminal, a rule of its own, or an inlined ``_rule`` all
+    of whose expansions do (a dropped keyword or bracket does not)."""
+    if symbol.is_term:
+        return not symbol.filter_out
+    if not symbol.name.startswith("_"):
+        return True
+    key = (symbol.name, which)
+    if key not in memo:
+        memo[key] = True  # a rule that recurses on this edge: its other expansions decide
+        memo[key] = all(r.expansion and _kept_edge(r.expansion[which], which, by_origin, memo)
+                        for r in by_origin.get(symbol.name, ()))
+    return memo[key]
 
 
-@functools.lru_cache(maxsize=2)
-def _ast_parser(start: str):
+def _value(child):
+    t = type(child)
+    if t is _Span:
+        return child.value
+    return child.build(child.meta, child.children) if t is _Node else child
+
+
+@functools.lru_cache(maxsize=1)
+def grammar():
+    """THE lark parser of ``grammar/hila.lark`` (LALR, positions kept), loaded once per process:
+    the only ``Lark`` construction in hila (:class:`~hila_lang.language.environment.Environment`
+    owns it).  Its parses return AST nodes, not trees (see the comment above); it starts at
+    ``start`` (a program) or ``expr`` (one expression)."""
     from lark import Lark
 
     from ..resources import grammar_path
 
-    lark = Lark.open(str(grammar_path()), parser="lalr", start=start, maybe_placeholders=True,
-                     transformer=_Callbacks())
-    callbacks = getattr(lark, "_callbacks", None)  # the dict the LALR parser calls (lark 1.x)
-    if not isinstance(callbacks, dict):  # pragma: no cover - a lark release that moved it
-        raise RuntimeError("this lark release keeps its parser callbacks elsewhere; hila needs lark 1.x")
-    for rule in [r for r in callbacks if not isinstance(r, str)]:
-        if rule.options.expand1 and not rule.alias and len(rule.expansion) == 1:
-            continue  # ``?a: b`` hands b up unchanged, span and all
-        callbacks[rule] = _located(callbacks[rule])
+    streaming = Streaming()
+    lark = Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,
+                     maybe_placeholders=True, transformer=streaming)
+    streaming.learn(lark.rules)
     return lark
+
+
+def keywords() -> tuple[str, ...]:
+    """The grammar's keywords (``run``, ``ask``, ``up``, ...), read from its terminals."""
+    return _keywords(grammar())
+
+
+@functools.lru_cache(maxsize=1)
+def _keywords(lark) -> tuple[str, ...]:
+    words = set()
+    for term in lark.terminals:
+        pattern = term.pattern
+        if type(pattern).__name__ == "PatternStr":
+            values = [pattern.value]
+        else:  # a terminal of alternatives, such as PEN_STATE: "up" | "down"
+            values = pattern.value.strip("()?:").split("|")
+        words.update(v for v in values if v.isidentifier())
+    return tuple(sorted(words))
 
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
@@ -363,8 +428,7 @@ def usable_as_tag(tag: str) -> bool:
 def parse_items(text: str, start: str = "start"):
     """Parse ``text`` straight to AST items (or one expression for ``start="expr"``); lark's
     ``UnexpectedInput`` propagates."""
-    out = ast_parser(start).parse(text)
-    return out.value if type(out) is _Val else out
+    return _value(grammar().parse(text, start=start))
 
 
 _SLOT_OR_STRING = re.compile(r'"[^"\n]*"|\{([^{}"]*)\}')
@@ -441,7 +505,7 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
     """Text -> AST in one call; any failure is a :class:`HilaSyntaxError` with line and column.
 
     A byte-order mark at the start is skipped (editors on Windows write one).  Parsing builds
-    the AST directly (:func:`ast_parser`, no recursion), and nesting deeper than
+    the AST directly (:func:`grammar`, no recursion), and nesting deeper than
     :data:`MAX_NESTING` is refused here, so no later stage (checker, compiler, interpreter, all
     recursive) can run out of stack.
     """
@@ -453,7 +517,7 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
     try:
         items = parse_items(text)
     except UnexpectedInput as exc:
-        raise syntax_error(exc, text, file, ast_parser()) from None
+        raise syntax_error(exc, text, file, grammar()) from None
     except HilaError as exc:  # raised by a rule's callback (a number too large): locate it in the file
         exc.file = exc.file or file
         if exc.source_line is None and exc.line:

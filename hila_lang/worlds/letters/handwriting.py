@@ -169,8 +169,13 @@ def _csv(path: np.ndarray, times: np.ndarray) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Write every letter's demonstration and learn it with ``hila learn`` (see the module docstring)."""
-    from ...cli import main as hila
+    import subprocess
+    import sys
+
     from ...fileio import atomic_write_text, dump_yaml
+
+    def hila(argv: list[str]) -> int:  # the command line in a child process: no import runs up to cli
+        return subprocess.run([sys.executable, "-m", "hila_lang", *argv]).returncode
 
     ap = argparse.ArgumentParser(prog="python -m hila_lang.worlds.letters.handwriting",
                                  description="Make the letters' demonstrations and learn them with hila learn.")
