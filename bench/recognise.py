@@ -1,0 +1,207 @@
+"""Recognising known parts in a new demonstration, on real human handwriting (issue 26 item 4).
+
+Data, made at run time from LASA's development shapes (``hila_lang.evaluation.lasa.DEVELOPMENT``;
+the 16 held-out shapes are never touched), seeded:
+
+- each round splits the development shapes into a *library* and *distractors*: ``Line`` is
+  always a distractor (a straight line cannot be told from the free moves between shapes by its
+  shape; see docs/recognition.md), and three more are drawn at random;
+- the library holds one template per library shape, learned from its demonstration 1;
+- a query chains 4 shapes drawn at random (about one in four a distractor) from demonstrations 2–7,
+  each turned by any angle, scaled 0.5–2×, played at 0.5–2× speed with a non-uniform warp,
+  joined by free moves, with tracking noise (:mod:`hila_lang.recognition.composite`), at 50 Hz.
+
+Scores: a reported known part is right when its template is the shape's and it overlaps the
+true part by IoU ≥ 0.5; precision P and recall R over known parts; B the median of |start
+error| and |end error| of the right ones as a fraction of the part's duration; F the share of
+distractor parts of which less than half is reported as known.
+
+Controls, same queries, same threshold rule:
+
+- ``euclid``: a plain Euclidean sliding window (stumpy ``mass``, not normalised) of each
+  template at its own length and speed, centred (translation removed, nothing else);
+- ``speed-dips``: the speed-dip segmenter (``hila_lang.segmentation.speed_segments``, given the
+  TRUE number of pieces, shapes and free moves: an oracle), each piece labelled with the nearest
+  template by Procrustes distance, known if under the same threshold.
+
+Timing: one 20 s composite against a 50-template library (all 7 demonstrations of the 14
+development shapes but the first 48, plus ...), median of 5 runs; the load average is printed.
+
+    python bench/recognise.py [--rounds 4] [--queries 15]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import time
+
+import numpy as np
+
+from hila_lang.evaluation.lasa import DEVELOPMENT, _package, resample_in_time
+from hila_lang.recognition.composite import make
+from hila_lang.recognition.library import entries_of
+from hila_lang.recognition.search import THRESHOLD, Part, recognise
+from hila_lang.recognition.shape import arc_length, arc_resample, procrustes_distance, smooth
+from hila_lang.template import Template
+
+RATE_IN = 100.0  # the raw LASA samples are re-sampled to this rate first, then re-timed
+RATE_OUT = 50.0
+
+
+def lasa_shapes(rate: float = RATE_IN) -> dict[str, list[np.ndarray]]:
+    pkg, _ = _package()
+    out = {}
+    for shape in DEVELOPMENT:
+        with contextlib.redirect_stdout(io.StringIO()):
+            data = getattr(pkg.DataSet, shape)
+        out[shape] = [resample_in_time(np.asarray(d.t, float)[0], np.asarray(d.pos, float).T, rate) for d in data.demos]
+    return out
+
+
+def library(data: dict, names) -> list:
+    entries = []
+    for name in names:
+        entries += entries_of(Template(name, data[name][0], {}, times=np.arange(len(data[name][0])) / RATE_IN))
+    return entries
+
+
+def euclid(path: np.ndarray, entries, data) -> list[Part]:
+    """Control: plain Euclidean sliding window of each template at its own length (translation removed)."""
+    import stumpy
+
+    from hila_lang.recognition.search import _schedule
+
+    cands = []
+    for k, e in enumerate(entries):
+        raw = data[e.template][0]
+        tmpl = raw[:: int(RATE_IN / RATE_OUT)]
+        n = len(tmpl)
+        if n > len(path):
+            continue
+        tc = tmpl - tmpl.mean(0)
+        sq = np.zeros(len(path) - n + 1)
+        for d in range(2):
+            sq += stumpy.mass(tc[:, d], path[:, d], normalize=False) ** 2
+            c = np.concatenate([[0.0], np.cumsum(path[:, d])])
+            sq -= n * ((c[n:] - c[:-n]) / n) ** 2  # centre each window
+        rms = np.sqrt(np.maximum(sq, 0) / n) / np.sqrt((tc ** 2).sum(1).mean())
+        for i in np.argsort(rms)[:50]:
+            if rms[i] < THRESHOLD:
+                cands.append((float(i), float(i + n - 1), float(rms[i]), k))
+    return _parts(_schedule(cands) if cands else [], entries, len(path))
+
+
+def _parts(chosen, entries, T) -> list[Part]:
+    return [Part(int(lo), int(hi) + 1, entries[k].template, entries[k].tag, d) for lo, hi, d, k in chosen]
+
+
+def speed_dips(path: np.ndarray, entries, pieces: int) -> list[Part]:
+    """Control: speed-dip segmenter with the true number of pieces, nearest template by Procrustes."""
+    from hila_lang.segmentation import speed_segments
+
+    out = []
+    for a, b in speed_segments(path, pieces, times=np.arange(len(path)) / RATE_OUT):
+        piece = smooth(path[a:b])
+        if b - a < 4 or arc_length(piece)[-1] <= 0:
+            continue
+        pts = arc_resample(piece, entries[0].points.shape[0])
+        d = np.array([float(procrustes_distance(pts, e.points)) for e in entries])
+        k = int(np.argmin(d))
+        if d[k] < THRESHOLD:
+            out.append(Part(a, b, entries[k].template, entries[k].tag, float(d[k])))
+    return out
+
+
+def score(found: list[Part], truth) -> dict:
+    known = [p for p in found if p.known]
+    tp, errors, used = 0, [], set()
+    for a, b, label in truth:
+        if label is None:
+            continue
+        for j, p in enumerate(known):
+            inter = min(b, p.end) - max(a, p.start)
+            union = max(b, p.end) - min(a, p.start)
+            if j not in used and p.template == label and inter / union >= 0.5:
+                used.add(j)
+                tp += 1
+                errors += [abs(p.start - a) / (b - a), abs(p.end - b) / (b - a)]
+                break
+    new = []
+    for a, b, label in truth:
+        if label is None:
+            cover = sum(max(0, min(b, p.end) - max(a, p.start)) for p in known)
+            new.append(cover < 0.5 * (b - a))
+    return {"tp": tp, "reported": len(known), "true": sum(1 for *_, lab in truth if lab is not None),
+            "errors": errors, "new": new}
+
+
+def summary(scores) -> str:
+    tp = sum(s["tp"] for s in scores)
+    rep = sum(s["reported"] for s in scores)
+    true = sum(s["true"] for s in scores)
+    errs = [e for s in scores for e in s["errors"]]
+    new = [n for s in scores for n in s["new"]]
+    return (f"precision={tp / max(rep, 1):.3f} recall={tp / max(true, 1):.3f} "
+            f"boundary_median={np.median(errs) if errs else float('nan'):.3f} new_flagged={np.mean(new) if new else float('nan'):.3f}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=4)
+    ap.add_argument("--queries", type=int, default=15)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    data = lasa_shapes()
+    rng = np.random.default_rng(args.seed)
+    results = {"recognise": [], "euclid": [], "speed-dips": []}
+    seconds = {k: 0.0 for k in results}
+    for _ in range(args.rounds):
+        others = [s for s in DEVELOPMENT if s != "Line"]
+        distract = ["Line", *rng.choice(others, 3, replace=False)]
+        names = [s for s in DEVELOPMENT if s not in distract]
+        entries = library(data, names)
+        for _ in range(args.queries):
+            chain = []
+            for _ in range(4):
+                pool = distract if rng.random() < 0.25 else names
+                shape = pool[rng.integers(len(pool))]
+                chain.append((data[shape][rng.integers(1, 7)], shape if shape in names else None))
+            c = make(chain, rng, rate_in=RATE_IN, rate_out=RATE_OUT)
+            for key, run in (("recognise", lambda: recognise(c.path, entries, c.times)),
+                             ("euclid", lambda: euclid(c.path, entries, data)),
+                             ("speed-dips", lambda: speed_dips(c.path, entries, 2 * len(chain) - 1))):
+                t0 = time.perf_counter()
+                found = run()
+                seconds[key] += time.perf_counter() - t0
+                results[key].append(score(found, c.parts))
+    n = args.rounds * args.queries
+    print(f"# {n} queries of 4 shapes, {args.rounds} library/distractor splits of LASA's development shapes")
+    for key in results:
+        label = "recognise" if key == "recognise" else f"control {key}"
+        print(f"{label} {summary(results[key])} seconds_per_query={seconds[key] / n:.3f}")
+    # timing: a 20 s demonstration against 50 templates
+    pool = [(s, i) for s in DEVELOPMENT for i in range(7)][:50]
+    entries = []
+    for s, i in pool:
+        entries += entries_of(Template(f"{s}_{i + 1}", data[s][i], {}))
+    chain, total = [], 0.0
+    while total < 20.0:
+        s = DEVELOPMENT[rng.integers(len(DEVELOPMENT))]
+        chain.append((data[s][rng.integers(7)], s))
+        total += len(chain[-1][0]) / RATE_IN + 0.7
+    c = make(chain, rng, rate_in=RATE_IN, rate_out=RATE_OUT, speed=(1.0, 1.0))
+    c_times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        recognise(c.path, entries, c.times)
+        c_times.append(time.perf_counter() - t0)
+    print(f"timing demo={c.times[-1]:.1f}s samples={len(c.path)} library={len(entries)} templates "
+          f"recognise_seconds={np.median(c_times):.3f} (median of 5) load={os.getloadavg()[0]:.2f} cores={os.cpu_count()}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
