@@ -22,7 +22,7 @@ Controls, same queries, same threshold rule:
   template at its own length and speed, centred (translation removed, nothing else);
 - ``speed-dips``: the speed-dip segmenter (``hila_lang.segmentation.speed_segments``, given the
   TRUE number of pieces, shapes and free moves: an oracle), each piece labelled with the nearest
-  template by Procrustes distance, known if under the same threshold.
+  template by the same elastic distance, known if under the same threshold.
 
 Timing: one 20 s composite against a 50-template library (all 7 demonstrations of the 14
 development shapes but the first 48, plus ...), median of 5 runs; the load average is printed.
@@ -44,7 +44,7 @@ from hila_lang.evaluation.lasa import DEVELOPMENT, _package, resample_in_time
 from hila_lang.recognition.composite import make
 from hila_lang.recognition.library import entries_of
 from hila_lang.recognition.search import THRESHOLD, Part, recognise
-from hila_lang.recognition.shape import arc_length, arc_resample, procrustes_distance, smooth
+from hila_lang.recognition.shape import arc_length, arc_resample, elastic_distance, smooth
 from hila_lang.template import Template
 
 RATE_IN = 100.0  # the raw LASA samples are re-sampled to this rate first, then re-timed
@@ -108,7 +108,7 @@ def speed_dips(path: np.ndarray, entries, pieces: int) -> list[Part]:
         if b - a < 4 or arc_length(piece)[-1] <= 0:
             continue
         pts = arc_resample(piece, entries[0].points.shape[0])
-        d = np.array([float(procrustes_distance(pts, e.points)) for e in entries])
+        d = np.array([elastic_distance(pts, e.points) for e in entries])
         k = int(np.argmin(d))
         if d[k] < THRESHOLD:
             out.append(Part(a, b, entries[k].template, entries[k].tag, float(d[k])))

