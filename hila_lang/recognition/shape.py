@@ -103,15 +103,12 @@ def procrustes_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 ELASTIC_WINDOW = 8
 
 
-def _similarity(p: np.ndarray, q: np.ndarray):
-    """Rotation R (no reflection) and scale s with (p - p̄) R s ≈ q - q̄ (least squares, paired rows)."""
-    pc, qc = p - p.mean(0), q - q.mean(0)
-    u, sv, vt = np.linalg.svd(pc.T @ qc)
-    flip = np.ones(len(sv))
-    if np.linalg.det(u @ vt) < 0:
-        flip[-1] = -1.0
-    rot = (u * flip) @ vt
-    return rot, float((sv * flip).sum() / max((pc * pc).sum(), 1e-24))
+def similarity_map(src: np.ndarray, dst: np.ndarray):
+    """The least-squares similarity taking paired rows ``src`` to ``dst`` (osila.fallback.fit_similarity), as a function of rows."""
+    from ..osila.fallback import fit_similarity
+
+    scale, rot, shift = fit_similarity(src, dst, 2)
+    return lambda x: scale * (np.asarray(x, float) @ rot.T) + shift
 
 
 def elastic_distance(a: np.ndarray, b: np.ndarray, window: int = ELASTIC_WINDOW) -> float:
@@ -131,12 +128,10 @@ def elastic_distance(a: np.ndarray, b: np.ndarray, window: int = ELASTIC_WINDOW)
     from dtaidistance import dtw_ndim
 
     A, B = _unit(np.asarray(a, float)), _unit(np.asarray(b, float))
-    rot, scale = _similarity(A, B)
-    A = A @ rot * scale
+    A = similarity_map(A, B)(A)
     for last in (False, False, True):
         i, j = np.array(dtw_ndim.warping_path(np.ascontiguousarray(A), np.ascontiguousarray(B), window=window, use_c=True)).T
         if last:
             break
-        rot, scale = _similarity(A[i], B[j])
-        A = (A - A[i].mean(0)) @ rot * scale + B[j].mean(0)
+        A = similarity_map(A[i], B[j])(A)
     return float(np.sqrt(((A[i] - B[j]) ** 2).sum(1).mean() * len(B)))
