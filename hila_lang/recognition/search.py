@@ -62,6 +62,9 @@ THRESHOLD = 0.115
 SLOW = 0.6
 #: how far an end may move to reach a slow sample, as a fraction of the part's length
 SNAP = 0.15
+#: a new stretch next to a known part along which the hand moved less than SLIVER × that part's
+#: arc length is given to it (:func:`_absorb_slivers`); 0.05: the issue's boundary tolerance
+SLIVER = 0.05
 #: slow samples tried per end (the local minima of the speed, slowest first)
 SNAP_CHOICES = 6
 
@@ -220,6 +223,35 @@ def _schedule(cands: list[tuple[float, float, float, int]]) -> list[tuple[float,
     return out[::-1]
 
 
+def _absorb_slivers(parts: list[Part], s: np.ndarray) -> list[Part]:
+    """Give a new stretch along which the hand moved no more than SLIVER × the arc length of a
+    known neighbour to that neighbour (both: split midway).
+
+    Such a stretch is the rest of a pause whose slow samples were split between two parts, or
+    the tremor before a known part begins: the hand did not do anything there.
+    """
+    arc = lambda q: float(s[q.end - 1] - s[q.start])  # noqa: E731
+    out: list[Part] = []
+    for k, p in enumerate(parts):
+        if p.known:
+            out.append(p)
+            continue
+        before = out[-1] if out and out[-1].known else None
+        after = parts[k + 1] if k + 1 < len(parts) and parts[k + 1].known else None
+        n = p.end - p.start
+        moved = float(s[min(p.end, len(s) - 1)] - s[max(p.start - 1, 0)])  # with the steps into and out of it
+        fits = [q for q in (before, after) if q is not None and moved <= SLIVER * arc(q)]
+        if not fits:
+            out.append(p)
+        elif len(fits) == 2:
+            before.end = after.start = p.start + n // 2
+        elif fits[0] is before:
+            before.end = p.end
+        else:
+            after.start = p.start
+    return out
+
+
 def recognise(path, entries: list[Entry], times=None) -> list[Part]:
     """Cut ``path`` into known library parts and new stretches, in time order, covering it.
 
@@ -275,6 +307,7 @@ def recognise(path, entries: list[Entry], times=None) -> list[Part]:
         cursor = b
     if cursor < T:
         parts.append(Part(cursor, T))
+    parts = _absorb_slivers(parts, s)
     for p in parts:
         p.t_start, p.t_end = float(times[p.start]), float(times[p.end - 1])
     return parts
