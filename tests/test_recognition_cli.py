@@ -110,7 +110,7 @@ def test_report_needs_library(tmp_path, capsys):
     path, times, icps, *_ = circle_then_cross(0)
     demo, scene = _write_demo(tmp_path, path, times, icps)
     assert main(["learn", demo, "--icps", scene, "--report", str(tmp_path / "r.json"), "-o", str(tmp_path / "x.yaml")]) == 2
-    assert "--report writes the parts --library found" in capsys.readouterr().err
+    assert "--report goes with --library" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("case, message", [

@@ -68,6 +68,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     known = parser.add_argument_group("recognition of known parts (docs/recognition.md)")
     known.add_argument("--library", metavar="DIR", help="find DIR's templates and sub-templates in the demonstration")
     known.add_argument("--report", metavar="FILE.json", help="with --library: write the parts found as JSON")
+    known.add_argument("--stream", action="store_true",
+                       help="with --library: feed the demonstration point by point and say each known part as soon as "
+                            "it is found (online recognition); the final answer is the offline one")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.yaml", help="template file to write")
 
 
@@ -143,8 +146,9 @@ def _library(args: argparse.Namespace):
     from ..errors import InputError
 
     if args.library is None:
-        if args.report:
-            raise InputError("--report writes the parts --library found: add --library DIR")
+        for option, on in (("--report", args.report), ("--stream", args.stream)):
+            if on:
+                raise InputError(f"{option} goes with --library: add --library DIR")
         return None
     if args.k is not None:
         raise InputError("-k does not go with --library: the parts are what the library recognises",
@@ -157,13 +161,38 @@ def _library(args: argparse.Namespace):
     return {t.name: t for t in templates}, entries
 
 
-def _recognised(template, library, tags: list[str], contact: list[str], report):
+def _streamed(template, entries):
+    """Online recognition of ``template``'s path fed point by point; prints each event; the final parts."""
+    import numpy as np
+
+    from ..recognition.online import OnlineRecogniser
+
+    times = template.times if template.times is not None else np.arange(len(template.path)) / 20.0
+    online = OnlineRecogniser(entries)
+
+    def say(events):
+        for e in events:
+            p = e.part
+            name = p.template if p.tag is None else f"{p.template}.{p.tag}"
+            print(f"  at {e.at:6.2f} s: {e.kind:<9} {name}  samples [{p.start}, {p.end}), ended {times[p.end - 1]:.2f} s",
+                  flush=True)
+
+    print("streaming the demonstration point by point:")
+    for point, t in zip(template.path, times):
+        say(online.push(point, float(t)))
+    final, corrections = online.finish()
+    say(corrections)
+    print(f"end of stream: {len(corrections)} correction(s) by the final, offline answer")
+    return final
+
+
+def _recognised(template, library, tags: list[str], contact: list[str], report, stream: bool = False):
     """``template`` cut into the library's known parts and new parts; prints them, writes the report."""
     from ..recognition.search import recognise
     from ..recognition.written import recognised_template, write_report
 
     by_name, entries = library
-    parts = recognise(template.path, entries, template.times)
+    parts = _streamed(template, entries) if stream else recognise(template.path, entries, template.times)
     out = recognised_template(template, parts, by_name, tags, contact)
     print(f"recognised against {len(by_name)} template(s), {len(entries)} part(s):")
     for part, seg in zip(parts, out.segments):
@@ -218,7 +247,7 @@ def run(args: argparse.Namespace) -> int:
         elif contact:
             raise InputError("--contact needs segments: give --tags (and -k)")
     if library is not None:
-        template = _recognised(template, library, tags_new, contact_new, report)
+        template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)
     print(f"learned template {name!r}: {len(template.path)} points, D = {template.path.shape[1]}, "
           f"{len(template.icps)} ICPs -> {out}")

@@ -62,6 +62,9 @@ THRESHOLD = 0.115
 SLOW = 0.6
 #: how far an end may move to reach a slow sample, as a fraction of the part's length
 SNAP = 0.15
+#: samples at the end of a still-arriving demonstration where no part may end (the smoothing's
+#: Gaussian, SMOOTH_SAMPLES = 1.5, reaches 2 sigma into the held end)
+EDGE = 3
 #: a new stretch next to a known part along which the hand moved less than SLIVER × that part's
 #: arc length is given to it (:func:`_absorb_slivers`); 0.05: the issue's boundary tolerance
 SLIVER = 0.05
@@ -177,7 +180,7 @@ def _slow(v: np.ndarray, centre: int, reach: int, limit: float) -> np.ndarray:
     return a + pick[np.argsort(w[pick])][:SNAP_CHOICES]
 
 
-def _settle(q, entry: Entry, arc_of: np.ndarray, v: np.ndarray, a0: int, b0: int):
+def _settle(q, entry: Entry, arc_of: np.ndarray, v: np.ndarray, a0: int, b0: int, last: int | None = None):
     """Move the ends of samples [a0, b0] to where the hand slows, to the lowest Procrustes distance.
 
     Each end may go to a slow sample (speed under :data:`SLOW` × the window's median speed)
@@ -187,6 +190,8 @@ def _settle(q, entry: Entry, arc_of: np.ndarray, v: np.ndarray, a0: int, b0: int
     reach = max(2, int(round(SNAP * (b0 - a0))))
     limit = SLOW * float(np.median(v[a0:b0 + 1]))
     starts, ends = _slow(v, a0, reach, limit), _slow(v, b0, reach, limit)
+    if last is not None:
+        ends = ends[ends <= last]
     if not len(starts) or not len(ends):
         return None
     A, B = np.meshgrid(starts, ends, indexing="ij")
@@ -252,7 +257,7 @@ def _absorb_slivers(parts: list[Part], s: np.ndarray) -> list[Part]:
     return out
 
 
-def recognise(path, entries: list[Entry], times=None) -> list[Part]:
+def recognise(path, entries: list[Entry], times=None, *, open_end: bool = False) -> list[Part]:
     """Cut ``path`` into known library parts and new stretches, in time order, covering it.
 
     Parameters
@@ -263,6 +268,9 @@ def recognise(path, entries: list[Entry], times=None) -> list[Part]:
         The library parts (:func:`.library.load_library`); those of another D are not searched.
     times : array_like, shape (T,), optional
         Seconds; 20 Hz is assumed when absent (only the reported seconds use it).
+    open_end : bool
+        The demonstration is still arriving (:mod:`.online`): no part may end in its last
+        :data:`EDGE` samples, where the smoothing's held end looks like the hand slowing down.
 
     Returns
     -------
@@ -291,7 +299,7 @@ def recognise(path, entries: list[Entry], times=None) -> list[Part]:
         for k, entry in enumerate(usable):
             for lo, hi, _ in _candidates(q, signal, entry):
                 a0, b0 = (int(round(np.interp(x, arc_of[keep], samples))) for x in (lo, hi))
-                settled = _settle(q, entry, arc_of, v, a0, b0)
+                settled = _settle(q, entry, arc_of, v, a0, b0, T - 1 - EDGE if open_end else None)
                 if settled is not None and settled[2] < THRESHOLD:
                     found.append((*settled, k))
     chosen = _schedule(found) if found else []
