@@ -138,3 +138,46 @@ def test_bad_library_is_located_and_nothing_written(tmp_path, capsys, case, mess
     assert pytest.importorskip("re").search(message, err), err
     assert "Traceback" not in err
     assert out.read_text() == "precious\n" and not report.exists()
+
+
+PROGRAM = """\
+# The second demonstration, recognised against the library, run at once on a new cell.
+import second
+
+point cell.tl = (0.36, -0.02, 0.571)
+point cell.tr = (0.36, -0.09, 0.571)
+point cell.br = (0.29, -0.09, 0.571)
+point cell.bl = (0.29, -0.02, 0.571)
+hand at (0.22, -0.30, 0.74)
+
+main {
+    run second.reach(tl = cell.tl, tr = cell.tr, br = cell.br, bl = cell.bl, hand = none)
+    run second.draw(tl = cell.tl, tr = cell.tr, br = cell.br, bl = cell.bl, hand = none)
+    run second.cross(tl = cell.tl, tr = cell.tr, br = cell.br, bl = cell.bl, hand = none)
+}
+"""
+
+
+def test_recognised_demonstration_runs_and_explain_names_library_parts(tmp_path, library, capsys):
+    path, times, icps, *_ = circle_then_cross(0)
+    demo, scene = _write_demo(tmp_path, path, times, icps)
+    (tmp_path / "primitives").mkdir()
+    assert main(["learn", demo, "--icps", scene, "--library", str(library), "--tags", "cross", "--contact", "cross",
+                 "-o", str(tmp_path / "primitives" / "second.yaml")]) == 0
+    program = tmp_path / "task.hila"
+    program.write_text(PROGRAM)
+    capsys.readouterr()
+    assert main(["exec", str(program)]) == 0
+    assert main(["explain", str(program)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    used = [line for line in out if line.startswith("  library part: ")]
+    assert used == [
+        f"  library part: circle.reach (from {library / 'circle.yaml'}, recognised at distance {d}) as reach"
+        for d in [used[0].split("distance ")[1].split(")")[0]]
+    ] + [
+        f"  library part: circle.draw (from {library / 'circle.yaml'}, recognised at distance {d}) as draw"
+        for d in [used[1].split("distance ")[1].split(")")[0]]
+    ]
+    # the new part is not a library part: its state says nothing of the library
+    cross = out.index(next(line for line in out if "second.cross" in line))
+    assert not out[cross + 1].startswith("  library part:")

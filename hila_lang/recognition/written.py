@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 
 import numpy as np
 
@@ -92,7 +93,7 @@ def recognised_template(template: Template, parts: list[Part], library: dict[str
             tag = base if used[base] == 1 else f"{base}_{used[base]}"
             flag = source.segment(p.tag).contact if p.tag is not None else False
             lines.append(f"{tag} [{p.start}, {p.end}) = {sub.name} from {p.source or 'the library'} "
-                         f"(distance {p.distance:.3f})")
+                         f"(distance {p.distance:.3f})")  # read back by library_parts
         else:
             tag = next(names)
             flag = tag in contact
@@ -106,6 +107,28 @@ def recognised_template(template: Template, parts: list[Part], library: dict[str
     return Template(template.name, path, {k: v.copy() for k, v in template.icps.items()},
                     times=None if template.times is None else template.times.copy(), segments=segments,
                     description=f"{template.description} {known}".strip(), units=template.units)
+
+
+_KNOWN = re.compile(r"(?P<tag>[A-Za-z_]\w*) \[(?P<start>\d+), (?P<stop>\d+)\) = (?P<part>\S+) from (?P<file>.+?) "
+                    r"\(distance (?P<distance>[0-9.]+)\)")
+_HEAD = "Known parts, copied from the library"
+
+
+def library_parts(template: Template) -> list[str]:
+    """The library parts a template written by :func:`recognised_template` runs, one phrase each.
+
+    Read back from the description (the format :func:`recognised_template` writes).  For a
+    sub-template (``NAME.TAG``, whose description starts with its segment) only its own part;
+    ``[]`` for a template that was not recognised against a library.
+    """
+    text = template.description
+    if _HEAD not in text:
+        return []
+    found = [m.groupdict() for m in _KNOWN.finditer(text[text.index(_HEAD):])]
+    own = re.match(r"segment '([^']+)' \[", text)
+    if own:  # a sub-template: its segment only
+        found = [f for f in found if f["tag"] == own.group(1)]
+    return [f"{f['part']} (from {f['file']}, recognised at distance {f['distance']}) as {f['tag']}" for f in found]
 
 
 def library_entries(templates: list[Template]):
