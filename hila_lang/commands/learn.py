@@ -196,7 +196,7 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
     out = recognised_template(template, parts, by_name, tags, contact)
     print(f"recognised against {len(by_name)} template(s), {len(entries)} part(s):")
     for part, seg in zip(parts, out.segments):
-        span = f"{part.t_start:6.2f}-{part.t_end:6.2f} s  samples [{part.start}, {part.end})"
+        span = f"{part.t_start:.2f}-{part.t_end:.2f} s, samples [{part.start}, {part.end})"
         if part.known:
             name = part.template if part.tag is None else f"{part.template}.{part.tag}"
             print(f"  known  {seg.tag:<10} {span}  = {name}  distance {part.distance:.3f}  confidence {part.confidence:.2f}")
