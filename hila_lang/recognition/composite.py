@@ -48,7 +48,8 @@ def make(shapes: list[tuple[np.ndarray, str | None]], rng: np.random.Generator, 
          noise: float = 0.004, speed=(0.5, 2.0), scale=(0.5, 2.0)) -> Composite:
     """Chain ``shapes`` ((path (n, 2) at ``rate_in`` Hz, label or None), ...) into one composite.
 
-    ``noise``: tracking noise σ as a fraction of the median shape size (bounding-box diagonal).
+    ``noise``: tracking noise σ as a fraction of the median shape size (bounding-box diagonal,
+    before scaling).
     """
     pieces, parts, sizes = [], [], []
     cursor = 0
@@ -59,7 +60,7 @@ def make(shapes: list[tuple[np.ndarray, str | None]], rng: np.random.Generator, 
         rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
         size = float(np.linalg.norm(np.ptp(shape, axis=0)))
         scaled = (shape - shape.mean(0)) @ rot.T * rng.uniform(*scale)
-        sizes.append(size * 1.0)
+        sizes.append(size)
         moved = _retime(scaled, rate_in, rate_out, rng.uniform(*speed), rng.uniform(-0.3, 0.3))
         offset = where + rng.normal(scale=size, size=2) - moved[0] if k else -moved[0]
         moved = moved + offset

@@ -47,7 +47,9 @@ MIN_POINTS, MAX_POINTS = 64, 400
 MIN_STEPS = 12
 #: ratio between consecutive searched lengths: a part σ times bigger is tried within ±5 %
 LADDER = 1.1
-#: RMS heading error (radians) under which a window is a candidate; the Procrustes distance decides
+#: RMS heading error (radians) under which a window is a candidate; the Procrustes distance decides.
+#: Measured: demonstration 1 of each LASA development shape against its other six, at 24 and 64
+#: points, 0.19 median, 0.53 at most: 0.6 lets every same-shape window through
 HEADING_GATE = 0.6
 #: plain Procrustes distance under which a window is verified further: the same LASA development
 #: shape, one demonstration against another, is 0.214 at most (shape.elastic_distance's docstring)
