@@ -152,6 +152,33 @@ def summary(scores) -> str:
             f"boundary_median={np.median(errs) if errs else float('nan'):.3f} new_flagged={np.mean(new) if new else float('nan'):.3f}")
 
 
+def figure(path_png: str, c, found: list[Part]) -> None:
+    """One query drawn: new stretches grey, each known part coloured and labelled (needs matplotlib)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from hila_lang.fileio import atomic_write_bytes
+
+    fig, ax = plt.subplots(figsize=(7, 6), dpi=110)
+    ax.plot(*c.path.T, color="0.8", lw=1, label="new (free moves, distractors)")
+    for k, p in enumerate(p for p in found if p.known):
+        seg = c.path[p.start:p.end]
+        ax.plot(*seg.T, lw=2.2, color=f"C{k % 10}")
+        ax.annotate(f"{p.template}\n[{p.start}, {p.end}) d={p.distance:.3f}", seg[len(seg) // 2], fontsize=8,
+                    color=f"C{k % 10}", xytext=(6, 6), textcoords="offset points",
+                    bbox={"boxstyle": "round", "fc": "white", "ec": "none", "alpha": 0.8})
+    truth = ", ".join(f"{label or 'distractor'} [{a}, {b})" for a, b, label in c.parts)
+    ax.set_title(f"recognised parts (colour) in one query\ntruth: {truth}", fontsize=8)
+    ax.set_aspect("equal")
+    ax.legend(loc="best", fontsize=8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", bbox_inches="tight")
+    plt.close(fig)
+    atomic_write_bytes(path_png, buf.getvalue())
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=4)
@@ -159,6 +186,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--held-out", action="store_true",
                     help="run on the 16 held-out shapes instead (a check after the fact: nothing is chosen by it)")
+    ap.add_argument("--figure", metavar="PNG", help="draw the first query and what was recognised (needs matplotlib)")
     args = ap.parse_args(argv)
     shapes = DEVELOPMENT
     if args.held_out:
@@ -189,6 +217,8 @@ def main(argv=None) -> int:
                 found = run()
                 seconds[key] += time.perf_counter() - t0
                 results[key].append(score(found, c.parts))
+                if args.figure and key == "recognise" and len(results[key]) == 1:
+                    figure(args.figure, c, found)
     n = args.rounds * args.queries
     which = "held-out" if args.held_out else "development"
     print(f"# {n} queries of 4 shapes, {args.rounds} library/distractor splits of LASA's {which} shapes")

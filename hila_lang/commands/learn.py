@@ -194,7 +194,9 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
     by_name, entries = library
     parts = _streamed(template, entries) if stream else recognise(template.path, entries, template.times)
     out = recognised_template(template, parts, by_name, tags, contact)
-    print(f"recognised against {len(by_name)} template(s), {len(entries)} part(s):")
+    other = sum(e.dim != template.dim for e in entries)
+    skipped = f" ({other} of another dimension than the demonstration's {template.dim}-D not searched)" if other else ""
+    print(f"recognised against {len(by_name)} template(s), {len(entries)} part(s){skipped}:")
     for part, seg in zip(parts, out.segments):
         span = f"{part.t_start:.2f}-{part.t_end:.2f} s, samples [{part.start}, {part.end})"
         if part.known:
