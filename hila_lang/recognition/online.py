@@ -5,9 +5,12 @@
 :func:`.search.recognise` — the offline method, unchanged.  A known part is *announced* as soon
 as it is found (``recognise(..., open_end=True)``: no part may end in the last few samples, where
 the buffer's edge would pass for the hand slowing down); if later evaluations no longer find it
-for :data:`PATIENCE` seconds (the shape went on and became another one), it is *withdrawn*.  A part that has stayed
-announced for :data:`SETTLE` seconds is settled: the stretch before its end is not searched again,
-so each evaluation costs about the same however long the demonstration gets.
+for :data:`PATIENCE` seconds (the shape went on and became another one), it is *withdrawn*.  A part is settled once the
+next known part after it has been found and stayed announced for :data:`SETTLE` seconds: the
+stretch before its end is not searched again, so each evaluation costs about the same however
+long the demonstration gets.  (Settling a part on its own stability was tried first: a shape in
+progress whose first half looks like another library part was settled as that part before it
+was complete, and the whole shape was then only found at the end.)
 
 :meth:`~OnlineRecogniser.finish` recognises the whole path once more, so the final answer *is*
 the offline answer; it withdraws or announces whatever differs from what was said online (each
@@ -31,7 +34,7 @@ EVERY = 0.05
 #: seconds an announced part may go unfound before it is withdrawn (one evaluation can miss it
 #: while its end's pause is half arrived)
 PATIENCE = 0.3
-#: seconds an announced part must stay unchanged before the stretch up to its end is settled
+#: seconds the next known part must stay announced before the stretch up to a part's end is settled
 SETTLE = 1.5
 #: two findings are the same part if template and tag agree and they overlap by IoU above this
 #: (an end may move within the pause it lies in as more of the pause arrives)
@@ -108,7 +111,10 @@ class OnlineRecogniser:
                 kept.append([q, now, None])
                 out.append(Event("known", q, now))
         kept.sort(key=lambda ps: ps[0].start)
-        while kept and kept[0][2] is None and now - kept[0][1] >= SETTLE:  # settle the oldest stable part
+        # settle the oldest part once the NEXT known part has been found and stayed SETTLE seconds:
+        # until then the oldest may still grow into a bigger library part (a Trapezoid-like start
+        # of a PShape in progress)
+        while len(kept) >= 2 and kept[0][2] is None and kept[1][2] is None and now - kept[1][1] >= SETTLE:
             self._base = kept.pop(0)[0].end
         self._said = kept
         self.events += out
