@@ -317,7 +317,10 @@ def recognise(path, entries: list[Entry], times=None, *, open_end: bool = False)
         cursor = b
     if cursor < T:
         parts.append(Part(cursor, T))
-    parts = _absorb_slivers(parts, s)
+    if open_end and len(parts) > 1 and not parts[-1].known:  # the newest samples are not a sliver yet
+        parts = [*_absorb_slivers(parts[:-1], s), parts[-1]]
+    else:
+        parts = _absorb_slivers(parts, s)
     for p in parts:
         p.t_start, p.t_end = float(times[p.start]), float(times[p.end - 1])
     return parts
