@@ -114,6 +114,9 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
     else:
         icps = bind(template, binding, hand)
     lines = [f"{title}: {template.name}" if title else template.name]
+    from .recognition.written import library_parts  # issue 26: which library parts this run used
+
+    lines += [f"  library part: {part}" for part in library_parts(template)]
     lines.append(f"  ICP pairs (template -> task), {len(icps)}:")
     for k, q in icps.items():
         lines.append(f"    {k:<12} {_fmt(template.icps[k])} -> {_fmt(q)}")

@@ -30,7 +30,15 @@ the tags that touch the surface (drawing).  By default the cuts are the k-1 deep
 the hand's speed (where one stroke ends and the next begins, e.g. where the pen touches and
 leaves the paper; bench/segmentation.py measures it); --method kmeans is the paper's k-means.
 Example: hila learn demo.csv --icps scene.yaml -k 3 --tags reach,draw,retract --contact draw \\
--o primitives/circle.yaml"""
+-o primitives/circle.yaml
+
+With --library DIR the demonstration is first searched for the parts DIR's templates already
+hold (each template and its tagged sub-templates), wherever, however big, turned or fast they
+were made; known parts are copied from the library (with provenance in the description), the
+rest become new segments (tagged new1, new2, ... or by --tags, one per new part).  --report
+FILE.json writes every part: {"segments": [{"start", "end", "template", "tag", "distance"}]}.
+See docs/recognition.md.
+Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml"""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -57,6 +65,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="k-means seed (default 0)")
     parser.add_argument("--name", default=None, help="template name (default: the output file's stem)")
     parser.add_argument("--description", default=None, help="provenance text stored in the template")
+    known = parser.add_argument_group("recognition of known parts (docs/recognition.md)")
+    known.add_argument("--library", metavar="DIR", help="find DIR's templates and sub-templates in the demonstration")
+    known.add_argument("--report", metavar="FILE.json", help="with --library: write the parts found as JSON")
+    known.add_argument("--stream", action="store_true",
+                       help="with --library: feed the demonstration point by point and say each known part as soon as "
+                            "it is found (online recognition); the final answer is the offline one")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.yaml", help="template file to write")
 
 
@@ -127,6 +141,75 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     return template
 
 
+def _library(args: argparse.Namespace):
+    """(templates by name, searchable parts) of --library, or None; refuses --report without it."""
+    from ..errors import InputError
+
+    if args.library is None:
+        for option, on in (("--report", args.report), ("--stream", args.stream)):
+            if on:
+                raise InputError(f"{option} goes with --library: add --library DIR")
+        return None
+    if args.k is not None:
+        raise InputError("-k does not go with --library: the parts are what the library recognises",
+                         hint="--tags names the new parts, one tag each")
+    from ..recognition import require
+    from ..recognition.library import load_library
+
+    require()
+    templates, entries = load_library(args.library)
+    return {t.name: t for t in templates}, entries
+
+
+def _streamed(template, entries):
+    """Online recognition of ``template``'s path fed point by point; prints each event; the final parts."""
+    import numpy as np
+
+    from ..recognition.online import OnlineRecogniser
+
+    times = template.times if template.times is not None else np.arange(len(template.path)) / 20.0
+    online = OnlineRecogniser(entries)
+
+    def say(events):
+        for e in events:
+            p = e.part
+            name = p.template if p.tag is None else f"{p.template}.{p.tag}"
+            print(f"  at {e.at:6.2f} s: {e.kind:<9} {name}  samples [{p.start}, {p.end}), ended {times[p.end - 1]:.2f} s",
+                  flush=True)
+
+    print("streaming the demonstration point by point:")
+    for point, t in zip(template.path, times):
+        say(online.push(point, float(t)))
+    final, corrections = online.finish()
+    say(corrections)
+    print(f"end of stream: {len(corrections)} correction(s) by the final, offline answer")
+    return final
+
+
+def _recognised(template, library, tags: list[str], contact: list[str], report, stream: bool = False):
+    """``template`` cut into the library's known parts and new parts; prints them, writes the report."""
+    from ..recognition.search import recognise
+    from ..recognition.written import recognised_template, write_report
+
+    by_name, entries = library
+    parts = _streamed(template, entries) if stream else recognise(template.path, entries, template.times)
+    out = recognised_template(template, parts, by_name, tags, contact)
+    other = sum(e.dim != template.dim for e in entries)
+    skipped = f" ({other} of another dimension than the demonstration's {template.dim}-D not searched)" if other else ""
+    print(f"recognised against {len(by_name)} template(s), {len(entries)} part(s){skipped}:")
+    for part, seg in zip(parts, out.segments):
+        span = f"{part.t_start:.2f}-{part.t_end:.2f} s, samples [{part.start}, {part.end})"
+        if part.known:
+            name = part.template if part.tag is None else f"{part.template}.{part.tag}"
+            print(f"  known  {seg.tag:<10} {span}  = {name}  distance {part.distance:.3f}  confidence {part.confidence:.2f}")
+        else:
+            print(f"  new    {seg.tag:<10} {span}")
+    if report is not None:
+        write_report(report, parts)
+        print(f"report -> {report}")
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     from ..demofile import load_icps, read_demo_csv
     from ..errors import InputError
@@ -143,8 +226,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"expected -k >= 1, got {k}")
     if not tags and k > 1:
         tags = [f"s{i + 1}" for i in range(k)]
+    library = _library(args)  # a bad library stops before anything is made or written
     out = ensure_writable(args.output)  # before the work: learning by perception takes a minute
+    report = ensure_writable(args.report) if args.report else None
     name = args.name or out.stem
+    if library is not None:
+        (tags_new, tags), (contact_new, contact), k = (tags, []), (contact, []), 1
     if source != "DEMO.csv":
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:
@@ -161,6 +248,8 @@ def run(args: argparse.Namespace) -> int:
             template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
         elif contact:
             raise InputError("--contact needs segments: give --tags (and -k)")
+    if library is not None:
+        template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)
     print(f"learned template {name!r}: {len(template.path)} points, D = {template.path.shape[1]}, "
           f"{len(template.icps)} ICPs -> {out}")
