@@ -116,8 +116,11 @@ def test_help_lists_every_osila_option_a_run_can_set(capsys):
         cli.main(["exec", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     for name in OPTIONS:
-        if name not in ("pin", "seed"):  # pin: stamps of one path, set by each step; seed: no effect
+        if name != "pin":  # pin: stamps of one path, set by each step (seed seeds reject="lmeds")
             assert f"osila.{name}" in text, name
+    from hila_lang.plugins.options import OSILA_SETTABLE
+
+    assert sorted(OSILA_SETTABLE) == sorted(set(OPTIONS) - {"pin"})
 
 
 def test_a_pin_is_the_steps_own_and_cannot_be_set_for_a_run(capsys):

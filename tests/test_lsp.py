@@ -240,7 +240,9 @@ def test_diagnostics_are_hila_checks_errors_for_random_edits(program, monkeypatc
     for sample in (text, text + "}"):  # the reference is what load_program (hila check) says
         assert _whole(program, sample, doc.templates) == _loaded(program, sample)
     compared = broken = 0
-    for edited in [text, *_edits(text, rng, 40)]:
+    for edited in [text, *_edits(text, rng, 200)]:
+        if compared >= 41 and broken >= 5:  # a short program (picture.hila) needs more edits to break 5 times
+            break
         problems = [p for p in doc.analyse(edited) if p.severity == "error"]
         expected = _whole(program, edited, doc.templates)
         if expected is None:
@@ -251,7 +253,7 @@ def test_diagnostics_are_hila_checks_errors_for_random_edits(program, monkeypatc
             message, line, column = expected
             assert (p.message, p.line + 1, p.character + 1) == (message, line, column), edited
         compared += 1
-    assert compared == 41 and broken >= 5  # many random edits break the program
+    assert compared >= 41 and broken >= 5  # many random edits break the program
 
 
 def test_chunks_cover_the_text_line_for_line():

@@ -82,9 +82,10 @@ def settings_help() -> str:
                 lines.extend(textwrap.wrap(s.help(), 96, initial_indent="    ", subsequent_indent="      "))
             if not info.settings:
                 lines.append("    (no settings)")
-    lines.extend(textwrap.wrap("OSILA: osila.threshold, osila.timing, osila.rounds, osila.smoothing, "
-                               "osila.distortion, osila.margin, osila.shells, osila.directions (see 'hila "
-                               "imitate --help')",
+    from ..plugins.options import OSILA_SETTABLE  # not hila_lang.osila: 'hila --help' imports no numpy
+
+    settable = ", ".join(f"osila.{name}" for name in OSILA_SETTABLE)
+    lines.extend(textwrap.wrap(f"OSILA: {settable} (see 'hila imitate --help')",
                                96, initial_indent="  ", subsequent_indent="    "))
     return "\n".join(lines)
 

@@ -59,7 +59,11 @@ OSILA_RANGES: dict[str, tuple[float, float, str]] = {
     "shells": (0, 100, "candidate shells"),
     "directions": (1, 2000, "candidate directions per shell"),
     "timing": (0, 1e6, "a weight"),
+    "stretch": (1, 1e6, "a ratio of route lengths"),
 }
+#: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but ``pin``,
+#: each step's own), named here so ``--help`` need not import OSILA; a test keeps it in step
+OSILA_SETTABLE = (*OSILA_RANGES, "reject")
 #: most candidate offsets around a waypoint, shells x directions (see :data:`OSILA_RANGES`)
 MAX_CANDIDATES = 2000
 
