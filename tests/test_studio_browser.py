@@ -212,9 +212,12 @@ def test_drag_an_icp_and_read_osilas_new_path(page, studio, tmp_path):
     page.get_by_test_id("show-controls").check()
     page.wait_for_function("window.hilaStudio.imit.controls && window.hilaStudio.imit.shown === window.hilaStudio.imit.seq")
     assert "avoid 1" in page.get_by_test_id("imitate-reason").inner_text()
+    page.get_by_test_id("name-icp-object").fill("cup")  # rename the task's point
+    page.get_by_test_id("name-icp-object").dispatch_event("change")
     page.get_by_test_id("export").click()
     page.wait_for_function("document.querySelector('[data-testid=export-text]').value.includes('import reach')")
     snippet = page.get_by_test_id("export-text").input_value().split("# --- path")[0]
+    assert "point cup = " in snippet and "object = cup" in snippet, snippet
     (studio.folder / "snippet.hila").write_text(snippet)
     r = subprocess.run([sys.executable, "-m", "hila_lang", "check", "snippet.hila"], capture_output=True, text=True,
                        cwd=studio.folder)

@@ -107,16 +107,40 @@ def _pt(p) -> str:
     return "(" + ", ".join(f"{float(v):.4f}" for v in p) + ")"
 
 
+def point_names(icps: dict, names: dict | None) -> dict[str, str]:
+    """ICP -> the name the task scene gives its point (``req["names"]``: the person renamed it on
+    the page; default the ICP's own name).  A name must be one a program can write -- a letter or
+    ``_``, then letters, digits or ``_``, not a keyword of the language -- and no two points may
+    share one."""
+    import re
+
+    from ..language.environment import Environment
+
+    keywords = set(Environment.default().keywords)
+    out = {}
+    for k in icps:
+        name = str((names or {}).get(k) or k).strip()
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) or name in keywords:
+            raise InputError(f"point name {name!r} for ICP {k!r}: expected a letter or '_', then letters, digits "
+                             "or '_', and not a keyword of the language")
+        if name in out.values():
+            raise InputError(f"point name {name!r} is given to two ICPs; each task point needs its own name")
+        out[k] = name
+    return out
+
+
 def snippet(template, req: dict, import_name: str) -> str:
-    """The scene as a ``.hila`` program that runs the template there (``hila check`` reads it)."""
+    """The scene as a ``.hila`` program that runs the template there (``hila check`` reads it);
+    each task point named as the person renamed it (:func:`point_names`)."""
     icps, constraints = scene_parts(template, req)
+    names = point_names(icps, req.get("names"))
     lines = [f"# the task scene drawn in hila studio for {import_name}.yaml", f"import {import_name}", ""]
     for k, p in icps.items():
-        lines.append(f"point {k} = {_pt(p)}")
+        lines.append(f"point {names[k]} = {_pt(p)}")
     for c in constraints:
         name = c.name.replace(" ", "_")
         lines.append(f"point {name} = {_pt(c.point)}")
-    args = ", ".join(f"{k} = {k}" for k in icps)
+    args = ", ".join(f"{k} = {names[k]}" for k in icps)
     tail = "".join(f" via {c.name.replace(' ', '_')}" if c.radius is None
                    else f" avoid {c.name.replace(' ', '_')} radius {c.radius:.4f}" for c in constraints)
     lines += ["", "main {", f"    run {import_name}({args}){tail}", "}", ""]

@@ -267,7 +267,7 @@ $("save-template").addEventListener("click", async () => {
 
 // ================================================================ 2. Imitate
 const I = S.imit;
-I.seq = 0; I.shown = 0; I.via = []; I.avoid = []; I.task = {}; I.mode = null;
+I.seq = 0; I.shown = 0; I.via = []; I.avoid = []; I.task = {}; I.names = {}; I.mode = null;
 function imitWS() {
   if (I.ws && I.ws.readyState <= 1) return I.ws;
   I.ws = new WebSocket(wsURL("/ws/imitate"));
@@ -283,7 +283,7 @@ function imitWS() {
   };
   return I.ws;
 }
-function scene() { return { template: I.name, icps: I.task, via: I.via, avoid: I.avoid, controls: $("show-controls").checked }; }
+function scene() { return { template: I.name, icps: I.task, names: I.names, via: I.via, avoid: I.avoid, controls: $("show-controls").checked }; }
 function request() {
   const ws = imitWS(), doc = Object.assign(scene(), { seq: ++I.seq });
   if (ws.readyState === 1) ws.send(JSON.stringify(doc)); else ws.addEventListener("open", () => ws.send(JSON.stringify(doc)), { once: true });
@@ -291,7 +291,7 @@ function request() {
 $("imitate-template").addEventListener("change", async () => {
   I.name = $("imitate-template").value; if (!I.name) return;
   I.t = await api("/api/template?path=" + encodeURIComponent(I.name));
-  I.task = JSON.parse(JSON.stringify(I.t.icps)); I.via = []; I.avoid = []; I.path = null;
+  I.task = JSON.parse(JSON.stringify(I.t.icps)); I.names = {}; I.via = []; I.avoid = []; I.path = null;
   const c = $("imitate-canvas");
   I.H = fitH([...I.t.path, ...Object.values(I.t.icps)], c.width, c.height, 90); I.Hinv = inv3(I.H);
   drawImitate(); request();
@@ -315,7 +315,17 @@ function drawImitate() {
   const dragTo = (p) => (x, y) => { const q = applyH(I.Hinv, x, y); p[0] = q[0]; p[1] = q[1]; request(); };
   for (const [name, p] of Object.entries(I.task)) {
     const [u, v] = applyH(I.H, p[0], p[1]);
-    handle(layer, "icp-" + name, "", name, u, v, dragTo(p), drawImitate, () => { delete I.task[name]; drawImitate(); request(); });
+    const shown = I.names[name] && I.names[name] !== name ? name + " = " + I.names[name] : name;
+    handle(layer, "icp-" + name, "", shown, u, v, dragTo(p), drawImitate, () => { delete I.task[name]; drawImitate(); request(); });
+  }
+  // the task scene's point names (what an exported program calls them): rename here
+  const names = $("imitate-names"); names.innerHTML = "";
+  for (const name of Object.keys(I.task)) {
+    const row = document.createElement("div"), label = document.createElement("span"), input = document.createElement("input");
+    label.textContent = name + " \u2192 point "; input.value = I.names[name] || name; input.size = 10;
+    input.setAttribute("data-testid", "name-icp-" + name); input.title = "the name the exported .hila program gives this point";
+    input.addEventListener("change", () => { I.names[name] = input.value.trim(); drawImitate(); });
+    row.appendChild(label); row.appendChild(input); names.appendChild(row);
   }
   I.via.forEach((p, i) => { const [u, v] = applyH(I.H, p[0], p[1]);
     handle(layer, "via-" + (i + 1), "via", "via " + (i + 1), u, v, dragTo(p), drawImitate, () => { I.via.splice(i, 1); drawImitate(); request(); }); });
