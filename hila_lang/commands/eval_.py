@@ -222,6 +222,6 @@ def run(args: argparse.Namespace) -> int:
         if result.failures[m]:
             print(f"warning: {len(result.failures[m])} {m} pairs failed (scored NaN); first: "
                   f"{result.failures[m][0]}", file=sys.stderr)
-    print(f"wrote {len(written)} files to {out}/ (tables.txt, pairs.csv, results.json, timings.json"
-          f"{', heatmaps' if len(written) > 3 else ''})", file=sys.stderr)
+    print(f"wrote {len(written)} files to {out}/ ({', '.join(sorted(Path(w).name for w in written))})",
+          file=sys.stderr)
     return 0
