@@ -8,10 +8,12 @@ the ICP pairs; ``hila_lang.osila.imitate`` maps the demonstrated route (3-D, on 
 sheet) with each set of pairs plus the hand (the same point in both scenes, which the robot
 knows); the referee measures each planned route's distance to the true route on the task sheet.
 
-Conditions: ``matched`` (pairs kept by the local verification), ``no rejection`` (every pair
-that passed the ratio test), ``true ICPs`` (the kept pairs' features at their true places in
-both scenes: what perfect triangulation would give), ``corners`` (the sheet's four true corners
-only).  Precision: the share of pairs whose task-eye pixel is within 4 px of where the truth
+Conditions (``hila_lang.worlds.picture.scenes.CONTROLS``): ``matched`` (pairs kept by the local
+verification, OSILA's own rejection on: what the robot runs), ``no rejection`` (every pair that
+passed the ratio test, and OSILA told to keep them all), ``OSILA's rejection only`` (every such
+pair, screened by OSILA alone), ``true ICPs`` (the kept pairs' features at their true places in
+both scenes: what perfect triangulation would give; kept whole), ``corners`` (the sheet's four
+true corners only).  Precision: the share of pairs whose task-eye pixel is within 4 px of where the truth
 puts the demonstration's feature, before and after rejection (pooled over scenes).
 
     python bench/picture.py [--scenes 20] [--method sift|orb] [--model local|homography]

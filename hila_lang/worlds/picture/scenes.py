@@ -87,8 +87,15 @@ MAT_CENTER, MAT_SIZE, MAT_RGB = (0.30, -0.08), (0.44, 0.50), (120, 130, 120)
 #: a pair is true when the task eye sees the demonstration's feature within this many pixels of
 #: where it was matched (the referee's rule)
 TRUE_PIXELS = 4.0
-#: the controls' names, in the report's order
-CONTROLS = ("matched", "no rejection", "true ICPs", "corners")
+#: the controls' names, in the report's order.  ``matched`` is what the robot runs (the pairs its
+#: verification kept, OSILA's own outlier rejection on, as in ``hila exec``); ``no rejection`` is
+#: every matched pair with NO rejection at all (neither the matching stage's verification nor
+#: OSILA's: ``reject="none"``); ``OSILA's rejection only`` is every matched pair screened by OSILA
+#: alone (``reject="auto"``); ``true ICPs`` are the kept pairs' true points, kept whole
+#: (``reject="none"``: nothing in them is an outlier); ``corners`` the sheet's four corners.
+CONTROLS = ("matched", "no rejection", "OSILA's rejection only", "true ICPs", "corners")
+#: OSILA options of each control (see :data:`CONTROLS`)
+CONTROL_OPTIONS = {"no rejection": {"reject": "none"}, "true ICPs": {"reject": "none"}}
 
 
 def mat():
@@ -143,6 +150,7 @@ def control_sets(pairs, demo: Sheet, task: Sheet, true_demo, true_task) -> dict:
     k = pairs.kept
     return {"matched": (pairs.template_points[k], pairs.task_points[k]),
             "no rejection": (pairs.template_points, pairs.task_points),
+            "OSILA's rejection only": (pairs.template_points, pairs.task_points),
             "true ICPs": (true_demo[k], true_task[k]),
             "corners": (demo.corners(), task.corners())}
 
@@ -155,7 +163,7 @@ def control_errors(path: np.ndarray, route: slice, sets: dict, goal: np.ndarray,
     out = {}
     for name, (src, dst) in sets.items():
         try:
-            planned = imitate(path, np.vstack([src, hand]), np.vstack([dst, hand]))
+            planned = imitate(path, np.vstack([src, hand]), np.vstack([dst, hand]), **CONTROL_OPTIONS.get(name, {}))
         except Exception:  # noqa: BLE001 - a refused warp is a result of the control
             out[name] = (float("nan"), float("nan"))
             continue

@@ -219,7 +219,7 @@ class PictureWorld:
             print(f"precision of the pairs (referee): {m['precision_before']} before rejection, "
                   f"{m['precision_after']} after", file=self.options.stdout)
         for name, e in report.get("controls_planned_mm", {}).items():
-            print(f"  planned with {name + ':':14s} median {e['median']:6.2f} mm, p95 {e['p95']:6.2f} mm",
+            print(f"  planned with {name + ':':24s} median {e['median']:6.2f} mm, p95 {e['p95']:6.2f} mm",
                   file=self.options.stdout)
         if self.outputs is not None:
             self.outputs.write_text("report.json", json.dumps(report, indent=2) + "\n")
