@@ -143,6 +143,9 @@ class _FakePyBullet:
     def addUserDebugLine(self, a, b, color, width, physicsClientId=0):
         return self._item("line", tuple(a), tuple(b), tuple(color))
 
+    def addUserDebugPoints(self, points, colors, size, physicsClientId=0):
+        return self._item("points", [tuple(p) for p in points], tuple(colors[0]))
+
 
 class _FakeSim:
     def __init__(self):
@@ -178,13 +181,19 @@ def test_window_turns_panels_off_places_things_in_view_and_draws_paths():
     assert size == W.SCREEN_SIZE and np.allclose(pose[:3, 2], -w.forward)
     path = np.array([[0.3, -0.1, 0.6], [0.31, -0.1, 0.6], [0.32, -0.1, 0.6]])
     w.planned(path)
-    lines = [c for c in sim.pb.calls if c[0] == "line"]
-    assert len(lines) == 2 and lines[0][3] == W.PLANNED_RGB
-    for k in range(3 * W.TRACE_EVERY + 1):
-        w.executed_point(np.array([0.3 + 0.001 * k, -0.1, 0.6]))
-    traced = [c for c in sim.pb.calls if c[0] == "line" and c[3] == W.EXECUTED_RGB]
-    assert len(traced) == 3 and traced[0][1] == (0.3, -0.1, 0.6)
-    w.show_state("main/draw", "p.hila:3  run a.b()")
+    drawn = [c for c in sim.pb.calls if c[0] in ("line", "points")]
+    assert len(drawn) == 1 and drawn[0][0] == "points" and drawn[0][2] == W.PLANNED_RGB  # one item: one frame's wait
+    planned = np.array(drawn[0][1])
+    assert np.allclose(planned[0], path[0]) and np.allclose(planned[-1], path[-1])
+    assert np.linalg.norm(np.diff(planned, axis=0), axis=1).max() <= W.PLANNED_SPACING + 1e-12
+    steps = 2 * W.TRACE_EVERY * W.TRACE_BATCH + 5  # two full batches and a few steps more
+    for k in range(steps):
+        w.executed_point(np.array([0.3 + 0.0001 * k, -0.1, 0.6]))
+    traced = [c for c in sim.pb.calls if c[0] == "points" and c[2] == W.EXECUTED_RGB]
+    assert len(traced) == 2 and traced[0][1][0] == (0.3, -0.1, 0.6) and len(traced[0][1]) == W.TRACE_BATCH
+    w.show_state("main/draw", "p.hila:3  run a.b()")  # the rest of the move's trace is drawn first
+    traced = [c for c in sim.pb.calls if c[0] == "points" and c[2] == W.EXECUTED_RGB]
+    assert len(traced) == 3 and len(traced[2][1]) == 1 + 4 // W.TRACE_EVERY
     w.show_state("end", "")
     texts = [c for c in sim.pb.calls if c[0] == "text" and c[1] != "left eye"]
     assert texts[0][1:] == ("main/draw   p.hila:3  run a.b()", -1)

@@ -10,7 +10,7 @@ capability; None without a window):
   (the eyes' first calibration alone takes about 25 s), on the robot's nominal outline
   (:func:`robot_points`), and the window keeps that framing;
 - :meth:`planned` draws a path the arm is about to follow (blue), :meth:`executed_point` extends
-  the pen's trace as the simulation steps (red, a segment every few steps);
+  the pen's trace as the simulation steps (red points, drawn in batches: :data:`TRACE_BATCH`);
 - :meth:`show_state` writes the state's name and its program line above the scene;
 - :meth:`show_eye` puts the left eye's latest image on a screen that stands behind the robot, in
   the window's top right, facing the window -- out of the eyes' own view (they look down at the
@@ -35,8 +35,17 @@ SCREEN_AT = (0.62, 0.52)
 SCREEN_DEPTH = 0.45
 #: its size, metres (320 x 240 pixels)
 SCREEN_SIZE = (0.44, 0.33)
-#: a segment of the executed trace every so many simulation steps (240 Hz)
-TRACE_EVERY = 8
+#: a point of the executed trace every so many simulation steps (240 Hz: 60 points a second)
+TRACE_EVERY = 4
+#: the trace's points go to the window in batches of this many (one debug item each).  Adding a
+#: debug item waits for the window's next frame: 0.13 s each under Xvfb's software renderer on
+#: this 2-core machine (load ~5), whether it is one line or a batch of points
+#: (``pybullet.addUserDebugPoints``).  One line every 8 steps -- as the window drew first --
+#: cost ~4 s of waiting per simulated second, which no ``--speed`` could make up; a batch every
+#: 64 steps costs ~0.5 s, and the planned path is one batch, not a line per waypoint.
+TRACE_BATCH = 16
+#: spacing of the planned path's points as drawn, metres (dense enough to read as a line)
+PLANNED_SPACING = 0.002
 PLANNED_RGB = (0.15, 0.35, 0.95)
 EXECUTED_RGB = (0.9, 0.1, 0.1)
 
@@ -95,7 +104,7 @@ class Window:
         label = pose[:3, 3] + self.up * (SCREEN_SIZE[1] / 2 + 0.02) - self.right * SCREEN_SIZE[0] / 2
         pb.addUserDebugText("left eye", label.tolist(), [0.1, 0.1, 0.1], 1.1, physicsClientId=c)
         self._text = -1
-        self._last = None
+        self._trace: list[list[float]] = []
         self._steps = 0
 
     def _camera(self, view, projection) -> None:
@@ -115,7 +124,9 @@ class Window:
                 + self.up * (up * self.half[1] * depth))
 
     def show_state(self, name: str, where: str) -> None:
-        """Write the current state (``name``) and its program line (``where``) in the view."""
+        """Write the current state (``name``) and its program line (``where``) in the view (the
+        trace of the move before it drawn whole first)."""
+        self.flush()
         pb, c = self.sim.pb, self.sim.client
         text = f"{name}   {where}" if where else name
         spot = self.at(*STATE_AT, 0.3).tolist()
@@ -124,22 +135,37 @@ class Window:
                                          physicsClientId=c) if self._text >= 0 else \
             pb.addUserDebugText(text, spot, [0.0, 0.0, 0.0], size, physicsClientId=c)
 
+    def _points(self, points, rgb, size: float) -> None:
+        """Draw ``points`` (N, 3) as one debug item (one wait for the window's frame)."""
+        if len(points):
+            self.sim.pb.addUserDebugPoints([list(map(float, p)) for p in points], [list(rgb)] * len(points), size,
+                                           physicsClientId=self.sim.client)
+
+    def flush(self) -> None:
+        """Draw the executed trace's points not yet drawn."""
+        self._points(self._trace, EXECUTED_RGB, 3.0)
+        self._trace = []
+
     def planned(self, path: np.ndarray) -> None:
-        """Draw a planned path (T, 3), starting a new executed trace."""
-        pb, c = self.sim.pb, self.sim.client
+        """Draw a planned path (T, 3), as points :data:`PLANNED_SPACING` apart, in one batch;
+        the executed trace starts anew."""
+        self.flush()
+        path = np.asarray(path, dtype=float)
+        dense = [path[:1]]
         for a, b in zip(path[:-1], path[1:]):
-            pb.addUserDebugLine(a.tolist(), b.tolist(), PLANNED_RGB, 1.5, physicsClientId=c)
-        self._last, self._steps = None, 0
+            n = int(min(np.ceil(np.linalg.norm(b - a) / PLANNED_SPACING), 200))
+            dense.append(a + (b - a) * (np.arange(1, n + 1)[:, None] / max(n, 1)))
+        self._points(np.vstack(dense), PLANNED_RGB, 2.0)
+        self._steps = 0
 
     def executed_point(self, point: np.ndarray) -> None:
-        """The pen tip now (3,): extend the executed trace (every :data:`TRACE_EVERY` steps)."""
+        """The pen tip now (3,): extend the executed trace (a point every :data:`TRACE_EVERY`
+        steps, drawn :data:`TRACE_BATCH` at a time)."""
+        if self._steps % TRACE_EVERY == 0:
+            self._trace.append(list(map(float, point)))
+            if len(self._trace) >= TRACE_BATCH:
+                self.flush()
         self._steps += 1
-        if self._last is not None and self._steps % TRACE_EVERY:
-            return
-        if self._last is not None:
-            self.sim.pb.addUserDebugLine(self._last.tolist(), list(point), EXECUTED_RGB, 2.5,
-                                         physicsClientId=self.sim.client)
-        self._last = np.array(point, dtype=float)
 
     def show_eye(self, rgb: np.ndarray) -> None:
         """Show the left eye's image (240, 320, 3) on the screen behind the robot."""
