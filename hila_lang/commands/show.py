@@ -40,7 +40,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     if args.name == "world":
         if args.plot:
@@ -65,9 +65,9 @@ def find_template(name: str):
     """``(path, Template)`` for a name as ``import NAME`` finds it, or a ``.yaml`` path."""
     from pathlib import Path
 
-    from ..errors import InputError, did_you_mean
-    from ..resources import template_search_path
-    from ..template import load_template
+    from ..core.errors import InputError, did_you_mean
+    from ..core.resources import template_search_path
+    from ..osila.template import load_template
 
     given = Path(name)
     if given.suffix in (".yaml", ".yml") or given.is_file():

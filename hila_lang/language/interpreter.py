@@ -6,7 +6,7 @@
 
 A ``run`` state evaluates its bindings against the scene (variables, ``hand`` = where the back
 end says the hand is, the program's ``point`` s, then the world's ``points()``), warps the
-(sub-)template with :func:`hila_lang.hierarchy.hila_step` (the one HILA step, shared with
+(sub-)template with :func:`hila_lang.hierarchy.step.hila_step` (the one HILA step, shared with
 ``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
 binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
@@ -19,7 +19,7 @@ After each step the ``observers`` are called with its :class:`TraceEntry` (a rec
 state text).  Going back and reloading are :class:`~hila_lang.language.history.History`'s.
 
 Any hila error while a state runs (an unknown scene point, a question the world does not have
--- :class:`~hila_lang.errors.UnknownNameError` --, contradicted constraints, an unreachable
+-- :class:`~hila_lang.core.errors.UnknownNameError` --, contradicted constraints, an unreachable
 target) is a :class:`HilaRuntimeError` naming the state and the program line (exit status 1).
 Any other exception raised by a world, a back end or OSILA is a bug and propagates unchanged
 (the CLI reports it as an internal error, exit status 3).
@@ -32,11 +32,11 @@ Bounded and interruptible (see :meth:`Interpreter.step` and :meth:`Interpreter.r
   :data:`TRACE_KEEP` entries (``len(trace)`` counts them all; ``observers`` see every entry as it
   is recorded, e.g. to stream a trace file);
 - :meth:`Interpreter.run` stops a run after ``step_limit`` steps (default
-  :data:`DEFAULT_STEP_LIMIT`) with :class:`~hila_lang.errors.StepLimitError`;
-- Ctrl-C stops the current step (:class:`~hila_lang.errors.Interrupted`, exit status 130): while
+  :data:`DEFAULT_STEP_LIMIT`) with :class:`~hila_lang.core.errors.StepLimitError`;
+- Ctrl-C stops the current step (:class:`~hila_lang.core.errors.Interrupted`, exit status 130): while
   it computes or moves, at once (the state did not happen; ``step`` runs it again from where the
   hand is); once it has started changing the world, after it is recorded
-  (:mod:`hila_lang.interrupts`).
+  (:mod:`hila_lang.core.interrupts`).
 """
 
 from __future__ import annotations
@@ -47,9 +47,9 @@ from typing import Any
 import numpy as np
 
 from . import ast as A
-from ..bounded import BoundedLog
-from ..errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError, UnreachableError
-from ..interrupts import guarded
+from ..core.bounded import BoundedLog
+from ..core.errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError, UnreachableError
+from ..core.interrupts import guarded
 from .fsm import FSM, SetState, State
 from .history import History, Snapshot
 from .limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
@@ -74,7 +74,7 @@ class TraceEntry:
     icps: dict[str, np.ndarray] = field(default_factory=dict)
     pen_down: bool | None = None
     value: Any = None
-    #: the HILA step of a run state (:class:`hila_lang.hierarchy.Step`: OSILA's result, constraints)
+    #: the HILA step of a run state (:class:`hila_lang.hierarchy.step.Step`: OSILA's result, constraints)
     step_result: Any = None
     error: str | None = None  # why the step failed or stopped (its text says so too)
 
@@ -84,7 +84,7 @@ class TraceEntry:
 
 
 class Trace(BoundedLog):
-    """The trace: the newest entries (:class:`~hila_lang.bounded.BoundedLog`), so a run of any
+    """The trace: the newest entries (:class:`~hila_lang.core.bounded.BoundedLog`), so a run of any
     length keeps memory flat.  ``total`` (= ``len()``) counts every entry recorded since the
     reset (the step number of the last one); ``kinds`` how many of each kind."""
 
@@ -187,7 +187,7 @@ class Interpreter(History):
         """Execute the current state; return what it did.
 
         A state that fails is recorded (its entry's ``error`` says why) and its error raised;
-        Ctrl-C raises :class:`~hila_lang.errors.Interrupted` (see the module docstring).
+        Ctrl-C raises :class:`~hila_lang.core.errors.Interrupted` (see the module docstring).
         """
         if self.done:
             raise HilaRuntimeError("the program has finished; 'reset' to run it again", state=self.current)
@@ -244,7 +244,7 @@ class Interpreter(History):
 
         ``each(entry)`` is called after every step.  Returns this call's entries (the newest
         :data:`TRACE_KEEP` when there are more).  More than ``step_limit`` steps raise
-        :class:`~hila_lang.errors.StepLimitError` at the state the run has reached.
+        :class:`~hila_lang.core.errors.StepLimitError` at the state the run has reached.
         """
         stop = until if callable(until) or until is None else (lambda name: name == until)
         done: list[TraceEntry] = []
@@ -345,7 +345,7 @@ class Interpreter(History):
     def scene_binding(self, st) -> dict[str, np.ndarray | None]:
         """What a run state's bindings say now: ICP name -> point, or None (``icp = none``).
 
-        ``start`` appears only when the program binds it; :func:`hila_lang.hierarchy.hila_step`
+        ``start`` appears only when the program binds it; :func:`hila_lang.hierarchy.step.hila_step`
         binds it to the hand otherwise.
         """
         t = self.template(st)
@@ -372,7 +372,7 @@ class Interpreter(History):
     def bind(self, st) -> dict[str, np.ndarray]:
         """Task ICPs of a run state: name -> point (3,), in the template's ICP order (a 2-D
         template's as bound in the scene, before they are projected onto the drawing surface)."""
-        from ..hierarchy import bind
+        from ..hierarchy.step import bind
 
         t, binding = self.template(st), self.scene_binding(st)
         if t.dim == 2 and self.surface() is not None:
@@ -386,7 +386,7 @@ class Interpreter(History):
         return None if scene is None else scene.surface
 
     def exec_run(self, st, n: int) -> TraceEntry:
-        from ..hierarchy import hila_step
+        from ..hierarchy.step import hila_step
 
         t = self.template(st)
         step = hila_step(t, self.scene_binding(st), self.hand(), constraints=self.constraints(st),
@@ -413,8 +413,8 @@ class Interpreter(History):
 
     def explain(self) -> list[str]:
         """What OSILA does in the current run state (before it runs), or did in the last run:
-        lines of :func:`hila_lang.explain.explain_run` (ICP pairs, fallbacks, rounds and why)."""
-        from ..explain import explain_run, explain_step
+        lines of :func:`hila_lang.hierarchy.explain.explain_run` (ICP pairs, fallbacks, rounds and why)."""
+        from ..hierarchy.explain import explain_run, explain_step
 
         if not self.done and self.state.kind == "run":
             st = self.state
@@ -431,9 +431,9 @@ class Interpreter(History):
 
     # ------------------------------------------------------------------ constraints
     def constraints(self, st) -> list:
-        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.Constraint` s, now:
+        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.step.Constraint` s, now:
         a point group gives one per point; a radius must be a number > 0 (metres)."""
-        from ..hierarchy import Constraint
+        from ..hierarchy.step import Constraint
 
         out = []
         for c in st.constraints:
@@ -649,7 +649,7 @@ def _equal(a, b) -> bool:
 
 def _stopped_by(stop: BaseException, when: str, **kwargs) -> Interrupted:
     """The :class:`Interrupted` of a run ``stop`` ended (Ctrl-C: exit 130; SIGTERM: 143, ...)."""
-    from ..interrupts import cause, exit_code
+    from ..core.interrupts import cause, exit_code
 
     exc = Interrupted(f"interrupted ({cause(stop)}) {when}", **kwargs)
     exc.exit_code = exit_code(stop)

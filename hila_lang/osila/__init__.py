@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from ..validation import check_int, check_path, check_points, check_positive
+from ..core.errors import InputError
+from ..core.validation import check_int, check_path, check_points, check_positive
 from .adjust import STRETCH, OsilaResult, adjust
 from .robust import METHODS
 from .timing import TIMING

@@ -26,12 +26,12 @@ import time
 
 import numpy as np
 
-from ..bounded import BoundedLog
-from ..errors import InputError
+from ..core.bounded import BoundedLog
+from ..core.errors import InputError
 from ..sim.camera import RenderStyle
 from ..sim.scene import Lights, SimScene, _check_point
 from ..sim.surface import Surface
-from ..validation import check_path
+from ..core.validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
 from . import model
 from .body import Body

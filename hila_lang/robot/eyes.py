@@ -23,7 +23,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from ..sim.camera import Camera, CameraImage
 from ..sim.scene import _check_point
 from . import ik, model
@@ -77,7 +77,7 @@ def eye_poses_looking_at(target: np.ndarray, torso: Mapping[str, float] | None =
     ``torso``, default upright) looks at ``target`` (3,): :func:`aim_gaze` and :func:`eye_pose`
     on the robot's own model, without a simulator -- where its eyes are while it watches a
     demonstration (:func:`hila_lang.worlds.tictactoe.recording.demonstration_rig`)."""
-    from ..rotation import about_z, pose
+    from ..core.rotation import about_z, pose
 
     text = model.urdf_path().read_text()
     root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)

@@ -5,7 +5,7 @@ temporary folder its textures are written to.  The robot back end (:mod:`hila_la
 puts the iCub, a table and the paper in one; a world's simulated recording (the tic-tac-toe
 demonstration) and perception's chessboard views use one without a robot.  Everything is in the
 world frame, metres; poses cross into PyBullet as (position, quaternion xyzw) here and nowhere
-else (:mod:`hila_lang.rotation`).
+else (:mod:`hila_lang.core.rotation`).
 
 Textured quads: ``createVisualShape`` with vertices and uvs + ``loadTexture`` +
 ``changeVisualShape`` (DESIGN.md section 4).  PyBullet caches textures by file name, so every
@@ -21,7 +21,7 @@ import tempfile
 
 import numpy as np
 
-from ..errors import HilaRuntimeError, InputError
+from ..core.errors import HilaRuntimeError, InputError
 from .camera import Camera, RenderStyle, render
 from .client import import_pybullet, quiet_c_output
 
@@ -32,7 +32,7 @@ WINDOW = (1280, 800)
 
 
 def _pb_pose(world_T_body) -> tuple[list[float], list[float]]:
-    from ..rotation import to_quat
+    from ..core.rotation import to_quat
 
     T = np.asarray(world_T_body, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
