@@ -7,6 +7,21 @@ minimum-energy route through a ball of candidate waypoints around every mapped p
 as the template's measurement noise (:mod:`.noise`, :mod:`.candidates`, :mod:`.route`), then
 adjust the plan until forced waypoints and obstacles are satisfied (:mod:`.adjust`).  :func:`imitate_detailed` returns the same route with its
 diagnostics.
+
+One line each:
+
+- ``template``      templates: a demonstrated path, named ICPs, tagged sub-templates; their YAML
+- ``demofile``      demonstration files: a path as CSV, its scene ICPs as YAML
+- ``segmentation``  a demonstration cut into ordered, tagged phases (k-means or equal-N)
+- ``motion``        human-like motion profiles shared by the demonstration generators
+- ``timing``        which part of the template passes an ICP that lies on its path
+- ``robust``        many noisy ICP pairs: outliers rejected before the warp
+- ``tps``           the thin plate spline warp fitted on paired ICPs
+- ``fallback``      similarity and translation warps when TPS cannot be trusted
+- ``noise``         the template's measurement noise, the candidates' radius
+- ``candidates``    a ball of candidate waypoints around every mapped point
+- ``route``         the minimum-energy route through the candidates
+- ``adjust``        plan adjustment until forced waypoints and obstacles hold
 """
 
 from __future__ import annotations
