@@ -6,6 +6,7 @@ function (a lazy import is an arrow too), except ``if TYPE_CHECKING:`` blocks.
 - the robot knows no game: nothing under ``robot/`` or ``sim/`` names a grid, a cell or the
   tic-tac-toe world (a calibration chessboard is no game board);
 - no import cycle between modules of the package;
+- no module imports a ``_private`` name from another package (a package's face is its public names);
 - at most five loose modules at the top of ``hila_lang/`` besides ``__init__``, ``__main__`` and
   ``cli``: the folders are the floors.
 
@@ -133,6 +134,43 @@ def test_the_top_of_the_package_has_at_most_five_loose_modules():
     loose = sorted(p.stem for p in PACKAGE.glob("*.py") if p.stem not in TOP_ALWAYS)
     assert len(loose) <= 5, f"loose modules at the top of hila_lang/: {loose}; give them a floor"
     assert "metrics" in loose  # DESIGN §3's contract hila_lang.metrics stays where it is
+
+
+def _package(name: str) -> str:
+    return name if MODULES[name].name == "__init__.py" else name.rpartition(".")[0]
+
+
+def _private_imports(name: str) -> list[str]:
+    """``target.name`` for each ``_private`` name module ``name`` imports from another package."""
+    path = MODULES[name]
+    package = _package(name)
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = package.split(".")
+            target = ".".join(base[: len(base) - (node.level - 1)] + ([node.module] if node.module else []))
+        else:
+            target = node.module or ""
+        if target not in MODULES:
+            continue
+        for a in node.names:
+            private = a.name.startswith("_") and not a.name.startswith("__")
+            if private and _package(target) != package:
+                out.append(f"{target}.{a.name}")
+    return out
+
+
+def test_the_private_import_reader_sees_one(tmp_path, monkeypatch):
+    monkeypatch.setitem(MODULES, "hila_lang.hierarchy.fake", tmp_path / "fake.py")
+    (tmp_path / "fake.py").write_text("from ..osila import _pin, OPTIONS\nfrom .step import _fmt\n")
+    assert _private_imports("hila_lang.hierarchy.fake") == ["hila_lang.osila._pin"]  # not its own package's _fmt
+
+
+def test_no_module_imports_a_private_name_from_another_package():
+    wrong = {name: found for name in MODULES if (found := _private_imports(name))}
+    assert wrong == {}
 
 
 def _floors() -> list[set[str]]:

@@ -17,26 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 
-
 def _fmt(p) -> str:
     return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
-
-
-def _coincide(template, names: list[str]) -> list[list[str]]:
-    """Groups (>= 2) of bound ICP names whose template points coincide (OSILA merges them)."""
-    from ..osila.tps import MERGE_TOL
-
-    pts = np.array([template.icps[k] for k in names], dtype=float)
-    extent = float(np.ptp(pts, axis=0).max()) if len(pts) > 1 else 0.0
-    groups: list[list[str]] = []
-    for name, p in zip(names, pts):
-        for g in groups:
-            if np.linalg.norm(template.icps[g[0]] - p) <= MERGE_TOL * max(extent, 1e-300):
-                g.append(name)
-                break
-        else:
-            groups.append([name])
-    return [g for g in groups if len(g) > 1]
 
 
 def warp_reason(warp, dim: int) -> str:
@@ -118,9 +100,9 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
 
     lines += [f"  library part: {part}" for part in library_parts(template)]
     lines.append(f"  ICP pairs (template -> task), {len(icps)}:")
-    for k, q in icps.items():
-        lines.append(f"    {k:<12} {_fmt(template.icps[k])} -> {_fmt(q)}")
-    for group in _coincide(template, list(icps)):
+    for k, p, q in zip(icps.names, icps.src, icps.dst):
+        lines.append(f"    {k:<12} {_fmt(p)} -> {_fmt(q)}")
+    for group in icps.groups():
         lines.append(f"    {', '.join(group)} coincide in the template: one pair, {group[-1]}'s, is kept")
     try:
         step = hila_step(template, binding, hand, constraints=constraints, surface=surface, **options)

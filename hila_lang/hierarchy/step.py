@@ -16,8 +16,9 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..core.errors import InputError
-from ..osila.template import END, START, Template
 from ..core.validation import check_points
+from ..osila.pairs import Pairs
+from ..osila.template import END, START, Template
 
 
 @dataclass(frozen=True)
@@ -101,8 +102,9 @@ class Step:
     ----------
     path : ndarray, shape (T, D)
         The generated path; it begins exactly at the hand when ``"start"`` was bound.
-    icps : dict[str, ndarray]
-        The task ICPs used, name -> point (D,), in the template's ICP order.
+    icps : Pairs
+        The ICP pairs used (:class:`hila_lang.osila.Pairs`): a mapping name -> task point (D,),
+        in the template's ICP order, with the template points OSILA paired them with.
     start_bound : bool
         Whether the template's ``"start"`` ICP was bound (to the hand, or by the caller).
     result : OsilaResult
@@ -114,7 +116,7 @@ class Step:
     """
 
     path: np.ndarray
-    icps: dict[str, np.ndarray]
+    icps: Pairs
     start_bound: bool
     result: Any
     constraints: tuple = ()
@@ -130,8 +132,9 @@ def _fmt(p) -> str:
     return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
 
 
-def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> dict[str, np.ndarray]:
-    """Task ICPs of one step: name -> point (D,), in the template's ICP order.
+def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> Pairs:
+    """The ICP pairs of one step (:class:`hila_lang.osila.Pairs`, name -> task point (D,)), in the
+    template's ICP order: the one place a template's ICPs take the shape OSILA takes.
 
     ``task_icps`` maps ICP names to points; a value of None leaves that ICP out on purpose, and
     every scene ICP of the template must be named.  ``"start"`` is ``task_icps["start"]`` when
@@ -143,8 +146,8 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
     if missing:
         raise InputError(f"task gives no ICP {missing[0]!r}; template has {', '.join(template.icps)}; "
                          f"task gives {', '.join(task_icps) or 'none'}")
-    out: dict[str, np.ndarray] = {}
-    for name in template.icps:
+    names, src, dst = [], [], []
+    for name, at in template.icps.items():
         point = hand if name == START and START not in task_icps else task_icps.get(name)
         if point is None:
             continue
@@ -152,11 +155,13 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
         if arr.shape != (D,):
             raise InputError(f"template '{template.name}' is {D}-D but ICP '{name}' is bound to the "
                              f"{arr.size}-D point {_fmt(arr)}")
-        out[name] = check_points(arr, D, f"ICP {name!r}")[0]
-    if not out:
+        names.append(name)
+        src.append(at)
+        dst.append(check_points(arr, D, f"ICP {name!r}")[0])
+    if not names:
         raise InputError(f"no ICP of '{template.name}' is bound; bind at least one "
                          f"(it has {', '.join(template.icps) or 'none'})")
-    return out
+    return Pairs(tuple(names), np.array(src, dtype=float), np.array(dst, dtype=float))
 
 
 def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None, *, forced: Any = None,
@@ -235,20 +240,14 @@ def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: A
     from ..core.errors import ConstraintError
     from ..osila import imitate_detailed
 
-    icps = bind(template, task_icps, hand)
-    notes = check_coincident(template, icps, task_icps, options.get("threshold"))
-    names = list(icps)
-    src = np.array([template.icps[k] for k in names], dtype=float)
-    dst = np.array([icps[k] for k in names], dtype=float)
+    icps, notes = check_coincident(template, bind(template, task_icps, hand), task_icps, options.get("threshold"))
     options = dict(options)
-    ends = {i: icps[name] for i, name in ((0, START), (-1, END)) if name in icps}
-    if ends:
-        options.setdefault("pin", ends)
+    if icps.pins():
+        options.setdefault("pin", icps.pins())
     try:
-        res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
+        res = imitate_detailed(template.path, icps.src, icps.dst, forced=forced, obstacles=obstacles, **options)
     except ConstraintError as exc:
-        exc.message = re.sub(r"\bICP (\d+)\b", lambda m: f"ICP '{names[int(m.group(1))]}'"
-                             if int(m.group(1)) < len(names) else m.group(0), exc.message)  # OSILA's rows by name
+        exc.message = icps.renamed(exc.message)  # OSILA's rows by name
         exc.args = (exc.message,)
         raise explain_blocked(exc, template, icps, obstacles, options) from None
     given = {k: v for k, v in options.items() if k != "pin"}
@@ -294,9 +293,9 @@ def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surf
     flat_forced = None if forced is None else np.array([local(f) for f in np.asarray(forced, float).reshape(-1, 3)])
     flat_obstacles = None
     if obstacles is not None:
-        from ..osila import _obstacles  # the one reader of obstacle specs (3-D here)
+        from ..osila import obstacle_spheres  # the one reader of obstacle specs (3-D here)
 
-        spheres = _obstacles(obstacles, 3)
+        spheres = obstacle_spheres(obstacles, 3)
         flat_obstacles = np.column_stack([np.array([local(c) for c in spheres[:, :3]]).reshape(-1, 2),
                                           spheres[:, 3]])
     step = _step(template, flat, None if hand is None else local(hand), flat_forced, flat_obstacles, options)
@@ -305,71 +304,56 @@ def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surf
         points = np.asarray(points, dtype=float)
         return np.asarray(surface.to_world(points[..., 0], points[..., 1]), dtype=float)
 
-    return replace(step, path=lift(step.path), icps={k: lift(v) for k, v in step.icps.items()})
+    return replace(step, path=lift(step.path), icps=step.icps.mapped(lift))
 
 
-def check_coincident(template: Template, icps: dict[str, np.ndarray], given: Mapping[str, Any],
-                     threshold: float | None = None) -> list[str]:
-    """ICPs that are one point of the template but bound to different task points.
+def check_coincident(template: Template, icps: Pairs, given: Mapping[str, Any],
+                     threshold: float | None = None) -> tuple[Pairs, list[str]]:
+    """ICPs that are one point of the template but bound to different task points
+    (:meth:`Pairs.coincident <hila_lang.osila.pairs.Pairs.coincident>`), and what becomes of them.
 
-    OSILA keeps one pair per template point (:func:`hila_lang.osila.tps.merge_pairs`), so one of
-    the bindings would be dropped and the path would ignore it -- never in silence here:
+    OSILA keeps one pair per template point, so one of the bindings would be dropped and the path
+    would ignore it -- never in silence here:
 
     - ``start`` bound to the hand by default wins (a step begins where the hand is): the other
-      ICP is taken out of ``icps`` and a note says so (returned, for the trace);
+      ICP is taken out of the pairs returned and a note says so (returned, for the trace);
     - any other pair (both bound by the caller) is an :class:`InputError` naming both.
 
-    Points closer than the distortion threshold (given, else :data:`~hila_lang.osila.adjust.ON_PATH`
-    = 1 % of the template path's size) are one point for the route anyway and pass.  ``given``: what the
-    caller bound by name (a ``start`` missing from it is the hand).
+    Points closer than the distortion threshold (given, else 1 % of the template path's size)
+    are one point for the route anyway and pass.  ``given``: what the caller bound by name (a
+    ``start`` missing from it is the hand).
     """
-    from ..osila.adjust import ON_PATH
-    from ..osila.tps import MERGE_TOL
-
-    names = list(icps)
     notes: list[str] = []
-    if len(names) < 2:
-        return notes
-    src = np.array([template.icps[k] for k in names], dtype=float)
-    same = MERGE_TOL * float(np.ptp(src, axis=0).max())
-    tol = threshold if threshold else ON_PATH * float(np.linalg.norm(np.ptp(template.path, axis=0)))
     hand_start = START in icps and START not in given
-    for i in range(len(names)):
-        for j in range(i + 1, len(names)):
-            a, b = names[i], names[j]
-            if a not in icps or b not in icps or np.linalg.norm(src[i] - src[j]) > same:
-                continue
-            gap = float(np.linalg.norm(icps[a] - icps[b]))
-            if gap <= tol:
-                continue
-            if hand_start and START in (a, b):
-                other = b if a == START else a
-                notes.append(f"'{other}' is where '{template.name}' starts in the demonstration; the step starts "
-                             f"where the hand is, {gap:.3g} from {other} = {_fmt(icps[other])}, so that binding is "
-                             f"not used (bind {other} = none to say so)")
-                del icps[other]
-                continue
-            raise InputError(
-                f"ICPs '{a}' and '{b}' of '{template.name}' are one point in the demonstration but are bound "
-                f"{gap:.3g} apart: {a} = {_fmt(icps[a])}, {b} = {_fmt(icps[b])}; the warp maps one point to one "
-                "place only", hint=f"bind one of them to none (e.g. {b} = none), or both to the same point")
-    return notes
+    for a, b, gap in icps.coincident(template.path, threshold):
+        if a not in icps or b not in icps:
+            continue
+        if hand_start and START in (a, b):
+            other = b if a == START else a
+            notes.append(f"'{other}' is where '{template.name}' starts in the demonstration; the step starts "
+                         f"where the hand is, {gap:.3g} from {other} = {_fmt(icps[other])}, so that binding is "
+                         f"not used (bind {other} = none to say so)")
+            icps = icps.without(other)
+            continue
+        raise InputError(
+            f"ICPs '{a}' and '{b}' of '{template.name}' are one point in the demonstration but are bound "
+            f"{gap:.3g} apart: {a} = {_fmt(icps[a])}, {b} = {_fmt(icps[b])}; the warp maps one point to one "
+            "place only", hint=f"bind one of them to none (e.g. {b} = none), or both to the same point")
+    return icps, notes
 
 
-def explain_blocked(exc, template: Template, icps: Mapping[str, np.ndarray], obstacles: Any, options) -> Exception:
+def explain_blocked(exc, template: Template, icps: Pairs, obstacles: Any, options) -> Exception:
     """``exc`` (OSILA's ConstraintError) with what can help when an obstacle covers an ICP the
     path passes through (its start, a touched object): no threshold or number of rounds gets
     the route out, the obstacle or the binding has to change."""
     from ..core.errors import ConstraintError
-    from ..osila import _obstacles
-    from ..osila.adjust import on_path
+    from ..osila import obstacle_spheres
 
     if obstacles is None or not len(icps):
         return exc
-    spheres = _obstacles(obstacles, template.dim)
+    spheres = obstacle_spheres(obstacles, template.dim)
     margin = float(options.get("margin") or 0.0)
-    names = list(icps)
-    through = {names[k] for k in on_path(template.path, np.array([template.icps[n] for n in names], dtype=float))}
+    through = icps.through(template.path)
     covered = []
     for name, point in icps.items():
         for o, sphere in enumerate(spheres):
