@@ -42,7 +42,7 @@ Bounded and interruptible (see :meth:`Interpreter.step` and :meth:`Interpreter.r
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -50,7 +50,7 @@ from . import ast as A
 from ..core.bounded import BoundedLog
 from ..core.errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError, UnreachableError
 from ..core.interrupts import guarded
-from .fsm import FSM, SetState, State
+from .fsm import FSM, BranchState, CallState, EndState, RunState, SetState, State, WaitState
 from .history import History, Snapshot
 from .limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
 from .parser import source_line
@@ -120,6 +120,29 @@ def fmt_value(v) -> str:
     if isinstance(v, str):
         return f'"{v}"'
     return repr(v)
+
+
+#: state class -> its executor ``(interpreter, state, step number) -> TraceEntry``, found through the
+#: state's class (:func:`executor`), never through a string
+EXECUTORS: dict[type, Callable[..., "TraceEntry"]] = {}
+
+
+def executes(state_class: type):
+    """Decorator: ``fn`` executes the states of ``state_class`` (and of its subclasses that have
+    no executor of their own)."""
+    def add(fn):
+        EXECUTORS[state_class] = fn
+        return fn
+
+    return add
+
+
+def executor(state: State) -> Callable[..., "TraceEntry"]:
+    """The executor of ``state``: its class's, else the nearest base class's."""
+    for cls in type(state).__mro__:
+        if cls in EXECUTORS:
+            return EXECUTORS[cls]
+    raise TypeError(f"no executor for the state class {type(state).__name__} (register one with @executes)")
 
 
 class Interpreter(History):
@@ -288,11 +311,11 @@ class Interpreter(History):
         return exc
 
     def _execute(self, st: State) -> TraceEntry:
-        """Run one state: ``exec_<kind>(state, step number)``; remembered for :meth:`back` when
-        :meth:`keep_history` is on."""
+        """Run one state: its class's :func:`executor` ``(self, state, step number)``; remembered
+        for :meth:`back` when :meth:`keep_history` is on."""
         saved = self.snapshot() if self.history is not None else None
         try:
-            entry = getattr(self, "exec_" + st.kind)(st, self.trace.total + 1)
+            entry = executor(st)(self, st, self.trace.total + 1)
         except BaseException:
             if saved is not None:
                 self._discard([saved])
@@ -301,16 +324,22 @@ class Interpreter(History):
             self._remember(saved)
         return entry
 
+    @executes(SetState)
     def exec_set(self, st, n: int) -> TraceEntry:
+        return self._assign(st, n, "set ")
+
+    @executes(CallState)
+    def exec_call(self, st, n: int) -> TraceEntry:
+        return self._assign(st, n, "call " + st.task + (": " if st.assign else ""))
+
+    def _assign(self, st, n: int, head: str) -> TraceEntry:
         values = [(slot, self.eval(e)) for slot, e in st.assign]
         self._hold()
         self.env.update(values)
-        head = "call " + st.task + (": " if values else "") if st.kind == "call" else "set "
         text = head + ", ".join(f"{slot.rsplit(':', 1)[1]} = {fmt_value(v)}" for slot, v in values)
         return TraceEntry(n, st.name, st.kind, st.line, text, st.next)
 
-    exec_call = exec_set
-
+    @executes(WaitState)
     def exec_wait(self, st, n: int) -> TraceEntry:
         args = [self.eval(a) for a in st.args]
         value = _plain(self.world.wait(st.event, *args))
@@ -320,6 +349,7 @@ class Interpreter(History):
         text = f"wait {st.event} -> {fmt_value(value)}"
         return TraceEntry(n, st.name, st.kind, st.line, text, st.next, value=value)
 
+    @executes(BranchState)
     def exec_branch(self, st, n: int) -> TraceEntry:
         value = self.eval(st.guard)
         if not isinstance(value, (bool, np.bool_)):
@@ -329,6 +359,7 @@ class Interpreter(History):
         text = f"{_src(st.guard)}: {fmt_value(bool(value))} -> {nxt}"
         return TraceEntry(n, st.name, st.kind, st.line, text, nxt, value=bool(value))
 
+    @executes(EndState)
     def exec_end(self, st, n: int) -> TraceEntry:
         self._hold()
         self.world.notify("program_done")
@@ -385,6 +416,7 @@ class Interpreter(History):
         scene = self.world.scene
         return None if scene is None else scene.surface
 
+    @executes(RunState)
     def exec_run(self, st, n: int) -> TraceEntry:
         from ..hierarchy.step import hila_step
 
