@@ -4,7 +4,7 @@ The grammar, the learned templates and the example programs live at the top of t
 (``grammar/``, ``primitives/``, ``programs/``, where people look for them) and are installed
 inside the package as ``hila_lang.grammar``, ``hila_lang.primitives`` and ``hila_lang.programs``,
 so an installed ``hila`` finds them through ``importlib.resources`` whether the install is
-editable or not, from any folder (``hila_lang/resources.py``).
+editable or not, from any folder (``hila_lang/core/resources.py``).
 """
 
 from setuptools import find_packages, setup

@@ -55,7 +55,7 @@ def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float,
 def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
     """``n`` games in this process: (wall s, RSS MB after the game, report -- or the error's
     first line for a game that failed: a finding, and the series goes on) per game."""
-    from hila_lang.errors import HilaError
+    from hila_lang.core.errors import HilaError
     from hila_lang.plugins.options import RunOptions
     from hila_lang.language.runner import finish, prepare
 

@@ -112,7 +112,7 @@ def main() -> None:
 
     from hila_lang.language.environment import Environment
     from hila_lang.lsp.analysis import Document
-    from hila_lang.resources import grammar_path
+    from hila_lang.core.resources import grammar_path
 
     text = program()
     with tempfile.TemporaryDirectory() as tmp:

@@ -182,7 +182,7 @@ def main() -> None:
         scaling([int(k) for k in args.sizes.split(",")], [int(t) for t in args.stamps.split(",")], args.repeat)
         small(args.small_repeat, "imitate")
     if args.numpy:
-        from hila_lang import jit
+        from hila_lang.core import jit
 
         os.environ["HILA_JIT"] = "0"
         jit.reset()

@@ -31,7 +31,7 @@ mode, path = sys.argv[1], sys.argv[2]
 text = open(path, encoding="utf-8").read()
 def tree_parser():  # lark's plain tree parser of the same grammar (hila itself parses to the AST)
     from lark import Lark
-    from hila_lang.resources import grammar_path
+    from hila_lang.core.resources import grammar_path
     return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 t0 = time.perf_counter()
 if mode == "now":

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hila_lang.fileio import load_yaml
+from hila_lang.core.fileio import load_yaml
 from hila_lang.perception.learn import template_from_frames
 from hila_lang.worlds.tictactoe.recording import record_demonstration
 from hila_lang.worlds.tictactoe.vision import demonstration_icps

@@ -20,7 +20,7 @@ Controls, same queries, same threshold rule:
 
 - ``euclid``: a plain Euclidean sliding window (stumpy ``mass``, not normalised) of each
   template at its own length and speed, centred (translation removed, nothing else);
-- ``speed-dips``: the speed-dip segmenter (``hila_lang.segmentation.speed_segments``, given the
+- ``speed-dips``: the speed-dip segmenter (``hila_lang.osila.segmentation.speed_segments``, given the
   TRUE number of pieces, shapes and free moves: an oracle), each piece labelled with the nearest
   template by the same elastic distance, known if under the same threshold.
 
@@ -49,7 +49,7 @@ from hila_lang.recognition.composite import make
 from hila_lang.recognition.library import entries_of
 from hila_lang.recognition.search import THRESHOLD, Part, recognise
 from hila_lang.recognition.shape import arc_length, arc_resample, elastic_distance, smooth
-from hila_lang.template import Template
+from hila_lang.osila.template import Template
 
 RATE_IN = 100.0  # the raw LASA samples are re-sampled to this rate first, then re-timed
 RATE_OUT = 50.0
@@ -104,7 +104,7 @@ def _parts(chosen, entries, T) -> list[Part]:
 
 def speed_dips(path: np.ndarray, entries, pieces: int) -> list[Part]:
     """Control: speed-dip segmenter with the true number of pieces, nearest template by Procrustes."""
-    from hila_lang.segmentation import speed_segments
+    from hila_lang.osila.segmentation import speed_segments
 
     out = []
     for a, b in speed_segments(path, pieces, times=np.arange(len(path)) / RATE_OUT):
@@ -159,7 +159,7 @@ def figure(path_png: str, c, found: list[Part]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hila_lang.fileio import atomic_write_bytes
+    from hila_lang.core.fileio import atomic_write_bytes
 
     fig, ax = plt.subplots(figsize=(7, 6), dpi=110)
     ax.plot(*c.path.T, color="0.8", lw=1, label="new (free moves, distractors)")

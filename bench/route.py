@@ -51,7 +51,7 @@ def _warp_bench():
 
 
 def ball(pairs: int, seed: int) -> None:
-    from hila_lang.jit import batch
+    from hila_lang.core.jit import batch
     from hila_lang.metrics import frechet, msd
     from hila_lang.osila import imitate
     from hila_lang.osila.noise import position_noise
@@ -83,7 +83,7 @@ def ball(pairs: int, seed: int) -> None:
 
 
 def _rendition(rng, base, skew, deform):
-    from hila_lang.motion import minimum_jerk
+    from hila_lang.osila.motion import minimum_jerk
 
     wb = _warp_bench()
     T = int(rng.integers(40, 161))
@@ -96,7 +96,7 @@ def _rendition(rng, base, skew, deform):
 
 
 def timing_synthetic(pairs: int, seed: int) -> None:
-    from hila_lang.jit import batch
+    from hila_lang.core.jit import batch
     from hila_lang.metrics import frechet, msd
     from hila_lang.osila import imitate
 

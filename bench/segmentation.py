@@ -1,9 +1,9 @@
-"""Measurement behind ``hila_lang.segmentation.DEFAULT_METHOD``: which segmenter finds the phases?
+"""Measurement behind ``hila_lang.osila.segmentation.DEFAULT_METHOD``: which segmenter finds the phases?
 
 Demonstrations with KNOWN phase boundaries, all from the project's own seeded motion models:
 
 - ``legs (k=3)``, ``legs (k=2)``: chains of minimum-jerk legs through random via points with
-  random durations (0.8–2.4 s each; ``hila_lang.language.demos.movement``, seeds 0..29); truth
+  random durations (0.8–2.4 s each; ``hila_lang.worlds.scripted.demos.movement``, seeds 0..29); truth
   = the via points, where the hand stops.  (The abc and reach demonstrations have equal legs,
   where an equal split is trivially right.)
 - ``circle (k=5)``: the tic-tac-toe demonstration (``hila_lang.worlds.tictactoe.demonstration``, seeds
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hila_lang.segmentation import DEFAULT_METHOD, METHODS, segments
+from hila_lang.osila.segmentation import DEFAULT_METHOD, METHODS, segments
 
 SEEDS = range(30)
 
@@ -71,7 +71,7 @@ def seen_circle_case():
     from pathlib import Path
 
     demonstrate = _demonstrate()
-    from hila_lang.template import load_template
+    from hila_lang.osila.template import load_template
 
     t = load_template(Path(__file__).resolve().parents[1] / "primitives" / "circle.yaml")
     d = demonstrate(0)
@@ -80,7 +80,7 @@ def seen_circle_case():
 
 
 def leg_cases(legs: int):
-    from hila_lang.language.demos import RATE, movement
+    from hila_lang.worlds.scripted.demos import RATE, movement
 
     for seed in SEEDS:
         rng = np.random.default_rng(1000 * legs + seed)

@@ -35,7 +35,7 @@ T, K = 1000, 8
 
 def template(seed: int):
     """A smooth random 2-D curve (T points over 4 s) with K ICPs: its ends, 3 on it, 3 off it."""
-    from hila_lang.template import Template
+    from hila_lang.osila.template import Template
 
     rng = np.random.default_rng(seed)
     s = np.linspace(0, 1, T)
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     from playwright.sync_api import sync_playwright
 
-    from hila_lang.template import save_template
+    from hila_lang.osila.template import save_template
     from studio_support import BROWSER_ARGS, Studio
 
     exe = shutil.which("chromium")

@@ -1,17 +1,22 @@
 """hila: a language for one-shot hierarchical imitation learning (HILA-OSILA).
 
-Stages, one module or folder each:
+The folders are the floors, top to bottom.  An import points down or along a floor, never up,
+and no import loops (``tests/test_layers.py`` reads every import, the lazy ones and those made
+through ``importlib`` too, and checks this list):
 
-- ``hila_lang.osila``        OSILA: TPS feature-distortion warping, minimum-energy route, plan adjustment
-- ``hila_lang.template``     templates (path + named ICPs + tagged sub-templates) and their YAML files
-- ``hila_lang.segmentation`` k-means and equal-N splitting of a demonstration into sub-templates
-- ``hila_lang.hierarchy``    stitching sub-templates into one task path (HILA)
-- ``hila_lang.metrics``      the paper's R (eq. 1), MSD (eq. 2) and cubic-spline resampling
-- ``hila_lang.language``     grammar → AST → checker → FSM → interpreter, REPL
-- ``hila_lang.robot``        the iCub in PyBullet: scene, pen, IK, cameras
-- ``hila_lang.perception``   stereo recording, calibration, marker extraction, triangulation
-- ``hila_lang.evaluation``   Experiment A (``hila eval``)
-- ``hila_lang.worlds``       worlds: scripted (tests), tictactoe (Experiment B)
+- ``cli``, ``__main__``                  the ``hila`` program; its ``COMMANDS`` table loads a command
+- ``commands/``, ``studio/``             one module per ``hila`` command; the local browser app
+- ``worlds/``                            what a program runs in: scripted, tictactoe, letters, picture
+- ``language/``, ``lsp/``, ``evaluation/``  front end, engine, REPL, replay; the LSP; ``hila eval``
+- ``robot/``                             the iCub in PyBullet and the dry back end
+- ``perception/``                        stereo eyes: calibration, marker tracks, scene matching
+- ``sim/``, ``plugins/``                 the simulated scene and camera; the plug-in seam
+- ``hierarchy/``                         HILA: THE step (bind a sub-template, run OSILA), sequences, explain
+- ``recognition/``                       known sub-actions found in a new demonstration
+- ``osila/``, ``metrics``                OSILA (``imitate``), templates, segmentation; R, MSD, resampling
+- ``core/``                              errors, validation, file io, shipped resources, logs, Ctrl-C, jit
+
+Each package's docstring names its modules, one line each.
 """
 
 __version__ = "0.1.0"

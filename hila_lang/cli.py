@@ -8,7 +8,7 @@ Each sub-command lives in ``hila_lang/commands/<name>.py`` and exposes
 
 Exit status: 0 success, 1 a run that failed, 2 bad usage or bad input, 3 an internal error,
 130 interrupted (Ctrl-C); 143 and 129 stopped by SIGTERM and SIGHUP (handled like Ctrl-C).
-Any :class:`~hila_lang.errors.HilaError` is printed as a message, never as a traceback.  Any
+Any :class:`~hila_lang.core.errors.HilaError` is printed as a message, never as a traceback.  Any
 other exception (raised by hila, a plug-in or OSILA) is a bug: it is reported as an internal
 error that says where it was raised and whom to report it to, with exit status 3; ``--debug``
 prints its traceback too.
@@ -22,7 +22,7 @@ import sys
 import textwrap
 
 from . import __version__
-from .errors import EXIT_BAD_INPUT, EXIT_INTERNAL, HilaError, printable
+from .core.errors import EXIT_BAD_INPUT, EXIT_INTERNAL, HilaError, printable
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "_run", None) is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    from .interrupts import exit_code, handle_termination
+    from .core.interrupts import exit_code, handle_termination
 
     handle_termination()  # SIGTERM and SIGHUP stop a run as Ctrl-C does (exit 143, 129)
     for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii: escapes, not UnicodeEncodeError
@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return exit_code(stop)
     except Exception as exc:  # noqa: BLE001 - a bug: say so, say where, exit 3
-        from .errors import internal_error_message
+        from .core.errors import internal_error_message
 
         if getattr(args, "debug", False):
             import traceback
@@ -144,7 +144,7 @@ def _quiet_exit_on_ctrl_c(code: int) -> None:
 
 
 def entry() -> None:  # pragma: no cover - thin wrapper for python -m
-    from .interrupts import exit_code, handle_termination
+    from .core.interrupts import exit_code, handle_termination
 
     handle_termination()  # from the start: a SIGTERM while the commands load ends quietly too
     try:

@@ -22,7 +22,7 @@ beside it, in the data's own units:
 Fréchet and DTW are dynamic programmes over all N × M point pairs; ``similaritymeasures``
 computes them with Python loops (about 7 ms for 100 × 100 points here, too slow for the tens of
 thousands of pairs of ``hila eval``), so they are computed by a compiled kernel
-(:mod:`hila_lang.jit`, numba) or, without numba, by numpy along anti-diagonals; the tests check
+(:mod:`hila_lang.core.jit`, numba) or, without numba, by numpy along anti-diagonals; the tests check
 both against ``similaritymeasures``.  Distances between points come from
 ``scipy.spatial.distance.cdist``.
 
@@ -42,8 +42,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import InputError
-from .validation import check_finite, check_int
+from .core.errors import InputError
+from .core.validation import check_finite, check_int
 
 
 def _as_path(a: Any, name: str) -> np.ndarray:
@@ -180,7 +180,7 @@ def _costs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(cdist(a, b))
 
 
-def _frechet_kernel(c):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _frechet_kernel(c):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
     n, m = c.shape
     row = np.empty(m)
     row[0] = c[0, 0]
@@ -197,7 +197,7 @@ def _frechet_kernel(c):  # pragma: no cover - compiled by numba (hila_lang.jit)
     return row[m - 1]
 
 
-def _dtw_kernel(c):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _dtw_kernel(c):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
     n, m = c.shape
     row = np.empty(m)
     row[0] = c[0, 0]
@@ -238,7 +238,7 @@ def _programme(kernel, combine: str, a: Any, b: Any) -> float:
 
 
 def _run(kernel, combine: str, c: np.ndarray) -> float:
-    from .jit import compiled
+    from .core.jit import compiled
 
     fast = compiled(kernel, np.zeros((2, 3)))
     return float(fast(c)) if fast is not None else _diagonals(c, combine)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hila_lang.cli import main
-from hila_lang.template import load_template
+from hila_lang.osila.template import load_template
 
 DATA = Path(__file__).parent / "data" / "core"
 

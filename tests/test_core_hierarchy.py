@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
-from hila_lang.hierarchy import generate, resolve
+from hila_lang.core.errors import InputError
+from hila_lang.hierarchy.generate import generate, resolve
 from hila_lang.metrics import correlation
-from hila_lang.template import Segment, Template
+from hila_lang.osila.template import Segment, Template
 
 
 def abc_template():
@@ -84,8 +84,8 @@ def test_the_shipped_reach_stays_above_the_paper_from_the_far_side():
     similarity fallback; the arm refuses 2 mm below the real paper)."""
     from pathlib import Path
 
-    from hila_lang.hierarchy import hila_step
-    from hila_lang.template import load_template
+    from hila_lang.hierarchy.step import hila_step
+    from hila_lang.osila.template import load_template
 
     reach = load_template(Path(__file__).resolve().parents[1] / "primitives" / "circle.yaml").sub("reach")
     z = 0.57002

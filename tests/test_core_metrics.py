@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
+from hila_lang.core.errors import InputError
 from hila_lang.metrics import correlation, frechet, msd, resample
 
 
@@ -61,7 +61,7 @@ def test_metric_errors():
 @pytest.fixture(params=["kernel", "numpy"])
 def metric_backend(request, monkeypatch):
     """Run with the compiled Fréchet/DTW kernels and with the numpy anti-diagonal fallback."""
-    from hila_lang import jit
+    from hila_lang.core import jit
 
     if request.param == "numpy":
         monkeypatch.setattr(jit, "compiled", lambda func, *warm: None)

@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from hila_lang.errors import ConstraintError, InputError
+from hila_lang.core.errors import ConstraintError, InputError
 from hila_lang.metrics import correlation
 from hila_lang.osila import imitate, imitate_detailed
 from hila_lang.osila.tps import fit_warp
@@ -428,7 +428,7 @@ def test_similarity_loo_equals_refitting_without_each_pair(dim, K):
 
 def _compiled_choice(src, dst, ridge):
     """The compiled choice kernel called directly (``_choice`` uses it only up to KERNEL_MAX_PAIRS)."""
-    from hila_lang import jit
+    from hila_lang.core import jit
     from hila_lang.osila import tps
 
     kernel = jit.compiled(tps._choice_kernel, tps._WARM[0], tps._WARM[1], np.zeros(4), np.zeros((7, 4)),
@@ -445,7 +445,7 @@ def _compiled_choice(src, dst, ridge):
 def test_choice_kernel_equals_numpy(dim):
     """The compiled kernel (loops, LU inverses) and its numpy twin (Cholesky of the projected
     systems) agree to rounding, on small systems and at K = 200 and 260."""
-    from hila_lang import jit
+    from hila_lang.core import jit
     from hila_lang.osila import tps
 
     pytest.importorskip("numba")
@@ -499,7 +499,7 @@ def test_the_choice_at_many_pairs_equals_the_direct_computation(dim):
 
 
 def test_osila_without_numba_gives_the_same_path(monkeypatch):
-    from hila_lang import jit
+    from hila_lang.core import jit
 
     path = wavy_path(dim=3)
     icps = icps_around(path, 7, 5)

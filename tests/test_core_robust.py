@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
+from hila_lang.core.errors import InputError
 from hila_lang.osila import imitate, imitate_detailed
 from hila_lang.osila.robust import MIN_PAIRS, screen
 
@@ -81,7 +81,7 @@ def test_the_summary_counts_pairs():
 def test_explain_and_the_repl_say_matched_kept_rejected():
     import subprocess
 
-    from hila_lang.explain import pairs_line
+    from hila_lang.hierarchy.explain import pairs_line
 
     path, src, dst, _, bad = noisy_scene(2, 0.2, 0)
     p = imitate_detailed(path, src, dst).pairs

@@ -101,7 +101,7 @@ def test_kernel_and_numpy_break_ties_alike(monkeypatch, dim):
 
 
 def test_jit_switched_off_or_failing_falls_back_to_numpy(monkeypatch):
-    from hila_lang import jit
+    from hila_lang.core import jit
     from hila_lang.osila import route
 
     centres = np.cumsum(np.random.default_rng(1).normal(0, 1, (40, 2)), axis=0)
@@ -128,7 +128,7 @@ def test_jit_switched_off_or_failing_falls_back_to_numpy(monkeypatch):
 
 
 def test_jit_without_a_usable_cache_compiles_uncached(monkeypatch):
-    from hila_lang import jit
+    from hila_lang.core import jit
 
     pytest.importorskip("numba")
     monkeypatch.setenv("HILA_JIT", "1")
@@ -155,7 +155,7 @@ def test_short_paths_never_start_numba(monkeypatch):
 
     calls = []
     monkeypatch.setattr(route, "_compiled_route", lambda: calls.append(1))
-    from hila_lang import jit
+    from hila_lang.core import jit
 
     centres = np.cumsum(np.random.default_rng(2).normal(0, 1, (jit.MIN_STAMPS - 1, 2)), axis=0)
     min_energy_route(centres, ball_offsets(2, 0.3))

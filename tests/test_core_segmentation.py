@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
-from hila_lang.segmentation import (
+from hila_lang.core.errors import InputError
+from hila_lang.osila.segmentation import (
     DEFAULT_METHOD,
     changepoint_segments,
     equal_segments,
@@ -13,7 +13,7 @@ from hila_lang.segmentation import (
     segments,
     speed_segments,
 )
-from hila_lang.template import Template
+from hila_lang.osila.template import Template
 
 
 def three_phase(T_each=(40, 120, 40), seed=0):
@@ -101,7 +101,7 @@ def _demonstrate():
 
 def legs(durations, seed=0, tremor=0.0003, rate=20.0):
     """Minimum-jerk legs through random via points; returns (path, times, true cuts)."""
-    from hila_lang.language.demos import movement
+    from hila_lang.worlds.scripted.demos import movement
 
     rng = np.random.default_rng(seed)
     points = rng.uniform([0.15, -0.3, 0.6], [0.4, 0.1, 0.75], (len(durations) + 1, 3))
@@ -139,7 +139,7 @@ def test_circle_learned_through_the_eyes_is_cut_at_pen_contact():
     from pathlib import Path
 
     demonstrate = _demonstrate()
-    from hila_lang.template import load_template
+    from hila_lang.osila.template import load_template
 
     seen = load_template(Path(__file__).resolve().parents[1] / "primitives" / "circle.yaml")
     demo = demonstrate(0)  # the movement the eyes saw, with the true pen contact

@@ -3,7 +3,7 @@
 Every run state of ``programs/reach_return.hila`` (the ``back`` sub-templates start where they
 touched the object, so two template ICPs share the start's template point while the hand is about
 a millimetre from the object: OSILA's exact pin must win there) is regenerated through
-:func:`hila_lang.hierarchy.generate` (what ``hila eval --hila`` calls) and through the
+:func:`hila_lang.hierarchy.generate.generate` (what ``hila eval --hila`` calls) and through the
 ``hila imitate`` command with the same scene points, and must match the interpreter's path
 exactly.
 """
@@ -16,15 +16,16 @@ import numpy as np
 import pytest
 
 from hila_lang.cli import main
-from hila_lang.demofile import read_demo_csv
-from hila_lang.errors import InputError
-from hila_lang.fileio import dump_yaml
-from hila_lang.hierarchy import bind, generate, hila_step
+from hila_lang.osila.demofile import read_demo_csv
+from hila_lang.core.errors import InputError
+from hila_lang.core.fileio import dump_yaml
+from hila_lang.hierarchy.generate import generate
+from hila_lang.hierarchy.step import bind, hila_step
 from hila_lang.language import load_program
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.osila import imitate
 from hila_lang.robot.dry import DryBackend
-from hila_lang.template import Segment, Template
+from hila_lang.osila.template import Segment, Template
 from hila_lang.worlds.scripted.world import ScriptedWorld
 
 ROOT = Path(__file__).resolve().parent.parent

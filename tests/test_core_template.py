@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
-from hila_lang.template import Segment, Template, load_template, save_template
+from hila_lang.core.errors import InputError
+from hila_lang.osila.template import Segment, Template, load_template, save_template
 
 DATA = Path(__file__).parent / "data" / "core"
 

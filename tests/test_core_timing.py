@@ -3,14 +3,14 @@
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
+from hila_lang.core.errors import InputError
 from hila_lang.metrics import frechet, msd
 from hila_lang.osila import imitate, imitate_detailed
 from hila_lang.osila.fallback import fit_similarity
 from hila_lang.osila.noise import NOISE_MULTIPLE, position_noise
 from hila_lang.osila.timing import _bending, _similarity_ss, retime
 from hila_lang.osila.tps import affine_rank, fit_warp, kernel
-from hila_lang.motion import minimum_jerk
+from hila_lang.osila.motion import minimum_jerk
 
 
 def stroke(T, skew=1.0, dim=2):

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
-from hila_lang.errors import ConstraintError
+from hila_lang.core.errors import ConstraintError
 from hila_lang.osila import imitate_detailed
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
+from hila_lang.core.errors import InputError
 from hila_lang.evaluation.dataset import (
     RATE_HZ,
     SETUPS,
@@ -72,7 +72,7 @@ def test_setups_draw_from_independent_streams():
 
 
 def test_minimum_jerk_profile():
-    from hila_lang.motion import minimum_jerk
+    from hila_lang.osila.motion import minimum_jerk
 
     tau = np.linspace(0, 1, 101)
     s = minimum_jerk(tau)

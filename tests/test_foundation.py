@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import (
+from hila_lang.core.errors import (
     CheckError,
     ConstraintError,
     HilaError,
     HilaRuntimeError,
     InputError,
 )
-from hila_lang.fileio import atomic_write_text, dump_yaml, load_yaml, read_text
-from hila_lang.resources import grammar_path
+from hila_lang.core.fileio import atomic_write_text, dump_yaml, load_yaml, read_text
+from hila_lang.core.resources import grammar_path
 
 
 def test_help_lists_every_command(capsys):
@@ -163,7 +163,7 @@ def test_write_png_keeps_channel_order(tmp_path):
 
     rgb = np.zeros((4, 5, 3), np.uint8)
     rgb[..., 0] = 200  # red in RGB
-    from hila_lang.fileio import write_png
+    from hila_lang.core.fileio import write_png
 
     write_png(tmp_path / "rgb.png", rgb)
     write_png(tmp_path / "bgr.png", rgb[..., ::-1], bgr=True)
@@ -173,7 +173,7 @@ def test_write_png_keeps_channel_order(tmp_path):
 
 
 def test_output_folder_is_fresh_unless_given(tmp_path, monkeypatch):
-    from hila_lang.fileio import output_folder
+    from hila_lang.core.fileio import output_folder
 
     monkeypatch.chdir(tmp_path)
     a, b = output_folder(None, "run-{time}"), output_folder(None, "run-{time}")

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
+from hila_lang.core.errors import InputError
 from hila_lang.robot.workspace import TABLE_FRONT_X, TABLE_TOP_Z
 from hila_lang.worlds.tictactoe.board import (
     CORNER_NAMES,

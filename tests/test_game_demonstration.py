@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from hila_lang.worlds.tictactoe.demonstration import ICP_NAMES, TAGS, demonstrate, main, make_circle_template
-from hila_lang.motion import minimum_jerk_samples
+from hila_lang.osila.motion import minimum_jerk_samples
 from hila_lang.worlds.tictactoe.board import Grid, cell_at
-from hila_lang.template import load_template
+from hila_lang.osila.template import load_template
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from hila_lang.errors import HilaRuntimeError, InputError
+from hila_lang.core.errors import HilaRuntimeError, InputError
 from hila_lang.sim.camera import intrinsics, look_at, project
 from hila_lang.worlds.tictactoe.board import Grid, cell_corners
 from hila_lang.worlds.tictactoe.player import Hand, Player
@@ -255,7 +255,7 @@ def test_a_blind_player_plays_from_the_moves_it_made_and_was_told():
 
 
 def test_an_aside_place_out_of_reach_is_skipped_not_fatal():
-    from hila_lang.errors import UnreachableError
+    from hila_lang.core.errors import UnreachableError
 
     eyes, arm = Eyes(), Arm(LIFT)
 

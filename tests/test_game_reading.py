@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("cv2")
 
-from hila_lang.errors import InputError  # noqa: E402
+from hila_lang.core.errors import InputError  # noqa: E402
 from hila_lang.worlds.tictactoe.reading import read_board  # noqa: E402
 from hila_lang.sim.camera import Camera, intrinsics, look_at  # noqa: E402
 from hila_lang.worlds.tictactoe.recording import DemonstrationScene  # noqa: E402

@@ -7,7 +7,7 @@ import random
 
 import pytest
 
-from hila_lang.errors import HilaRuntimeError, InputError
+from hila_lang.core.errors import HilaRuntimeError, InputError
 from hila_lang.worlds.tictactoe import rules as ttt
 from hila_lang.worlds.tictactoe.opponents import HumanOpponent, MinimaxOpponent, RandomOpponent, make_opponent
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import HilaRuntimeError, InputError, UnknownNameError
+from hila_lang.core.errors import HilaRuntimeError, InputError, UnknownNameError
 from hila_lang.worlds.tictactoe import rules as ttt
 from hila_lang.worlds.tictactoe import WORLD
 from hila_lang.plugins.options import RunOptions

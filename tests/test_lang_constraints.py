@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.errors import CheckError, ConstraintError, HilaRuntimeError
+from hila_lang.core.errors import CheckError, ConstraintError, HilaRuntimeError
 from hila_lang.language import load_program
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import Interrupted, StepLimitError
+from hila_lang.core.errors import Interrupted, StepLimitError
 from hila_lang.language import load_program
 from hila_lang.language.interpreter import Interpreter
 from hila_lang.language.limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
@@ -123,7 +123,7 @@ def test_memory_stays_flat_to_the_default_step_limit(tmp_path):
 
 
 def test_a_bounded_log_counts_everything_and_cuts_its_end_like_a_list():
-    from hila_lang.bounded import BoundedLog
+    from hila_lang.core.bounded import BoundedLog
 
     log = BoundedLog(3)
     log.extend(range(10))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from hila_lang.errors import CheckError
+from hila_lang.core.errors import CheckError
 from hila_lang.language import ast as A
 from hila_lang.language.checker import CheckedProgram
 from hila_lang.language.environment import Environment

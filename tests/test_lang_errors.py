@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import CheckError, HilaRuntimeError, HilaSyntaxError
+from hila_lang.core.errors import CheckError, HilaRuntimeError, HilaSyntaxError
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
 from hila_lang.language.transformer import parse_program

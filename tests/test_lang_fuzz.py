@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hila_lang.errors import HilaError
+from hila_lang.core.errors import HilaError
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
 from hila_lang.language.parser import decode_source

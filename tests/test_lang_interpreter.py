@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.errors import CheckError, HilaRuntimeError, InputError
+from hila_lang.core.errors import CheckError, HilaRuntimeError, InputError
 from hila_lang.language import load_program
 from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions, parse_pairs

@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from hila_lang import cli
-from hila_lang.errors import CheckError, HilaSyntaxError, printable, show_source
+from hila_lang.core.errors import CheckError, HilaSyntaxError, printable, show_source
 from hila_lang.language import ast as A
 from hila_lang.language.calls import MAX_STATES
 from hila_lang.language.checker import check
@@ -205,7 +205,7 @@ def _tree_parser():
     builds exactly one, the in-parse AST builder)."""
     from lark import Lark
 
-    from hila_lang.resources import grammar_path
+    from hila_lang.core.resources import grammar_path
 
     return Lark.open(str(grammar_path()), parser="lalr", propagate_positions=True, maybe_placeholders=True)
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from hila_lang import cli
-from hila_lang.fileio import AtomicFile, OutputFolder, atomic_write_text
+from hila_lang.core.fileio import AtomicFile, OutputFolder, atomic_write_text
 
 ROOT = Path(__file__).resolve().parent.parent
 GAME = str(ROOT / "programs" / "game.hila")
@@ -115,7 +115,7 @@ def test_hila_exec_names_the_program_as_people_type_it(tmp_path, monkeypatch, ca
 
 
 def test_templates_are_found_along_the_search_path(tmp_path, monkeypatch, capsys):
-    from hila_lang.resources import shipped, template_search_path
+    from hila_lang.core.resources import shipped, template_search_path
 
     monkeypatch.chdir(tmp_path)
     prog = tmp_path / "x.hila"

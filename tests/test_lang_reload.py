@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang.errors import HilaRuntimeError
+from hila_lang.core.errors import HilaRuntimeError
 from hila_lang.language import load_program
 from hila_lang.language.history import resume_at
 from hila_lang.language.interpreter import Interpreter

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import InputError
-from hila_lang.hierarchy import hila_step
+from hila_lang.core.errors import InputError
+from hila_lang.hierarchy.step import hila_step
 from hila_lang.plugins import registry
-from hila_lang.template import Template, load_template, save_template
+from hila_lang.osila.template import Template, load_template, save_template
 
 ROOT = Path(__file__).resolve().parent.parent
 

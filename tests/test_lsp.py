@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from hila_lang.errors import HilaError
+from hila_lang.core.errors import HilaError
 from hila_lang.language import load_program
 from hila_lang.lsp.analysis import Document, chunks
 

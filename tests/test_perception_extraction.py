@@ -7,7 +7,7 @@ import pytest
 
 cv2 = pytest.importorskip("cv2")
 
-from hila_lang.errors import InputError  # noqa: E402
+from hila_lang.core.errors import InputError  # noqa: E402
 from hila_lang.sim.camera import intrinsics, look_at, project  # noqa: E402
 from hila_lang.perception.extraction import bridge, detect_marker, marker_track, rbf_smooth  # noqa: E402
 from hila_lang.perception.triangulation import triangulate  # noqa: E402

@@ -88,7 +88,7 @@ def test_verification_rejects_shuffled_matches(scenes, model):
 
 
 def test_unknown_method_and_model_are_input_errors():
-    from hila_lang.errors import InputError
+    from hila_lang.core.errors import InputError
 
     with pytest.raises(InputError, match="unknown feature method 'surf'"):
         M._detector("surf")

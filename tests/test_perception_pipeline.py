@@ -15,11 +15,11 @@ import pytest
 pytest.importorskip("pybullet")
 cv2 = pytest.importorskip("cv2")
 
-from hila_lang.errors import InputError  # noqa: E402
-from hila_lang.fileio import load_yaml  # noqa: E402
+from hila_lang.core.errors import InputError  # noqa: E402
+from hila_lang.core.fileio import load_yaml  # noqa: E402
 from hila_lang.perception.calibration import calibrate, load_calibration, save_calibration  # noqa: E402
 from hila_lang.perception.learn import template_from_frames  # noqa: E402
-from hila_lang.fileio import write_png  # noqa: E402
+from hila_lang.core.fileio import write_png  # noqa: E402
 from hila_lang.perception.recording import load_frames, read_image  # noqa: E402
 from hila_lang.worlds.tictactoe.recording import record_demonstration  # noqa: E402
 from hila_lang.worlds.tictactoe.vision import demonstration_icps  # noqa: E402
@@ -188,7 +188,7 @@ def test_frames_from_a_video_file(recording, tmp_path):
 
 def test_template_from_sim_says_how_it_was_made(tmp_path):
     from hila_lang.worlds.tictactoe.recording import learn_from_sim as template_from_sim
-    from hila_lang.template import load_template, save_template
+    from hila_lang.osila.template import load_template, save_template
 
     template = template_from_sim(3, frames=36, n_calibration=12, n_stereo=6, recording_dir=tmp_path / "rec")
     assert template.description.startswith("Learned by perception from a simulated recording")
@@ -200,7 +200,7 @@ def test_template_from_sim_says_how_it_was_made(tmp_path):
 
 def test_hila_learn_from_recorded_frames(recording, learned, tmp_path, capsys):
     from hila_lang.cli import main
-    from hila_lang.template import load_template
+    from hila_lang.osila.template import load_template
 
     out = tmp_path / "seen.yaml"
     rc = main(["learn", "--frames", str(recording), "-k", "3", "--tags", "reach,draw,retract",

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import InputError, UnknownNameError, internal_error_message
+from hila_lang.core.errors import InputError, UnknownNameError, internal_error_message
 from hila_lang.language.runner import finish, prepare
 from hila_lang.plugins.options import split_settings
 from hila_lang.plugins import registry
@@ -151,7 +151,7 @@ WORLD = WorldInfo(
 
 TOY_WORLD = '''
 import numpy as np
-from hila_lang.errors import UnknownNameError
+from hila_lang.core.errors import UnknownNameError
 from . import BUILT, WORLD
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import UnreachableError
+from hila_lang.core.errors import UnreachableError
 from hila_lang.robot import reach
 
 HEAD = "import reach\npoint home = (0.18, -0.25, 0.75)\n"
@@ -28,7 +28,7 @@ def test_the_bound_is_the_chains_length_measured_from_the_urdf():
     """REACH is recomputed from the generated iCub URDF (no simulator): the torso pitch origin and
     the sum of the link lengths to the pen tip; no sampled posture gets the pen beyond it."""
     from hila_lang.robot import ik, model
-    from hila_lang.rotation import about_z, pose
+    from hila_lang.core.rotation import about_z, pose
 
     chain = ik.KinematicChain.from_urdf(model.generate_urdf(), model.PEN_TIP_LINK,
                                         pose(about_z(model.ROOT_YAW), model.ROOT_POSITION))

@@ -12,8 +12,8 @@ from hila_lang.recognition.composite import make  # noqa: E402
 from hila_lang.recognition.library import entries_of  # noqa: E402
 from hila_lang.recognition.search import THRESHOLD, recognise  # noqa: E402
 from hila_lang.recognition.shape import elastic_distance, procrustes_distance  # noqa: E402
-from hila_lang.segmentation import speed, speed_segments  # noqa: E402
-from hila_lang.template import Template  # noqa: E402
+from hila_lang.osila.segmentation import speed, speed_segments  # noqa: E402
+from hila_lang.osila.template import Template  # noqa: E402
 
 lasa = pytest.importorskip("hila_lang.evaluation.lasa")
 if not lasa.available():

@@ -13,9 +13,9 @@ pytest.importorskip("stumpy")
 pytest.importorskip("dtaidistance")
 
 from hila_lang.cli import main  # noqa: E402
-from hila_lang.motion import minimum_jerk_samples  # noqa: E402
+from hila_lang.osila.motion import minimum_jerk_samples  # noqa: E402
 from hila_lang.recognition.shape import procrustes_distance  # noqa: E402
-from hila_lang.template import load_template  # noqa: E402
+from hila_lang.osila.template import load_template  # noqa: E402
 from hila_lang.worlds.tictactoe.board import Grid  # noqa: E402
 from hila_lang.worlds.tictactoe.demonstration import RATE_HZ, demonstrate  # noqa: E402
 from hila_lang.worlds.tictactoe.marks import cross_strokes  # noqa: E402

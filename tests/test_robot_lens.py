@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("cv2")
 
-from hila_lang.fileio import cache_folders  # noqa: E402
+from hila_lang.core.fileio import cache_folders  # noqa: E402
 from hila_lang.perception.distortion import TRUE_DISTORTION  # noqa: E402
 from hila_lang.robot import lens  # noqa: E402
 
@@ -42,11 +42,11 @@ def test_a_cache_is_made_once_read_after_and_made_again_when_damaged(tmp_path, m
         return {"value": len(made)}
 
     def save(path, value):
-        from hila_lang.fileio import dump_yaml
+        from hila_lang.core.fileio import dump_yaml
         dump_yaml(path, value)
 
     def load(path):
-        from hila_lang.fileio import load_yaml
+        from hila_lang.core.fileio import load_yaml
         return load_yaml(path)
 
     assert lens._cached("x.yaml", load, make, save) == {"value": 1}
@@ -60,7 +60,7 @@ def test_a_cache_is_made_once_read_after_and_made_again_when_damaged(tmp_path, m
 
 
 def test_an_eye_is_placed_by_its_joint_angles_and_missing_angles_are_named():
-    from hila_lang.errors import InputError
+    from hila_lang.core.errors import InputError
     from hila_lang.robot.backend import PyBulletBackend
     from hila_lang.robot.eyes import eye_pose
 

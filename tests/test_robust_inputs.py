@@ -99,7 +99,7 @@ def test_deeply_nested_yaml_is_a_named_error(tmp_path, capsys):
 
 
 def test_a_huge_number_in_a_template_is_refused_by_field(tmp_path, capsys):
-    from hila_lang.fileio import load_yaml
+    from hila_lang.core.fileio import load_yaml
 
     doc = load_yaml(ROOT / "primitives" / "reach.yaml", "template")
     doc["path"][3][1] = 1e308
@@ -115,8 +115,8 @@ def test_a_huge_number_in_a_template_is_refused_by_field(tmp_path, capsys):
 
 
 def test_learn_refuses_1e308_coordinates(tmp_path, capsys):
-    from hila_lang.demofile import read_demo_csv
-    from hila_lang.errors import InputError
+    from hila_lang.osila.demofile import read_demo_csv
+    from hila_lang.core.errors import InputError
 
     csv = tmp_path / "d.csv"
     csv.write_text("t,x,y\n0,0,0\n1,1e308,0\n")
@@ -222,7 +222,7 @@ def test_unused_members_are_not_read(tmp_path, capsys, recording):
     start = data.find(b"eyes/0001.png") + len("eyes/0001.png")
     data[start + 10: start + 40] = b"\xff" * 30  # its deflate stream broken
     bad.write_bytes(bytes(data))
-    from hila_lang.errors import InputError
+    from hila_lang.core.errors import InputError
     from hila_lang.language.recording import read_record
 
     doc = read_record(bad)
@@ -268,7 +268,7 @@ def test_shells_times_directions_is_bounded(capsys):
 
 
 def test_jobs_are_clamped_to_the_cores_with_a_note():
-    from hila_lang.resources import clamp_jobs, usable_cores
+    from hila_lang.core.resources import clamp_jobs, usable_cores
 
     note = io.StringIO()
     assert clamp_jobs(1_000_000, note) == usable_cores()
@@ -298,7 +298,7 @@ def test_ascii_output_encoding_escapes_instead_of_crashing(tmp_path):
 
 
 def test_a_full_disk_during_trace_is_exit_2_named(tmp_path, capsys, monkeypatch):
-    import hila_lang.fileio as fileio
+    import hila_lang.core.fileio as fileio
 
     real = fileio.AtomicFile.__init__
 
@@ -325,7 +325,7 @@ def test_a_full_disk_during_trace_is_exit_2_named(tmp_path, capsys, monkeypatch)
 # ------------------------------------------------------------------ cache
 
 def test_the_shared_cache_folder_is_private_and_ours(tmp_path, monkeypatch, capsys):
-    from hila_lang.fileio import cache_folders
+    from hila_lang.core.fileio import cache_folders
 
     monkeypatch.setattr("tempfile.gettempdir", lambda: str(tmp_path))
     shared = tmp_path / f"hila-{os.getuid()}"

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from hila_lang import cli
-from hila_lang.fileio import MANIFEST, AtomicFile, OutputFolder, atomic_write_text, ensure_writable
+from hila_lang.core.fileio import MANIFEST, AtomicFile, OutputFolder, atomic_write_text, ensure_writable
 
 ROOT = Path(__file__).resolve().parent.parent
 ABC = str(ROOT / "programs" / "abc.hila")
@@ -111,7 +111,7 @@ def test_a_full_device_is_exit_2_by_name_and_stays_a_device(tmp_path, option):
 
 
 def test_dev_stdout_names_this_process_s_descriptor():
-    from hila_lang.fileio import _own_fd
+    from hila_lang.core.fileio import _own_fd
 
     assert [_own_fd(Path(p)) for p in ("/dev/stdout", "/dev/stderr", "/dev/fd/7", "/proc/self/fd/3",
                                        f"/proc/{os.getpid()}/fd/4", "/proc/1/fd/1", "/dev/null")] == [1, 2, 7, 3, 4, None, None]
@@ -162,7 +162,7 @@ def test_a_failure_while_writing_leaves_the_previous_run_whole(tmp_path, monkeyp
     first.close()
     second = OutputFolder(out, "x", owned=("a.txt", "b.txt"))
     second.write_text("a.txt", "run 2")
-    import hila_lang.fileio as fileio
+    import hila_lang.core.fileio as fileio
 
     real = fileio.atomic_write_text
 

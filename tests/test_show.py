@@ -8,7 +8,7 @@ import pytest
 
 from hila_lang import cli
 from hila_lang.commands.show import picture
-from hila_lang.template import Segment, Template
+from hila_lang.osila.template import Segment, Template
 
 
 def show(capsys, *args) -> tuple[int, list[str], str]:

@@ -177,8 +177,8 @@ def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
 
 
 def test_drag_an_icp_and_read_osilas_new_path(page, studio, tmp_path):
-    from hila_lang.hierarchy import hila_step
-    from hila_lang.template import load_template
+    from hila_lang.hierarchy.step import hila_step
+    from hila_lang.osila.template import load_template
 
     page.get_by_test_id("tab-imitate").click()
     page.get_by_test_id("imitate-template").select_option("reach.yaml")
@@ -319,7 +319,7 @@ def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
 
 
 def test_open_a_template_move_a_cut_and_save(page, studio):
-    from hila_lang.template import load_template
+    from hila_lang.osila.template import load_template
 
     page.get_by_test_id("open-source").select_option("template:reach.yaml")
     page.wait_for_function("window.hilaStudio.demo.speed && window.hilaStudio.demo.source")

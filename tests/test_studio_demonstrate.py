@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from hila_lang.errors import InputError
+from hila_lang.core.errors import InputError
 from hila_lang.studio import demonstrate, imitate
 
 
@@ -40,7 +40,7 @@ def test_samples_become_a_20_hz_path_with_own_time_stamps():
 
 
 def test_save_is_hila_learn_and_moved_cuts_replace_the_segments(tmp_path):
-    from hila_lang.template import load_template
+    from hila_lang.osila.template import load_template
 
     t = np.linspace(0, 1, 60)
     path = np.column_stack([t, np.sin(3 * t)])
@@ -76,7 +76,7 @@ def test_open_a_lasa_shape():
 
 def test_snippet_is_a_program_hila_check_accepts(tmp_path):
     from hila_lang.language import load_program
-    from hila_lang.resources import shipped
+    from hila_lang.core.resources import shipped
 
     tpl = imitate.load(shipped("primitives"), "reach.yaml")
     req = {"icps": {"home": [0.18, -0.25, 0.75], "object": [0.36, -0.05, 0.6]}, "via": [[0.25, -0.2, 0.7]],

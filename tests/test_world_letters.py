@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.demofile import load_icps, read_demo_csv
-from hila_lang.template import load_template
+from hila_lang.osila.demofile import load_icps, read_demo_csv
+from hila_lang.osila.template import load_template
 from hila_lang.worlds.letters import WORLD
 from hila_lang.worlds.letters.handwriting import write_letter
 from hila_lang.worlds.letters.layout import ASPECT, GAP, PAPER, layout

@@ -9,7 +9,7 @@ import inspect
 import pytest
 
 from hila_lang import cli
-from hila_lang.errors import InputError, UnknownNameError
+from hila_lang.core.errors import InputError, UnknownNameError
 from hila_lang.plugins import registry
 from hila_lang.plugins.names import Name, Names
 

@@ -23,7 +23,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..errors import HilaError
+    from ..core.errors import HilaError
     from ..language.environment import Environment
     from ..language.runopts import settings_of
 

@@ -33,7 +33,7 @@ def run(args) -> int:
 
     text = render(args.program, args.format)
     if args.output:
-        from ..fileio import atomic_write_text
+        from ..core.fileio import atomic_write_text
 
         atomic_write_text(args.output, text)
     else:

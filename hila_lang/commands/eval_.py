@@ -125,7 +125,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _data(args: argparse.Namespace, out: Path):
     """(trials, source text, protocol, pair mask, threshold) for the chosen data set."""
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..evaluation import dataset as ds
     from ..evaluation.protocols import pair_mask
 
@@ -163,7 +163,7 @@ def _data(args: argparse.Namespace, out: Path):
 
 
 def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..evaluation.controls import dmp_available
 
     methods = args.methods
@@ -181,15 +181,15 @@ def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fileio import OutputFolder
-    from ..interrupts import joblib_workers_ignoring_sigint
+    from ..core.fileio import OutputFolder
+    from ..core.interrupts import joblib_workers_ignoring_sigint
 
-    from ..resources import clamp_jobs
+    from ..core.resources import clamp_jobs
 
     args.jobs = clamp_jobs(args.jobs)  # never more workers than cores (issue 20), with a note
     if args.jobs != 1 and args.dask is None:  # first, before numpy starts its threads
         joblib_workers_ignoring_sigint(args.jobs)  # Ctrl-C: exit 130, no worker tracebacks, no hang
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..evaluation.protocols import segments_for
     from ..evaluation.report import write_report
     from ..evaluation.run import check_scheduler, run_grid

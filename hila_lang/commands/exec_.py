@@ -29,7 +29,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     import sys
 
-    from ..fileio import AtomicFile
+    from ..core.fileio import AtomicFile
     from ..language.recording import start_recording
     from ..language.runner import finishing, prepare
 

@@ -23,7 +23,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     import fnmatch
 
-    from ..errors import HilaRuntimeError
+    from ..core.errors import HilaRuntimeError
     from ..language.runner import finish, prepare
 
     options = run_options(args)
@@ -42,7 +42,7 @@ def run(args) -> int:
         for entry in interp.trace:
             if entry.step_result is not None and wanted(entry.state):
                 template = interp.template(interp.fsm.states[entry.state])
-                from ..explain import explain_step
+                from ..hierarchy.explain import explain_step
 
                 print("\n".join(explain_step(template, entry.step_result,
                                              title=f"{entry.state} (line {entry.line}), step {entry.step}")),

@@ -41,8 +41,8 @@ def load_task(path, dim: int) -> dict:
     """Read and check a task YAML (format in ``hila imitate --help``)."""
     import difflib
 
-    from ..errors import InputError
-    from ..fileio import load_yaml
+    from ..core.errors import InputError
+    from ..core.fileio import load_yaml
     from ..osila import OPTIONS
 
     doc = load_yaml(path, "task", unique_keys=True)
@@ -92,11 +92,11 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..errors import InputError
-    from ..fileio import atomic_write_text, ensure_writable
-    from ..hierarchy import generate
-    from ..template import END, START, load_template
-    from ..validation import check_int, check_positive
+    from ..core.errors import InputError
+    from ..core.fileio import atomic_write_text, ensure_writable
+    from ..hierarchy.generate import generate
+    from ..osila.template import END, START, load_template
+    from ..core.validation import check_int, check_positive
 
     template = load_template(args.template)
     step = template

@@ -76,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _split(text: str | None, option: str = "--tags") -> list[str]:
     """Comma-separated tags, each one a name a program can write (``run TEMPLATE.TAG(...)``)."""
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..language.transformer import usable_as_tag
 
     if not text:
@@ -97,7 +97,7 @@ def _split(text: str | None, option: str = "--tags") -> list[str]:
 
 def _source(args: argparse.Namespace) -> str:
     """Which demonstration source the arguments name; exactly one is allowed."""
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     given = [name for name, on in (
         ("DEMO.csv", args.demo is not None),
@@ -143,7 +143,7 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
 
 def _library(args: argparse.Namespace):
     """(templates by name, searchable parts) of --library, or None; refuses --report without it."""
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     if args.library is None:
         for option, on in (("--report", args.report), ("--stream", args.stream)):
@@ -211,12 +211,12 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..demofile import load_icps, read_demo_csv
-    from ..errors import InputError
-    from ..fileio import ensure_writable
-    from ..segmentation import segment_template
-    from ..segmentation import describe
-    from ..template import Template, save_template
+    from ..osila.demofile import load_icps, read_demo_csv
+    from ..core.errors import InputError
+    from ..core.fileio import ensure_writable
+    from ..osila.segmentation import segment_template
+    from ..osila.segmentation import describe
+    from ..osila.template import Template, save_template
 
     source = _source(args)
     tags = _split(args.tags)

@@ -19,7 +19,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     try:
         from ..lsp.server import serve

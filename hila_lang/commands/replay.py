@@ -22,7 +22,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     import sys
 
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..language.recording import read_record
 
     record = read_record(args.recording)

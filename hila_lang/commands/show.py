@@ -40,7 +40,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     if args.name == "world":
         if args.plot:
@@ -65,9 +65,9 @@ def find_template(name: str):
     """``(path, Template)`` for a name as ``import NAME`` finds it, or a ``.yaml`` path."""
     from pathlib import Path
 
-    from ..errors import InputError, did_you_mean
-    from ..resources import template_search_path
-    from ..template import load_template
+    from ..core.errors import InputError, did_you_mean
+    from ..core.resources import template_search_path
+    from ..osila.template import load_template
 
     given = Path(name)
     if given.suffix in (".yaml", ".yml") or given.is_file():
@@ -220,7 +220,7 @@ def _rows(entries, width: int) -> list[str]:
 def world_text(name: str) -> str:
     """The text ``hila show world NAME`` prints: from the world's declared table."""
     from ..plugins import registry
-    from ..plugins.settings import _show
+    from ..plugins.settings import show_value
 
     info = registry.world(name)
     lines = [f"world {info.name}: {info.doc}",
@@ -232,7 +232,7 @@ def world_text(name: str) -> str:
         ("questions (ask NAME)", [(e.signature, e.doc) for e in info.questions.entries]),
         ("events (wait NAME)", [(e.signature, e.doc) for e in info.events.entries]),
         ("settings (--set NAME=VALUE)",
-         [(f"{s.name}={s.metavar}", s.doc + ("" if s.default is None else f" (default: {_show(s.default)})")
+         [(f"{s.name}={s.metavar}", s.doc + ("" if s.default is None else f" (default: {show_value(s.default)})")
            + (f"; also {s.flag}" if s.flag else "")) for s in info.settings]),
     ]
     names = [n for _, entries in sections for n, _ in entries]

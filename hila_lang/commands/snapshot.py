@@ -40,9 +40,9 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..worlds.tictactoe.marks import cross_strokes
-    from ..fileio import OutputFolder, write_png
+    from ..core.fileio import OutputFolder, write_png
     from ..robot.backend import PyBulletBackend
     from ..worlds.tictactoe.board import Grid, cell_center
 

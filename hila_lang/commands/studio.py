@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     folder = Path(args.folder)
     if not folder.is_dir():

@@ -41,7 +41,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from .controls import _apply, anchors, similarity
 from .protocols import Constraints
 

@@ -51,7 +51,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from ..osila.adjust import ON_PATH
 from .protocols import Constraints
 

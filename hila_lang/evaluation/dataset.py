@@ -78,7 +78,7 @@ The ``--dataset FOLDER`` format (also what :func:`save_dataset` writes)::
 
 Every trial needs both files, every trial the same dimension D, and every two trials at least
 one ICP name in common (templates and tasks are paired by ICP name).  Anything else raises
-:class:`~hila_lang.errors.InputError` naming the file (and the line).
+:class:`~hila_lang.core.errors.InputError` naming the file (and the line).
 """
 
 from __future__ import annotations
@@ -89,9 +89,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..fileio import atomic_write_text
-from ..motion import minimum_jerk
+from ..core.errors import InputError
+from ..core.fileio import atomic_write_text
+from ..osila.motion import minimum_jerk
 
 #: image size of the stand-in, pixels (the iCub cameras, paper §III.C)
 IMAGE_SIZE = (320, 240)
@@ -330,7 +330,7 @@ def save_dataset(trials: list[Trial], folder: str | os.PathLike) -> Path:
 
     Paths get a ``t`` column at :data:`RATE_HZ` (the stand-in's camera rate).
     """
-    from ..fileio import dump_yaml
+    from ..core.fileio import dump_yaml
 
     folder = Path(folder)
     axes = "xyz"[: trials[0].path.shape[1]]
@@ -347,10 +347,10 @@ def save_dataset(trials: list[Trial], folder: str | os.PathLike) -> Path:
 def read_trial(path: Path, setup: str) -> Trial:
     """One trial: ``path`` (the demonstration CSV) and the ``.icps.yaml`` beside it.
 
-    Both files use the formats of ``hila learn`` (:mod:`hila_lang.demofile`), so
+    Both files use the formats of ``hila learn`` (:mod:`hila_lang.osila.demofile`), so
     a trial folder doubles as input to ``hila learn DEMO.csv --icps DEMO.icps.yaml``.
     """
-    from ..demofile import load_icps, read_demo_csv
+    from ..osila.demofile import load_icps, read_demo_csv
 
     icp_path = path.with_name(path.stem + ".icps.yaml")
     if not icp_path.is_file():

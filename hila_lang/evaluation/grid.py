@@ -14,13 +14,13 @@ Methods: ``osila``; the controls ``none``, ``similarity``, ``tps``, ``dmp``, ``d
 (:mod:`.controls`); the baselines ``promp``, ``laplacian``, ``gp``, each also ``+retime``
 (:mod:`.baselines`); the ablations ``osila-noroute``, ``-noretime``, ``-noadjust``, ``-tps``,
 ``-similarity`` (:mod:`.ablation`); and ``hila`` (paper protocol only): the segmented template run through the hierarchical
-generator (:func:`hila_lang.hierarchy.generate`), one OSILA per equal segment, each sub-template
+generator (:func:`hila_lang.hierarchy.generate.generate`), one OSILA per equal segment, each sub-template
 carrying ``start`` and ``end`` ICPs, the start bound to the task's hand (then to where the
 previous piece ended), each inner ``end`` bound to that boundary's task point, pieces stitched.
 
 Times are per generated path, measured in the worker around the generation only (not the
 metrics); work a method does once per template (fitting DMPs) is shared over its row.  A pair
-whose generation fails (a :class:`~hila_lang.errors.HilaError`, e.g. on a user's degenerate
+whose generation fails (a :class:`~hila_lang.core.errors.HilaError`, e.g. on a user's degenerate
 ICPs) scores NaN and is counted, never aborts the grid.
 """
 
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HilaError
+from ..core.errors import HilaError
 from .dataset import Trial
 from .protocols import Constraints, constraints
 
@@ -94,8 +94,8 @@ class RowResult:
 
 def _hila_generator(template: Trial, options: dict[str, Any]):
     """Constraints -> stitched path of the equal-N sub-templates, via the hierarchical generator."""
-    from ..hierarchy import generate
-    from ..template import END, START, Template
+    from ..hierarchy.generate import generate
+    from ..osila.template import END, START, Template
 
     def run(c: Constraints) -> np.ndarray:
         scene = {label: d for label, d, at in zip(c.labels, c.dst, c.at) if at is None}
@@ -187,14 +187,14 @@ def evaluate_rows(trials, rows, segments=SEGMENTS, methods=("osila",), options=N
                   mask=None) -> list[RowResult]:
     """:func:`evaluate_row` for several rows (one unit of parallel work); ``mask`` (J, J) selects tasks.
 
-    Runs in :func:`hila_lang.jit.batch`: thousands of paths repay the compiled kernels' start-up;
+    Runs in :func:`hila_lang.core.jit.batch`: thousands of paths repay the compiled kernels' start-up;
     and with one BLAS thread (``threadpoolctl``, a scikit-learn dependency): every matrix here is
     small, and on a loaded machine BLAS threads spinning for each other made a 50 × 50 solve take
     24 ms instead of microseconds (the parallel backends run one row per process anyway).
     """
     from threadpoolctl import threadpool_limits
 
-    from ..jit import batch
+    from ..core.jit import batch
 
     with batch(), threadpool_limits(1):
         return [evaluate_row(trials, i, segments, methods, options, protocol, None if mask is None else mask[i])

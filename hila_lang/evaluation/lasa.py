@@ -22,7 +22,7 @@ import io
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from .dataset import Trial
 
 RATE_HZ = 20.0

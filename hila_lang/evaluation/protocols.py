@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from .dataset import Trial
 
 PROTOCOLS = ("held-out", "paper", "positions", "fractions")
@@ -99,7 +99,7 @@ def arc_index(path: np.ndarray, k: int, n: int) -> int:
 
 def boundaries(length: int, n: int) -> list[int]:
     """Indices of the N − 1 inner boundaries of an equal-N split of ``length`` points."""
-    from ..segmentation import equal_segments
+    from ..osila.segmentation import equal_segments
 
     return [start for start, _ in equal_segments(length, n)[1:]]
 

@@ -16,7 +16,7 @@
                          OSILA's J × J matrices, one panel per N; x = input (template) trial,
                          y = output (task) trial, grouped by set-up as in Table II
 
-Every file is written atomically (:mod:`hila_lang.fileio`).  The PNGs are drawn with OpenCV
+Every file is written atomically (:mod:`hila_lang.core.fileio`).  The PNGs are drawn with OpenCV
 (matplotlib is not a dependency): R on a fixed scale 0.5–1 (lower values clip to the darkest
 colour), MSD on a log scale 1–10⁴.
 """
@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fileio import atomic_write_text, write_png
+from ..core.fileio import atomic_write_text, write_png
 from . import paper, stats, tables
 from .run import GridResult
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from .dataset import Trial, setups_of
 from .grid import SEGMENTS, RowResult, evaluate_rows, metric_names
 

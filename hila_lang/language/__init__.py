@@ -16,6 +16,29 @@ AST builder), :mod:`.loader` (templates), :mod:`.checker`, :mod:`.compiler`, :mo
 FSM over a world and a back end (found through :mod:`hila_lang.plugins`; :mod:`.runner` wires them);
 :mod:`.repl` is the interactive stepper, :mod:`.recording` writes a run to one file and
 :mod:`.replay` steps through it or verifies it.
+
+One line each:
+
+- ``ast``          the program's frozen dataclasses, built while parsing
+- ``parser``       reading text; syntax errors with line and column
+- ``transformer``  the grammar and the AST builder
+- ``loader``       templates by name, from the search path
+- ``environment``  THE front end: one grammar, one template loader and cache, the plug-in registry
+- ``checker``      names, ICP bindings, reachability; structured diagnostics
+- ``calls``        task calls seen whole: no recursion, a bounded inlined size
+- ``worldcheck``   what a program asks of its world, against what the world declares
+- ``compiler``     checked program -> FSM
+- ``fsm``          the state machine, plain data
+- ``limits``       every limit of the language and its engine, with the measurement behind it
+- ``interpreter``  the stepping engine: states run over a world and a back end
+- ``history``      going back and reloading
+- ``runner``       wiring a program, a world and a back end into a run
+- ``runopts``      options shared by ``hila exec`` and ``hila repl``
+- ``runout``       ``--out DIR``: a run's picture and report for a world that writes none
+- ``repl``         the interactive stepper
+- ``recording``    a run written to one file
+- ``replay``       stepping through a recording, or verifying it
+- ``plot``         a generated path drawn with OpenCV (top and side views)
 """
 
 
@@ -27,7 +50,7 @@ def load_program(path, text: str | None = None, *, settings: dict[str, str] | No
 
     ``settings`` and ``backend``: what it will run with (see :func:`.checker.check`).  A
     relative path that does not exist is looked up along the search path
-    (:func:`hila_lang.resources.find_program`: ``HILA_PATH``, then the programs hila ships)."""
+    (:func:`hila_lang.core.resources.find_program`: ``HILA_PATH``, then the programs hila ships)."""
     from .environment import Environment
 
     return Environment.default().load(path, text, settings=settings, backend=backend)

@@ -1,10 +1,10 @@
 """AST -> checked program: imports resolved, every name known, every ICP bound.
 
-:func:`check` raises :class:`~hila_lang.errors.CheckError` (exit 2) at the first mistake, with
+:func:`check` raises :class:`~hila_lang.core.errors.CheckError` (exit 2) at the first mistake, with
 the source position, the source line and a "did you mean" where one helps.  What it checks:
 
 - the world is a registered plug-in (:mod:`hila_lang.plugins.registry`); each import resolves to
-  a readable template (``import NAME`` along :func:`hila_lang.resources.template_search_path`:
+  a readable template (``import NAME`` along :func:`hila_lang.core.resources.template_search_path`:
   ``HILA_PATH``, the program's folder, the package's own); aliases, tasks,
   points and parameters are unique; there is exactly one ``main``;
 - ``run T.TAG(...)``: ``T`` is imported, ``TAG`` is one of its tags, every bound name is an ICP
@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from . import ast as A
-from ..errors import CheckError, HilaError, did_you_mean
+from ..core.errors import CheckError, HilaError, did_you_mean
 from ..plugins import registry
 from .loader import TemplateLoader
 from .parser import source_line
@@ -68,7 +68,7 @@ class CheckedProgram:
 
     program: A.Program
     world: str
-    templates: dict  # alias -> hila_lang.template.Template
+    templates: dict  # alias -> hila_lang.osila.template.Template
     template_files: dict  # alias -> Path
     tasks: dict  # name -> TaskDef
     main: A.MainDef

@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections import Counter, deque
 
 from . import ast as A
-from ..errors import CheckError
+from ..core.errors import CheckError
 from .checker import CheckedProgram
 from .fsm import END_STATE, FSM, BranchState, CallState, EndState, RunState, SetState, State, WaitState
 from .parser import source_line

@@ -90,9 +90,9 @@ class Environment:
     # ------------------------------------------------------------------ stages
     def read(self, path) -> tuple[str, str]:
         """``(path, text)`` of a program named as people type it (found along the search path:
-        :func:`hila_lang.resources.find_program`); OS failures are InputError, bad UTF-8 a
+        :func:`hila_lang.core.resources.find_program`); OS failures are InputError, bad UTF-8 a
         located syntax error."""
-        from ..resources import find_program
+        from ..core.resources import find_program
         from .parser import read_source
 
         path = find_program(path)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import HilaRuntimeError
+from ..core.errors import HilaRuntimeError
 from .fsm import FSM
 
 #: how many steps the REPL's ``back`` can undo (older snapshots are discarded)

@@ -6,7 +6,7 @@
 
 A ``run`` state evaluates its bindings against the scene (variables, ``hand`` = where the back
 end says the hand is, the program's ``point`` s, then the world's ``points()``), warps the
-(sub-)template with :func:`hila_lang.hierarchy.hila_step` (the one HILA step, shared with
+(sub-)template with :func:`hila_lang.hierarchy.step.hila_step` (the one HILA step, shared with
 ``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
 binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
@@ -19,7 +19,7 @@ After each step the ``observers`` are called with its :class:`TraceEntry` (a rec
 state text).  Going back and reloading are :class:`~hila_lang.language.history.History`'s.
 
 Any hila error while a state runs (an unknown scene point, a question the world does not have
--- :class:`~hila_lang.errors.UnknownNameError` --, contradicted constraints, an unreachable
+-- :class:`~hila_lang.core.errors.UnknownNameError` --, contradicted constraints, an unreachable
 target) is a :class:`HilaRuntimeError` naming the state and the program line (exit status 1).
 Any other exception raised by a world, a back end or OSILA is a bug and propagates unchanged
 (the CLI reports it as an internal error, exit status 3).
@@ -32,25 +32,25 @@ Bounded and interruptible (see :meth:`Interpreter.step` and :meth:`Interpreter.r
   :data:`TRACE_KEEP` entries (``len(trace)`` counts them all; ``observers`` see every entry as it
   is recorded, e.g. to stream a trace file);
 - :meth:`Interpreter.run` stops a run after ``step_limit`` steps (default
-  :data:`DEFAULT_STEP_LIMIT`) with :class:`~hila_lang.errors.StepLimitError`;
-- Ctrl-C stops the current step (:class:`~hila_lang.errors.Interrupted`, exit status 130): while
+  :data:`DEFAULT_STEP_LIMIT`) with :class:`~hila_lang.core.errors.StepLimitError`;
+- Ctrl-C stops the current step (:class:`~hila_lang.core.errors.Interrupted`, exit status 130): while
   it computes or moves, at once (the state did not happen; ``step`` runs it again from where the
   hand is); once it has started changing the world, after it is recorded
-  (:mod:`hila_lang.interrupts`).
+  (:mod:`hila_lang.core.interrupts`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from . import ast as A
-from ..bounded import BoundedLog
-from ..errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError, UnreachableError
-from ..interrupts import guarded
-from .fsm import FSM, SetState, State
+from ..core.bounded import BoundedLog
+from ..core.errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError, UnreachableError
+from ..core.interrupts import guarded
+from .fsm import FSM, BranchState, CallState, EndState, RunState, SetState, State, WaitState
 from .history import History, Snapshot
 from .limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
 from .parser import source_line
@@ -74,7 +74,7 @@ class TraceEntry:
     icps: dict[str, np.ndarray] = field(default_factory=dict)
     pen_down: bool | None = None
     value: Any = None
-    #: the HILA step of a run state (:class:`hila_lang.hierarchy.Step`: OSILA's result, constraints)
+    #: the HILA step of a run state (:class:`hila_lang.hierarchy.step.Step`: OSILA's result, constraints)
     step_result: Any = None
     error: str | None = None  # why the step failed or stopped (its text says so too)
 
@@ -84,7 +84,7 @@ class TraceEntry:
 
 
 class Trace(BoundedLog):
-    """The trace: the newest entries (:class:`~hila_lang.bounded.BoundedLog`), so a run of any
+    """The trace: the newest entries (:class:`~hila_lang.core.bounded.BoundedLog`), so a run of any
     length keeps memory flat.  ``total`` (= ``len()``) counts every entry recorded since the
     reset (the step number of the last one); ``kinds`` how many of each kind."""
 
@@ -120,6 +120,29 @@ def fmt_value(v) -> str:
     if isinstance(v, str):
         return f'"{v}"'
     return repr(v)
+
+
+#: state class -> its executor ``(interpreter, state, step number) -> TraceEntry``, found through the
+#: state's class (:func:`executor`), never through a string
+EXECUTORS: dict[type, Callable[..., "TraceEntry"]] = {}
+
+
+def executes(state_class: type):
+    """Decorator: ``fn`` executes the states of ``state_class`` (and of its subclasses that have
+    no executor of their own)."""
+    def add(fn):
+        EXECUTORS[state_class] = fn
+        return fn
+
+    return add
+
+
+def executor(state: State) -> Callable[..., "TraceEntry"]:
+    """The executor of ``state``: its class's, else the nearest base class's."""
+    for cls in type(state).__mro__:
+        if cls in EXECUTORS:
+            return EXECUTORS[cls]
+    raise TypeError(f"no executor for the state class {type(state).__name__} (register one with @executes)")
 
 
 class Interpreter(History):
@@ -187,7 +210,7 @@ class Interpreter(History):
         """Execute the current state; return what it did.
 
         A state that fails is recorded (its entry's ``error`` says why) and its error raised;
-        Ctrl-C raises :class:`~hila_lang.errors.Interrupted` (see the module docstring).
+        Ctrl-C raises :class:`~hila_lang.core.errors.Interrupted` (see the module docstring).
         """
         if self.done:
             raise HilaRuntimeError("the program has finished; 'reset' to run it again", state=self.current)
@@ -244,7 +267,7 @@ class Interpreter(History):
 
         ``each(entry)`` is called after every step.  Returns this call's entries (the newest
         :data:`TRACE_KEEP` when there are more).  More than ``step_limit`` steps raise
-        :class:`~hila_lang.errors.StepLimitError` at the state the run has reached.
+        :class:`~hila_lang.core.errors.StepLimitError` at the state the run has reached.
         """
         stop = until if callable(until) or until is None else (lambda name: name == until)
         done: list[TraceEntry] = []
@@ -288,11 +311,11 @@ class Interpreter(History):
         return exc
 
     def _execute(self, st: State) -> TraceEntry:
-        """Run one state: ``exec_<kind>(state, step number)``; remembered for :meth:`back` when
-        :meth:`keep_history` is on."""
+        """Run one state: its class's :func:`executor` ``(self, state, step number)``; remembered
+        for :meth:`back` when :meth:`keep_history` is on."""
         saved = self.snapshot() if self.history is not None else None
         try:
-            entry = getattr(self, "exec_" + st.kind)(st, self.trace.total + 1)
+            entry = executor(st)(self, st, self.trace.total + 1)
         except BaseException:
             if saved is not None:
                 self._discard([saved])
@@ -301,16 +324,22 @@ class Interpreter(History):
             self._remember(saved)
         return entry
 
+    @executes(SetState)
     def exec_set(self, st, n: int) -> TraceEntry:
+        return self._assign(st, n, "set ")
+
+    @executes(CallState)
+    def exec_call(self, st, n: int) -> TraceEntry:
+        return self._assign(st, n, "call " + st.task + (": " if st.assign else ""))
+
+    def _assign(self, st, n: int, head: str) -> TraceEntry:
         values = [(slot, self.eval(e)) for slot, e in st.assign]
         self._hold()
         self.env.update(values)
-        head = "call " + st.task + (": " if values else "") if st.kind == "call" else "set "
         text = head + ", ".join(f"{slot.rsplit(':', 1)[1]} = {fmt_value(v)}" for slot, v in values)
         return TraceEntry(n, st.name, st.kind, st.line, text, st.next)
 
-    exec_call = exec_set
-
+    @executes(WaitState)
     def exec_wait(self, st, n: int) -> TraceEntry:
         args = [self.eval(a) for a in st.args]
         value = _plain(self.world.wait(st.event, *args))
@@ -320,6 +349,7 @@ class Interpreter(History):
         text = f"wait {st.event} -> {fmt_value(value)}"
         return TraceEntry(n, st.name, st.kind, st.line, text, st.next, value=value)
 
+    @executes(BranchState)
     def exec_branch(self, st, n: int) -> TraceEntry:
         value = self.eval(st.guard)
         if not isinstance(value, (bool, np.bool_)):
@@ -329,6 +359,7 @@ class Interpreter(History):
         text = f"{_src(st.guard)}: {fmt_value(bool(value))} -> {nxt}"
         return TraceEntry(n, st.name, st.kind, st.line, text, nxt, value=bool(value))
 
+    @executes(EndState)
     def exec_end(self, st, n: int) -> TraceEntry:
         self._hold()
         self.world.notify("program_done")
@@ -345,7 +376,7 @@ class Interpreter(History):
     def scene_binding(self, st) -> dict[str, np.ndarray | None]:
         """What a run state's bindings say now: ICP name -> point, or None (``icp = none``).
 
-        ``start`` appears only when the program binds it; :func:`hila_lang.hierarchy.hila_step`
+        ``start`` appears only when the program binds it; :func:`hila_lang.hierarchy.step.hila_step`
         binds it to the hand otherwise.
         """
         t = self.template(st)
@@ -372,7 +403,7 @@ class Interpreter(History):
     def bind(self, st) -> dict[str, np.ndarray]:
         """Task ICPs of a run state: name -> point (3,), in the template's ICP order (a 2-D
         template's as bound in the scene, before they are projected onto the drawing surface)."""
-        from ..hierarchy import bind
+        from ..hierarchy.step import bind
 
         t, binding = self.template(st), self.scene_binding(st)
         if t.dim == 2 and self.surface() is not None:
@@ -385,8 +416,9 @@ class Interpreter(History):
         scene = self.world.scene
         return None if scene is None else scene.surface
 
+    @executes(RunState)
     def exec_run(self, st, n: int) -> TraceEntry:
-        from ..hierarchy import hila_step
+        from ..hierarchy.step import hila_step
 
         t = self.template(st)
         step = hila_step(t, self.scene_binding(st), self.hand(), constraints=self.constraints(st),
@@ -413,8 +445,8 @@ class Interpreter(History):
 
     def explain(self) -> list[str]:
         """What OSILA does in the current run state (before it runs), or did in the last run:
-        lines of :func:`hila_lang.explain.explain_run` (ICP pairs, fallbacks, rounds and why)."""
-        from ..explain import explain_run, explain_step
+        lines of :func:`hila_lang.hierarchy.explain.explain_run` (ICP pairs, fallbacks, rounds and why)."""
+        from ..hierarchy.explain import explain_run, explain_step
 
         if not self.done and self.state.kind == "run":
             st = self.state
@@ -431,9 +463,9 @@ class Interpreter(History):
 
     # ------------------------------------------------------------------ constraints
     def constraints(self, st) -> list:
-        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.Constraint` s, now:
+        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.step.Constraint` s, now:
         a point group gives one per point; a radius must be a number > 0 (metres)."""
-        from ..hierarchy import Constraint
+        from ..hierarchy.step import Constraint
 
         out = []
         for c in st.constraints:
@@ -649,7 +681,7 @@ def _equal(a, b) -> bool:
 
 def _stopped_by(stop: BaseException, when: str, **kwargs) -> Interrupted:
     """The :class:`Interrupted` of a run ``stop`` ended (Ctrl-C: exit 130; SIGTERM: 143, ...)."""
-    from ..interrupts import cause, exit_code
+    from ..core.interrupts import cause, exit_code
 
     exc = Interrupted(f"interrupted ({cause(stop)}) {when}", **kwargs)
     exc.exit_code = exit_code(stop)

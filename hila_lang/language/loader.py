@@ -3,7 +3,7 @@
 A :class:`TemplateLoader` is the one place the front end reads template files (the checker asks
 it; the :class:`~hila_lang.language.environment.Environment` owns one, and the language server
 keeps its environment for the whole session).  ``import NAME`` looks for ``NAME.yaml`` in
-:func:`hila_lang.resources.template_search_path` (``HILA_PATH``, the program's folder, the
+:func:`hila_lang.core.resources.template_search_path` (``HILA_PATH``, the program's folder, the
 package's own) or in the folders given; ``import "FILE.yaml"`` is relative to the program.
 Loaded templates are kept by (path, size, modification time), so a template saved while an
 editor session runs is read again.
@@ -26,7 +26,7 @@ class TemplateLoader:
         """Where ``import NAME`` looks for ``NAME.yaml``, in order, for a program at ``program_file``."""
         if self.search_path is not None:
             return list(self.search_path)
-        from ..resources import template_search_path
+        from ..core.resources import template_search_path
 
         return template_search_path(program_file)
 
@@ -46,9 +46,9 @@ class TemplateLoader:
         return sorted({f.stem for d in self.folders(program_file) if d.is_dir() for f in d.glob("*.yaml")})
 
     def load(self, path):
-        """The :class:`~hila_lang.template.Template` in ``path`` (cached while the file is unchanged;
-        its loading errors are :func:`hila_lang.template.load_template`'s)."""
-        from ..template import load_template
+        """The :class:`~hila_lang.osila.template.Template` in ``path`` (cached while the file is unchanged;
+        its loading errors are :func:`hila_lang.osila.template.load_template`'s)."""
+        from ..osila.template import load_template
 
         key = str(path)
         try:

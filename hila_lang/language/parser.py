@@ -13,8 +13,8 @@ from __future__ import annotations
 import functools
 import os
 
-from ..errors import HilaSyntaxError
-from ..fileio import read_bytes
+from ..core.errors import HilaSyntaxError
+from ..core.fileio import read_bytes
 
 #: common slips -> small programs that make the parser fail the same way (lark match_examples)
 COMMON_SLIPS: dict[str, list[str]] = {

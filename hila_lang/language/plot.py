@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 
 def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.ndarray | None = None,
@@ -63,7 +63,7 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
             cv2.putText(img, name, (c[0] + 6, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
     cv2.putText(img, f"{title}  ({len(path)} points, view {span * 100:.1f} cm; {legend})", (pad, 16),
                 cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-    from ..fileio import write_png
+    from ..core.fileio import write_png
 
     return write_png(file, img, bgr=True)
 

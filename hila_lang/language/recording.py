@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import HilaError, InputError
+from ..core.errors import HilaError, InputError
 
 #: the version :func:`write_record` writes and :func:`read_record` reads
 RECORD_VERSION = 1
@@ -85,7 +85,7 @@ def unplain(value) -> Any:
 
 
 def osila_record(step) -> dict:
-    """What a :class:`~hila_lang.hierarchy.Step` did, as JSON."""
+    """What a :class:`~hila_lang.hierarchy.step.Step` did, as JSON."""
     res = step.result
     return {
         "warp": res.warp.kind, "threshold": float(res.threshold), "rounds": int(res.rounds),
@@ -205,7 +205,7 @@ def start_recording(args, options):
         if getattr(args, "record_eyes", False):
             raise InputError("--record-eyes needs --record FILE.hilarec")
         return None
-    from ..fileio import ensure_writable
+    from ..core.fileio import ensure_writable
 
     path = Path(args.record)
     if path.is_dir():
@@ -231,7 +231,7 @@ def _same(a, b) -> bool:
 
 def write_record(path, document: dict, images: dict[str, bytes] | None = None) -> Path:
     """Write a recording: ``record.json`` and the images, in one ZIP file, atomically."""
-    from ..fileio import atomic_write_bytes
+    from ..core.fileio import atomic_write_bytes
 
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as z:
@@ -420,13 +420,13 @@ def read_record(path) -> dict:
     read when first used).
 
     Anything that is not a hila recording of a version this hila reads is an
-    :class:`~hila_lang.errors.InputError` naming the file and what is wrong (issue 20): a
+    :class:`~hila_lang.core.errors.InputError` naming the file and what is wrong (issue 20): a
     damaged archive or member, an encrypted or unknown compression, ``record.json`` larger than
     :data:`RECORD_JSON_LIMIT` decompressed, nested too deeply, or missing a field or holding
     one of the wrong kind.  Only ``record.json`` is read; other members (a huge ``eyes/``) are
     not, and members hila does not write are ignored.
     """
-    from ..fileio import check_regular
+    from ..core.fileio import check_regular
 
     check_regular(path, "recording")
     try:

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import EXIT_INTERRUPTED, HilaError, Interrupted
-from ..interrupts import Terminated
+from ..core.errors import EXIT_INTERRUPTED, HilaError, Interrupted
+from ..core.interrupts import Terminated
 from .interpreter import Interpreter, fmt_point, fmt_value
 
 HISTORY = Path(os.path.expanduser("~")) / ".hila_history"
@@ -219,7 +219,7 @@ class Repl(cmd.Cmd):
             self.say(f"  {k:<12} = {fmt_point(v)}")
         last = it.last_run
         if last is not None and last.step_result is not None:  # what OSILA did with the last run's pairs
-            from ..explain import pairs_line
+            from ..hierarchy.explain import pairs_line
 
             pairs = getattr(last.step_result.result, "pairs", None)
             if pairs is not None:

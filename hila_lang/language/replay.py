@@ -21,7 +21,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..errors import HilaError, HilaRuntimeError
+from ..core.errors import HilaError, HilaRuntimeError
 from .fsm import FSM
 from .interpreter import Trace, TraceEntry
 from .recording import sha256
@@ -156,7 +156,7 @@ def recorded_template(record: dict, st):
     """The (sub-)template a recorded run state ran, from the template text in the recording."""
     import yaml
 
-    from ..template import template_from_dict
+    from ..osila.template import template_from_dict
 
     entry = record["templates"][st.template]
     template = template_from_dict(yaml.safe_load(entry["text"]), entry["file"])
@@ -164,8 +164,8 @@ def recorded_template(record: dict, st):
 
 
 def explain_recorded(record: dict, s: dict, *, title: str) -> list[str]:
-    from ..explain import explain_run
-    from ..hierarchy import Constraint
+    from ..hierarchy.explain import explain_run
+    from ..hierarchy.step import Constraint
 
     st = FSM.from_dict(record["fsm"]).states[s["state"]]
     template = recorded_template(record, st)

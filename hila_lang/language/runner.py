@@ -69,7 +69,7 @@ def show_states(interp: Interpreter) -> None:
 def finish(interp: Interpreter):
     """``world.finish(trace, fsm=FSM)`` (its summary, or None), then close the back end.
     A first Ctrl-C while the world saves its outputs waits until they are saved."""
-    from ..interrupts import guarded
+    from ..core.interrupts import guarded
 
     try:
         with guarded() as guard:

@@ -29,11 +29,11 @@ FILES = ("path.png", "report.json")
 
 
 def run_outputs(world, options):
-    """The :class:`~hila_lang.fileio.OutputFolder` for ``options.out``, made now; None when
+    """The :class:`~hila_lang.core.fileio.OutputFolder` for ``options.out``, made now; None when
     ``--out`` is not given or the world writes its own (it has an ``outputs`` attribute)."""
     if options.out is None or hasattr(world, "outputs"):
         return None
-    from ..fileio import OutputFolder
+    from ..core.fileio import OutputFolder
 
     return OutputFolder(options.out, "run-{time}", owned=FILES)
 

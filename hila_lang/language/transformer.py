@@ -11,7 +11,7 @@ from lark import Token, Transformer, Tree, v_args
 from lark.exceptions import VisitError
 
 from . import ast as A
-from ..errors import HilaError, HilaSyntaxError
+from ..core.errors import HilaError, HilaSyntaxError
 from .limits import MAX_NESTING
 from .parser import source_line
 
@@ -381,7 +381,7 @@ def grammar():
     ``start`` (a program) or ``expr`` (one expression)."""
     from lark import Lark
 
-    from ..resources import grammar_path
+    from ..core.resources import grammar_path
 
     streaming = Streaming()
     lark = Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,

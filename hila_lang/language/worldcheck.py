@@ -13,7 +13,7 @@ world must answer:
   binding, or the task call whose argument becomes the target), with its distances;
 - the points bound to a template's ICPs: a 3-D template takes 3-D points; a 2-D template runs on
   the world's drawing surface (the scene points bound to it are projected onto the surface, see
-  :func:`hila_lang.hierarchy.hila_step`), so a world without one refuses it, with the reason.
+  :func:`hila_lang.hierarchy.step.hila_step`), so a world without one refuses it, with the reason.
 
 The ``--set`` pairs are split and parsed here too (:func:`hila_lang.plugins.options.split_settings`),
 so ``hila check`` and ``hila exec`` refuse a bad value alike, before anything is built.  When the
@@ -24,7 +24,7 @@ from its settings is not checked by name: only the running world knows.
 from __future__ import annotations
 
 from . import ast as A
-from ..errors import did_you_mean
+from ..core.errors import did_you_mean
 from ..plugins import registry
 
 

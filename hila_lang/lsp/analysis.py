@@ -35,7 +35,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import HilaError
+from ..core.errors import HilaError
 from ..language import ast as A
 
 #: a line that starts a top-level item
@@ -109,7 +109,7 @@ class Document:
     # ------------------------------------------------------------------ diagnostics
     def parse(self, text: str) -> A.Program:
         """The program's AST, as :func:`hila_lang.language.transformer.parse_program` gives it
-        (its :class:`~hila_lang.errors.HilaSyntaxError` too), chunk by chunk from the cache.
+        (its :class:`~hila_lang.core.errors.HilaSyntaxError` too), chunk by chunk from the cache.
         :attr:`items` gets every item that parsed, for hover and completion in a broken text."""
         parse_program = self.env.parse
         parsed, items, first = {}, [], None
@@ -167,7 +167,7 @@ class Document:
         return problems
 
     def _problem(self, exc: HilaError) -> Problem:
-        from ..errors import CheckError, HilaSyntaxError
+        from ..core.errors import CheckError, HilaSyntaxError
 
         message = exc.message + (f"\nhint: {exc.hint}" if exc.hint else "")
         code = "syntax" if isinstance(exc, HilaSyntaxError) else "check" if isinstance(exc, CheckError) else "error"

@@ -7,6 +7,22 @@ minimum-energy route through a ball of candidate waypoints around every mapped p
 as the template's measurement noise (:mod:`.noise`, :mod:`.candidates`, :mod:`.route`), then
 adjust the plan until forced waypoints and obstacles are satisfied (:mod:`.adjust`).  :func:`imitate_detailed` returns the same route with its
 diagnostics.
+
+One line each:
+
+- ``pairs``         ICP pairs by name (:class:`Pairs`): what a step binds, the arrays OSILA takes
+- ``template``      templates: a demonstrated path, named ICPs, tagged sub-templates; their YAML
+- ``demofile``      demonstration files: a path as CSV, its scene ICPs as YAML
+- ``segmentation``  a demonstration cut into ordered, tagged phases (k-means or equal-N)
+- ``motion``        human-like motion profiles shared by the demonstration generators
+- ``timing``        which part of the template passes an ICP that lies on its path
+- ``robust``        many noisy ICP pairs: outliers rejected before the warp
+- ``tps``           the thin plate spline warp fitted on paired ICPs
+- ``fallback``      similarity and translation warps when TPS cannot be trusted
+- ``noise``         the template's measurement noise, the candidates' radius
+- ``candidates``    a ball of candidate waypoints around every mapped point
+- ``route``         the minimum-energy route through the candidates
+- ``adjust``        plan adjustment until forced waypoints and obstacles hold
 """
 
 from __future__ import annotations
@@ -15,14 +31,15 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from ..validation import check_int, check_path, check_points, check_positive
+from ..core.errors import InputError
+from ..core.validation import check_int, check_path, check_points, check_positive
 from .adjust import STRETCH, OsilaResult, adjust
+from .pairs import Pairs
 from .robust import METHODS
 from .timing import TIMING
 from .tps import Warp, fit_warp
 
-__all__ = ["imitate", "imitate_detailed", "OsilaResult", "Warp", "fit_warp", "OPTIONS"]
+__all__ = ["imitate", "imitate_detailed", "OsilaResult", "Warp", "fit_warp", "OPTIONS", "Pairs", "obstacle_spheres"]
 
 #: option name -> default (see :func:`imitate`)
 OPTIONS: dict[str, Any] = {
@@ -41,8 +58,9 @@ OPTIONS: dict[str, Any] = {
 }
 
 
-def _obstacles(obstacles: Any, dim: int) -> np.ndarray:
-    """Spheres as an array (O, D+1): centre then radius; accepts dicts {centre|center, radius}."""
+def obstacle_spheres(obstacles: Any, dim: int) -> np.ndarray:
+    """Spheres as an array (O, D+1): centre then radius; accepts dicts {centre|center, radius}.
+    The one reader of obstacle specs (``imitate``'s, and a step's on a drawing surface)."""
     if obstacles is None:
         return np.zeros((0, dim + 1))
     if isinstance(obstacles, (list, tuple)) and obstacles and all(isinstance(o, dict) for o in obstacles):
@@ -112,7 +130,7 @@ def imitate_detailed(
     forced_arr = (
         np.zeros((0, D)) if forced is None else check_points(forced, D, "forced waypoints", allow_empty=True)
     )
-    obst = _obstacles(obstacles, D)
+    obst = obstacle_spheres(obstacles, D)
     unknown = sorted(set(options) - set(OPTIONS))
     if unknown:
         raise InputError(f"unknown option {unknown[0]!r}; expected one of {', '.join(OPTIONS)}")

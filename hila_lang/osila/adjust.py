@@ -43,8 +43,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConstraintError
-from ..jit import min_stamps
+from ..core.errors import ConstraintError
+from ..core.jit import min_stamps
 from .candidates import ball_offsets
 from .noise import default_threshold
 from .robust import Pairs, choose_smoothing, screen

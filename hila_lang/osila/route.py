@@ -16,8 +16,8 @@ cost-to-here with the outgoing linear term applied) one forward step is
 O(T·M²) work in all.  Two implementations compute exactly the same sums in the same order, so
 they return the same route, ties included:
 
-- a compiled kernel (:func:`_route_kernel`, numba via :mod:`hila_lang.jit`) for paths of at least
-  :data:`hila_lang.jit.MIN_STAMPS` stamps: about 0.2 ms for T = 1000 and M = 17 candidates;
+- a compiled kernel (:func:`_route_kernel`, numba via :mod:`hila_lang.core.jit`) for paths of at least
+  :data:`hila_lang.core.jit.MIN_STAMPS` stamps: about 0.2 ms for T = 1000 and M = 17 candidates;
 - numpy (:func:`_route_numpy`): T - 1 short vectorised steps, for shorter paths and when numba
   is missing or ``HILA_JIT=0`` (about 20× slower on long paths).
 
@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..jit import min_stamps
+from ..core.jit import min_stamps
 
 
 def _route_numpy(centres, offsets, base, extra, pinned, choice) -> float:
@@ -131,7 +131,7 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice):  # pragma: no 
 
 
 def _compiled_route():
-    from ..jit import compiled
+    from ..core.jit import compiled
 
     return compiled(_route_kernel, np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros((1, 2)),
                     np.zeros(3, dtype=np.bool_), np.zeros(3, dtype=np.intp))

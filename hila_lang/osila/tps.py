@@ -70,7 +70,7 @@ the limit (:func:`_lebesgue`): O(T·K²) only when the TPS is kept, memory O(K²
 ``bench/osila.py`` prints the cost against the cheapest exact TPS fit.
 
 Up to :data:`KERNEL_MAX_PAIRS` pairs the systems run in a compiled kernel (:func:`_choice_kernel`,
-numba via :mod:`hila_lang.jit`) for paths of at least :data:`hila_lang.jit.MIN_STAMPS` stamps,
+numba via :mod:`hila_lang.core.jit`) for paths of at least :data:`hila_lang.core.jit.MIN_STAMPS` stamps,
 else in numpy (:func:`_choice_numpy`); the tests hold them equal to rounding, at K >= 200 too.
 """
 
@@ -80,7 +80,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..jit import min_stamps
+from ..core.jit import min_stamps
 from .fallback import fit_similarity
 
 MERGE_TOL = 1e-6
@@ -311,7 +311,7 @@ def _similarity(src, dst, lin, w, amplification) -> Warp:
     return Warp("similarity", src, dst, w, lin, float(np.abs(src - src.sum(0) / K).max()), amplification)
 
 
-def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
     """The systems behind :func:`fit_warp`'s choice, as loops (numpy twin: :func:`_choice_numpy`).
 
     Fills ``card`` (K + D + 1, K) with A⁻¹[:, :K] of the TPS system on the normalised template
@@ -601,7 +601,7 @@ def _choice(src, dst, ridge, compiled_kernel: bool = True):
 
 def _kernel():
     """The compiled :func:`_choice_kernel`, or None."""
-    from ..jit import compiled
+    from ..core.jit import compiled
 
     return compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
                     np.zeros((4, 2)), np.zeros(4))

@@ -9,6 +9,7 @@ reader (:func:`~hila_lang.perception.learn.perceive` takes it as an argument).
 - :mod:`~hila_lang.perception.recording`     recording folders: writing a simulated one, reading frames
 - :mod:`~hila_lang.perception.extraction`    sub-pixel marker track, gap bridging, RBF smoothing
 - :mod:`~hila_lang.perception.triangulation` two tracks -> a 3-D path
+- :mod:`~hila_lang.perception.matching`      scene matching: ICP pairs between a demonstration and a task scene
 - :mod:`~hila_lang.perception.learn`         entry points: :func:`perceive`, :func:`template_from_frames`
 
 The camera model is :mod:`hila_lang.sim.camera`.  Importing this package imports numpy only;

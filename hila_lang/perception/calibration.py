@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from ..sim.camera import Camera, project
 from .distortion import DistortedCamera, distort_points
 
@@ -169,7 +169,7 @@ def chessboard_poses(camera: Camera, dist, n: int, pattern=PATTERN, square: floa
     tilted up to 45 degrees; a pose is kept only if every inner corner lands inside the distorted
     image with a 6 px margin.
     """
-    from ..rotation import from_euler
+    from ..core.rotation import from_euler
 
     rng = np.random.default_rng(seed)
     cols, rows = pattern
@@ -239,7 +239,7 @@ def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, se
     0.5 m ahead when the eyes look in parallel, as the robot's do), up to 0.12 m off it sideways
     and 0.15 m nearer or farther, facing the eyes within 30 degrees.
     """
-    from ..rotation import from_euler
+    from ..core.rotation import from_euler
     from ..sim.camera import look_at
 
     rng = np.random.default_rng(seed)
@@ -362,14 +362,14 @@ def calibrate_stereo(left_images, right_images, left: Calibration, right: Calibr
 
 def save_calibration(path: str | os.PathLike, calib: Calibration, header: str = "") -> Path:
     """Write ``calib`` as YAML, atomically."""
-    from ..fileio import dump_yaml
+    from ..core.fileio import dump_yaml
 
     return dump_yaml(path, calib.to_dict(), header=header or "hila camera calibration (OpenCV model)")
 
 
 def load_calibration(path: str | os.PathLike) -> Calibration:
     """Read a calibration YAML written by :func:`save_calibration`."""
-    from ..fileio import load_yaml
+    from ..core.fileio import load_yaml
 
     data = load_yaml(path, "calibration file")
     if not isinstance(data, dict):

@@ -7,7 +7,7 @@ their coverage, so the weighted centroid of the largest green blob is sub-pixel.
 
 Bridging.  A frame where no blob of at least ``min_area`` pixels is found is *lost*.  Runs of at
 most ``max_gap`` lost frames between two detections are filled by cubic interpolation in time;
-a longer run, or a lost first or last frame, raises :class:`~hila_lang.errors.InputError` that
+a longer run, or a lost first or last frame, raises :class:`~hila_lang.core.errors.InputError` that
 names the frames.
 
 Smoothing (paper section III.C: "Gaussian RBF smoothing, 0.5 pixel").  The track u(t), v(t)
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 #: greenness (G - max(R, B), 0..255) of a pixel fully covered by the marker counts as 1
 GREEN_FULL = 80.0

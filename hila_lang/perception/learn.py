@@ -14,7 +14,7 @@
    :func:`hila_lang.worlds.tictactoe.vision.demonstration_icps`.)
 
 :func:`template_from_frames` (a recording folder, or left/right folders or videos) then segments
-the path with k-means (:func:`hila_lang.segmentation.segment_template`), after putting pen-tip
+the path with k-means (:func:`hila_lang.osila.segmentation.segment_template`), after putting pen-tip
 points within ``CONTACT_SNAP`` of the known paper plane on it (:attr:`Perception.path` keeps
 the raw triangulation).
 """
@@ -28,8 +28,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import InputError
-from ..segmentation import DEFAULT_METHOD
+from ..core.errors import InputError
+from ..osila.segmentation import DEFAULT_METHOD
 from .calibration import Calibration
 
 #: template points at most this far above (or below) the paper are put on it, metres: the
@@ -237,8 +237,8 @@ def template_from_frames(left, right=None, *, read_icps: Callable, calibration_l
         recording's ``calibration/stereo`` when it exists; without it the eyes' relative pose is
         the kinematics').
     k, tags, contact, method, seed
-        Segmentation (:func:`hila_lang.segmentation.segment_template`; ``method`` one of
-        :data:`hila_lang.segmentation.METHODS`).
+        Segmentation (:func:`hila_lang.osila.segmentation.segment_template`; ``method`` one of
+        :data:`hila_lang.osila.segmentation.METHODS`).
     name : str
         Template name.
     max_gap : int
@@ -248,8 +248,8 @@ def template_from_frames(left, right=None, *, read_icps: Callable, calibration_l
     -------
     Template, or (Template, Perception) with ``return_perception``.
     """
-    from ..segmentation import describe, segment_template
-    from ..template import Template
+    from ..osila.segmentation import describe, segment_template
+    from ..osila.template import Template
     from .calibration import calibrate_stereo
     from .recording import load_cameras, load_frames
 

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 #: feature detectors by name: SIFT (default) and ORB (AKAZE is not in the OpenCV build installed here)
 METHODS = ("sift", "orb")

@@ -22,7 +22,7 @@ The folder is built under a temporary name beside the target and renamed into pl
 complete, so a crash never leaves a half-written recording; every file is written atomically.
 
 :func:`load_frames` reads a folder of images (sorted by name; numbered names must not skip a
-number) or a video file, and turns every problem into :class:`~hila_lang.errors.InputError`
+number) or a video file, and turns every problem into :class:`~hila_lang.core.errors.InputError`
 naming the file.
 """
 
@@ -37,8 +37,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import InputError
-from ..fileio import dump_yaml, load_yaml, write_png
+from ..core.errors import InputError
+from ..core.fileio import dump_yaml, load_yaml, write_png
 from ..sim.camera import Camera
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm")

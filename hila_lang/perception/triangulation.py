@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 
 def projection_matrix(K: np.ndarray, world_T_camera: np.ndarray) -> np.ndarray:

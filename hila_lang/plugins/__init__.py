@@ -8,7 +8,9 @@
 - :mod:`~hila_lang.plugins.registry`: :class:`WorldInfo` and :class:`BackendInfo` (what a plug-in
   declares, readable without building it) found through the entry-point groups ``hila.worlds``
   and ``hila.backends``;
-- :mod:`~hila_lang.plugins.options`: :class:`RunOptions`, what ``hila exec``/``hila repl`` pass.
+- :mod:`~hila_lang.plugins.options`: :class:`RunOptions`, what ``hila exec``/``hila repl`` pass;
+- :mod:`~hila_lang.plugins.names`: a world's points, questions and events, declared once;
+- :mod:`~hila_lang.plugins.snapshots`: a ``Snapshots`` capability for state held in attributes.
 
 A third-party package adds a world with one entry point in its own ``pyproject.toml``::
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Iterable, Iterator, Mapping
 
-from ..errors import InputError, UnknownNameError
+from ..core.errors import InputError, UnknownNameError
 
 
 @dataclass(frozen=True)
@@ -102,8 +102,8 @@ class Names(Mapping[str, str]):
         """Call the method of ``world`` that answers ``name`` with ``args``.
 
         A name not declared (or declared without an answer) is an
-        :class:`~hila_lang.errors.UnknownNameError` with "did you mean"; a wrong number of
-        arguments an :class:`~hila_lang.errors.InputError` saying how many it takes.
+        :class:`~hila_lang.core.errors.UnknownNameError` with "did you mean"; a wrong number of
+        arguments an :class:`~hila_lang.core.errors.InputError` saying how many it takes.
         """
         entry = self._by.get(name)
         if entry is None or entry.answer is None:

@@ -73,7 +73,7 @@ def check_osila_ranges(options: dict, flag=lambda name: f"--set osila.{name}", t
     :data:`MAX_CANDIDATES`) before any work: an :class:`InputError` naming ``flag(name)``.
     Values that are not numbers are left to OSILA's own checks; ``typed`` gives a value as the
     user typed it, for the message."""
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     for name, value in options.items():
         if name not in OSILA_RANGES or isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -98,7 +98,7 @@ def osila_options(settings: dict[str, str]) -> dict:
 
     import yaml
 
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..osila import OPTIONS, imitate
 
     out = {}
@@ -140,7 +140,7 @@ def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict
     who has it (``--opponent`` on a world without an opponent) or suggests a near name."""
     import difflib
 
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     world_keys = {s.name for s in world.settings}
     backend_keys = {s.name for s in backend.settings}
@@ -180,7 +180,7 @@ def _owners(key: str) -> tuple[list[str], str | None]:
 
 def parse_pairs(pairs: list[str] | None) -> dict[str, str]:
     """``["a=1", "b=x"]`` -> ``{"a": "1", "b": "x"}``; a pair without ``=`` is an InputError."""
-    from ..errors import InputError
+    from ..core.errors import InputError
 
     settings: dict[str, str] = {}
     for pair in pairs or []:

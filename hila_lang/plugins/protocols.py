@@ -172,7 +172,7 @@ class Backend(Protocol):
 
         ``pen_down`` says the segment is meant to touch the paper (drawing): ink is laid only
         where the pen is down and the tip touches the surface.  ``label`` names the FSM state,
-        for traces and error messages.  Raises :class:`~hila_lang.errors.UnreachableError`
+        for traces and error messages.  Raises :class:`~hila_lang.core.errors.UnreachableError`
         when a waypoint cannot be reached.
         """
         ...
@@ -204,7 +204,7 @@ class World(Protocol):
 
     def query(self, name: str, *args: Any) -> Any:
         """Answer ``ask NAME(args)``; a name the world does not declare raises
-        :class:`~hila_lang.errors.UnknownNameError`."""
+        :class:`~hila_lang.core.errors.UnknownNameError`."""
         ...
 
     def wait(self, event: str, *args: Any) -> Any:

@@ -22,7 +22,7 @@ import importlib
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from ..errors import InputError
+from ..core.errors import InputError
 from .settings import Setting, parse_settings
 
 GROUPS = {"world": "hila.worlds", "back end": "hila.backends"}

@@ -14,7 +14,7 @@ import difflib
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -45,15 +45,16 @@ class Setting:
 
     def help(self) -> str:
         """``name=METAVAR  doc (default: ...)``: one line for ``--help``."""
-        default = "" if self.default is None else f" (default: {_show(self.default)})"
+        default = "" if self.default is None else f" (default: {show_value(self.default)})"
         return f"{self.name}={self.metavar}  {self.doc}{default}"
 
 
-def _show(value: Any) -> str:
+def show_value(value: Any) -> str:
+    """A setting's value as a person types it after ``--set KEY=`` (yes/no, comma lists)."""
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, (tuple, list)):
-        return ",".join(_show(v) for v in value)
+        return ",".join(show_value(v) for v in value)
     return str(value)
 
 

@@ -23,8 +23,8 @@ HINT = "pip install 'hila-lang[recognise]' (stumpy and dtaidistance)"
 
 
 def require() -> None:
-    """Raise :class:`~hila_lang.errors.InputError` with the install hint if stumpy or dtaidistance is missing."""
-    from ..errors import InputError
+    """Raise :class:`~hila_lang.core.errors.InputError` with the install hint if stumpy or dtaidistance is missing."""
+    from ..core.errors import InputError
 
     for name in ("stumpy", "dtaidistance"):
         try:

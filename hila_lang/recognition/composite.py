@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..motion import minimum_jerk_samples
+from ..osila.motion import minimum_jerk_samples
 
 
 @dataclass

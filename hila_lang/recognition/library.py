@@ -6,7 +6,7 @@ A segmented template is found as its consecutive parts, so a whole demonstrated 
 as ``reach``, ``draw``, ``retract`` and each is reported on its own.
 
 Errors are located: a missing folder, a folder with no templates, or a template that does not
-load (the file and the field are named by :func:`hila_lang.template.load_template`) stop
+load (the file and the field are named by :func:`hila_lang.osila.template.load_template`) stop
 before anything is written.
 """
 
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..template import Template, load_template
+from ..core.errors import InputError
+from ..osila.template import Template, load_template
 from .shape import arc_length, arc_resample, heading, smooth
 
 #: points per library part after arc-length re-sampling (the verification resolution)

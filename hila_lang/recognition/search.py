@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..validation import check_path
+from ..core.errors import InputError
+from ..core.validation import check_path
 from .library import REFERENCE_POINTS, Entry
 from .shape import arc_length, arc_resample, elastic_distance, heading, procrustes_distance, smooth
 
@@ -289,7 +289,7 @@ def recognise(path, entries: list[Entry], times=None, *, open_end: bool = False)
     s = arc_length(sm)
     found: list[tuple[float, float, float, int]] = []
     if s[-1] > 0 and T >= 4:
-        from ..segmentation import speed
+        from ..osila.segmentation import speed
 
         m = int(np.clip(T, MIN_POINTS, MAX_POINTS))
         q = arc_resample(sm, m, s)

@@ -14,7 +14,7 @@ demonstration's, as without ``--library``.  Its segments are the recognised part
 - a **new** part keeps the demonstrated samples and becomes one segment, tagged ``new1``,
   ``new2``, ... or by ``--tags`` (one per new part, in order); ``--contact`` flags them.
 
-A template file has a fixed schema (:mod:`hila_lang.template`), so provenance lives in the
+A template file has a fixed schema (:mod:`hila_lang.osila.template`), so provenance lives in the
 description and in the report, not in a new field: any hila reads the file unchanged.
 
 **The report** (``--report FILE.json``)::
@@ -34,8 +34,8 @@ import re
 
 import numpy as np
 
-from ..errors import InputError
-from ..template import Segment, Template
+from ..core.errors import InputError
+from ..osila.template import Segment, Template
 from .library import REFERENCE_POINTS, entries_of
 from .search import Part
 from .shape import arc_length, arc_resample, similarity_map, smooth
@@ -48,7 +48,7 @@ def report(parts: list[Part]) -> dict:
 
 def write_report(path: str | os.PathLike, parts: list[Part]):
     """Write :func:`report` as JSON, atomically."""
-    from ..fileio import atomic_write_text
+    from ..core.fileio import atomic_write_text
 
     return atomic_write_text(path, json.dumps(report(parts), indent=1) + "\n")
 

@@ -10,6 +10,9 @@
 - :mod:`hila_lang.robot.paper`     ink on the paper (``ink``), the camera above it (``overview``)
 - :mod:`hila_lang.robot.backend`   :class:`PyBulletBackend`, the thin façade the interpreter drives
 - :mod:`hila_lang.robot.dry`       :class:`DryBackend`: kinematic, no physics
+- :mod:`hila_lang.robot.reach`     the arm's reach without a simulator, the checks of a planned path
+- :mod:`hila_lang.robot.lens`      the eyes' fish-eye lenses and the robot's own calibration of them
+- :mod:`hila_lang.robot.window`    the PyBullet window of a run with ``--gui``
 
 The robot knows a neutral drawing surface (:class:`hila_lang.sim.surface.Surface`): what is
 printed on it is a world's business.  ``DRY`` and ``PYBULLET`` declare the two back ends (entry

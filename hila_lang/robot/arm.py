@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import HilaRuntimeError
+from ..core.errors import HilaRuntimeError
 from . import ik, model
 from .reach import check_planned, unreachable
 from .trajectory import densify, trapezoid_profile

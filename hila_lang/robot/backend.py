@@ -26,12 +26,12 @@ import time
 
 import numpy as np
 
-from ..bounded import BoundedLog
-from ..errors import InputError
+from ..core.bounded import BoundedLog
+from ..core.errors import InputError
 from ..sim.camera import RenderStyle
-from ..sim.scene import Lights, SimScene, _check_point
+from ..sim.scene import Lights, SimScene, check_point
 from ..sim.surface import Surface
-from ..validation import check_path
+from ..core.validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
 from . import model
 from .body import Body
@@ -171,7 +171,7 @@ class PyBulletBackend:
         Used to park the arm at a start position.  Returns the joint angles (10,).
         Raises :class:`UnreachableError` when the point cannot be reached.
         """
-        return self.arm.reset_hand(_check_point(point))
+        return self.arm.reset_hand(check_point(point))
 
     def move(self, path: np.ndarray, *, pen_down: bool = False, label: str = "") -> np.ndarray:
         """Follow ``path`` (T, 3) from where the pen is; return the executed pen-tip trace (T', 3).

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import HilaRuntimeError
-from ..rotation import about_z, from_quat, pose, to_quat
+from ..core.errors import HilaRuntimeError
+from ..core.rotation import about_z, from_quat, pose, to_quat
 from ..sim.client import quiet_c_output
 from . import ik, model
 

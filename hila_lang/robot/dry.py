@@ -10,7 +10,7 @@ its ``snapshots`` copy where the hand is and cut the list of moves back.
 It checks what PyBullet's arm checks of a planned path before it moves
 (:func:`hila_lang.robot.reach.check_planned`): every waypoint within the arm's kinematic reach
 bound, none below the paper over the table (the world's surface, else the default sheet, as
-PyBullet lays it).  A path that fails is an :class:`~hila_lang.errors.UnreachableError` (exit 1),
+PyBullet lays it).  A path that fails is an :class:`~hila_lang.core.errors.UnreachableError` (exit 1),
 as on PyBullet: a program that runs dry runs on the robot as far as the kinematics can tell.
 """
 
@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bounded import BoundedLog
-from ..errors import InputError
-from ..validation import check_path
+from ..core.bounded import BoundedLog
+from ..core.errors import InputError
+from ..core.validation import check_path
 
 
 #: moves kept in :attr:`DryBackend.moves`
@@ -43,7 +43,7 @@ class DryBackend:
         #: the paper's height, metres (None: no paper, no table check)
         self.surface_z = surface_z
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
-        #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.bounded.BoundedLog`)
+        #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.core.bounded.BoundedLog`)
         self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
         self.snapshots = AttributeSnapshots(self, ("_hand",), append_only=("moves",))
 

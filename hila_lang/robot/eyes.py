@@ -23,9 +23,9 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from ..sim.camera import Camera, CameraImage
-from ..sim.scene import _check_point
+from ..sim.scene import check_point
 from . import ik, model
 from .lens import EYE_HEIGHT, EYE_WIDTH, ICUB_EYE_K, eye_calibration, eyes_calibration, true_lens
 
@@ -77,12 +77,12 @@ def eye_poses_looking_at(target: np.ndarray, torso: Mapping[str, float] | None =
     ``torso``, default upright) looks at ``target`` (3,): :func:`aim_gaze` and :func:`eye_pose`
     on the robot's own model, without a simulator -- where its eyes are while it watches a
     demonstration (:func:`hila_lang.worlds.tictactoe.recording.demonstration_rig`)."""
-    from ..rotation import about_z, pose
+    from ..core.rotation import about_z, pose
 
     text = model.urdf_path().read_text()
     root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
     gaze = ik.KinematicChain.from_urdf(text, "eyes_tilt_link", root)
-    q, _ = aim_gaze(gaze, torso or {}, _check_point(target))
+    q, _ = aim_gaze(gaze, torso or {}, check_point(target))
     joints = dict(zip(gaze.names, q))
     return {eye: eye_pose(ik.KinematicChain.from_urdf(text, model.EYE_LINKS[eye], root), joints)
             for eye in ("left", "right")}
@@ -106,7 +106,7 @@ class Eyes:
         self._lens = None
         self.noise = float(noise)
         self._rng = np.random.default_rng([int(seed), 14])
-        self.target = _check_point(target)
+        self.target = check_point(target)
         self.look_at(self.target)
 
     def look_at(self, point: np.ndarray) -> float:
@@ -115,7 +115,7 @@ class Eyes:
 
         The aim starts from the head straight ahead (whatever it looked at before) and is set
         exactly, so the head's angles depend only on the torso and ``point``."""
-        target = _check_point(point)
+        target = check_point(point)
         names = self._gaze_chain.names
         q, angle = aim_gaze(self._gaze_chain, self.body.angles([n for n in names if n in model.ARM_CHAIN]), target)
         for name, value in zip(names, q):

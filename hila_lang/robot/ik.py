@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..rotation import from_rpy, pose
+from ..core.rotation import from_rpy, pose
 
 #: weight of the pen-axis error against the position error, metres per radian
 ORIENTATION_WEIGHT = 0.1
@@ -35,7 +35,7 @@ def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
 
     The forward kinematics' inner loop only: it runs for every joint of every IK iteration, where
     a scipy ``Rotation`` costs ten times more.  Everything else rotates through
-    :mod:`hila_lang.rotation`; ``tests/test_robot_ik.py`` holds the two equal.
+    :mod:`hila_lang.core.rotation`; ``tests/test_robot_ik.py`` holds the two equal.
     """
     x, y, z = axis
     c, s = math.cos(angle), math.sin(angle)

@@ -12,7 +12,7 @@ chessboard card to the eye at :data:`CALIBRATION_VIEWS` seeded poses and calibra
 OpenCV pipeline of :mod:`hila_lang.perception.calibration` (the one ``hila learn`` uses for the
 demonstration's eyes, with the same number of views and supersampling).  The result is kept in
 the cache folder (``$HILA_CACHE_DIR/hila/lens`` or ``~/.cache/hila/lens``, written atomically;
-:func:`hila_lang.fileio.cache_folders`) under a name that hashes everything it depends on, like
+:func:`hila_lang.core.fileio.cache_folders`) under a name that hashes everything it depends on, like
 the generated robot model, so it is made once per installation: about 25 s for both eyes and the
 pair here (a first ``hila exec programs/game.hila`` took 31.8 s instead of 5.3 s).
 """
@@ -70,8 +70,8 @@ def _key(**what) -> str:
 def _cached(name: str, load, make, save):
     """``load(path)`` of the first cached ``name`` that reads, else ``make()`` saved with
     ``save(path, value)`` into the first writable cache folder."""
-    from ..errors import InputError
-    from ..fileio import cache_folders
+    from ..core.errors import InputError
+    from ..core.fileio import cache_folders
 
     folders = cache_folders("lens")
     for folder in folders:
@@ -102,7 +102,7 @@ def eye_calibration(eye: str):
     """The robot's calibration of ``eye``'s lens (:class:`~hila_lang.perception.calibration.Calibration`):
     read from the cache, else made from simulated chessboard images and cached (see the module
     docstring).  A cache file that cannot be read is made again."""
-    from ..errors import InputError
+    from ..core.errors import InputError
     from ..perception.calibration import calibrate, chessboard_views, load_calibration, save_calibration
 
     if eye not in CALIBRATION_SEEDS:
@@ -124,7 +124,7 @@ def eye_calibration(eye: str):
 def eyes_in_head() -> np.ndarray:
     """``left_T_right`` (4, 4): the right eye camera in the left one's frame, from the head's
     model (the eyes tilt together, so it never changes): truth, to render the stereo session."""
-    from ..rotation import about_z, pose
+    from ..core.rotation import about_z, pose
     from . import ik, model
 
     text = model.urdf_path().read_text()
@@ -142,7 +142,7 @@ def eyes_calibration():
     cached like :func:`eye_calibration`.  Triangulating with it keeps the two eyes' rays
     consistent with their calibrated intrinsics (a principal point 0.1 px off moves a depth at
     0.5 m by about 1 mm)."""
-    from ..fileio import dump_yaml, load_yaml
+    from ..core.fileio import dump_yaml, load_yaml
     from ..perception.calibration import StereoCalibration, calibrate_stereo, stereo_views
     from ..perception.rig import StereoRig
     from ..sim.camera import Camera

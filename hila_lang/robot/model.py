@@ -36,7 +36,7 @@ import xml.etree.ElementTree as ET
 from functools import lru_cache
 from pathlib import Path
 
-from ..errors import HilaError
+from ..core.errors import HilaError
 
 #: the icub-models robot used
 ROBOT_NAME = "iCubGazeboV2_5"
@@ -170,7 +170,7 @@ def _prune_leaves(robot: ET.Element) -> None:
 
 
 def _freeze(robot: ET.Element) -> None:
-    from ..rotation import from_axis_angle, from_rpy, to_rpy
+    from ..core.rotation import from_axis_angle, from_rpy, to_rpy
 
     for joint in robot.findall("joint"):
         name = joint.get("name")
@@ -248,7 +248,7 @@ def urdf_path() -> Path:
     writes a new file.  The cache folder is ``$HILA_CACHE_DIR/hila/robot`` or
     ``~/.cache/hila/robot``; when it is not writable a temporary folder is used.
     """
-    from ..fileio import atomic_write_text, cache_folders
+    from ..core.fileio import atomic_write_text, cache_folders
 
     text = generate_urdf()
     digest = hashlib.sha256((_GENERATOR_VERSION + text).encode()).hexdigest()[:12]

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 from ..sim.camera import Camera, CameraImage
 from ..sim.canvas import Canvas
 from ..sim.surface import CONTACT_TOLERANCE
-from ..validation import check_path
+from ..core.validation import check_path
 
 
 class Paper:

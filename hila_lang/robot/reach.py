@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import UnreachableError
+from ..core.errors import UnreachableError
 from .workspace import TABLE_FRONT_X, TABLE_SIZE
 
 from . import REACH

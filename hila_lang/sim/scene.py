@@ -5,7 +5,7 @@ temporary folder its textures are written to.  The robot back end (:mod:`hila_la
 puts the iCub, a table and the paper in one; a world's simulated recording (the tic-tac-toe
 demonstration) and perception's chessboard views use one without a robot.  Everything is in the
 world frame, metres; poses cross into PyBullet as (position, quaternion xyzw) here and nowhere
-else (:mod:`hila_lang.rotation`).
+else (:mod:`hila_lang.core.rotation`).
 
 Textured quads: ``createVisualShape`` with vertices and uvs + ``loadTexture`` +
 ``changeVisualShape`` (DESIGN.md section 4).  PyBullet caches textures by file name, so every
@@ -21,7 +21,7 @@ import tempfile
 
 import numpy as np
 
-from ..errors import HilaRuntimeError, InputError
+from ..core.errors import HilaRuntimeError, InputError
 from .camera import Camera, RenderStyle, render
 from .client import import_pybullet, quiet_c_output
 
@@ -32,7 +32,7 @@ WINDOW = (1280, 800)
 
 
 def _pb_pose(world_T_body) -> tuple[list[float], list[float]]:
-    from ..rotation import to_quat
+    from ..core.rotation import to_quat
 
     T = np.asarray(world_T_body, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
@@ -40,7 +40,8 @@ def _pb_pose(world_T_body) -> tuple[list[float], list[float]]:
     return T[:3, 3].tolist(), to_quat(T[:3, :3]).tolist()
 
 
-def _check_point(point, what: str = "point") -> np.ndarray:
+def check_point(point, what: str = "point") -> np.ndarray:
+    """``point`` as a finite (3,) array (the scene and the robot's aim), else an InputError naming ``what``."""
     try:
         arr = np.asarray(point, dtype=float)
     except (TypeError, ValueError):
@@ -67,7 +68,7 @@ class Lights:
         if isinstance(level, bool) or not isinstance(level, (int, float, np.floating)) or not 0 < level <= 3:
             raise InputError(f"light level must be a number in (0, 3], got {level!r}")
         b = self.built
-        light = b.light_direction if direction is None else tuple(float(v) for v in _check_point(direction, "light direction"))
+        light = b.light_direction if direction is None else tuple(float(v) for v in check_point(direction, "light direction"))
         self.sim.style = RenderStyle(**{**b.__dict__, "ambient": b.ambient * level, "diffuse": b.diffuse * level,
                                         "specular": b.specular * level, "light_direction": light})
 
@@ -203,7 +204,7 @@ class SimScene:
 
     def set_position(self, body: int, point) -> None:
         """Move ``body`` to ``point`` (3,), world, metres (orientation reset)."""
-        target = _check_point(point)
+        target = check_point(point)
         self.pb.resetBasePositionAndOrientation(body, target.tolist(), [0, 0, 0, 1], physicsClientId=self.client)
 
     def set_pose(self, body: int, world_T_body: np.ndarray) -> None:

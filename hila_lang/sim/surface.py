@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 #: the pen touches a surface when its tip is at most this far above it, metres (it inks there)
 CONTACT_TOLERANCE = 0.0005

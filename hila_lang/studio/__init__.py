@@ -9,7 +9,8 @@ Modules, one per stage:
 - :mod:`.demonstrate`: scenes to draw on, pointer samples -> a timed path (3-D on a world's
   surface, lifted by a stated rule while the pen is up), saving through ``hila learn``'s code;
 - :mod:`.imitate`: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason;
-- :mod:`.session`: a program run (or a recording) driven through the REPL's own commands.
+- :mod:`.session`: a program run (or a recording) driven through the REPL's own commands;
+- :mod:`.view3d`: the 3-D view of a run (the iCub, the table, the paper and its ink).
 
 Every script and style the page uses is in ``static/`` (no CDN); nothing is fetched at run time.
 """

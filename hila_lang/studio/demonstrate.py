@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 #: metres per pixel of a blank sheet or an uploaded picture: 0.25 mm, so an 840-pixel-wide
 #: canvas is an A4 sheet's width (0.21 m)
@@ -98,7 +98,7 @@ def scene(name: str, folder: Path) -> dict:
         import cv2
 
         path = inside(folder, name[len("upload:"):])
-        from ..fileio import read_bytes
+        from ..core.fileio import read_bytes
 
         image = cv2.imdecode(np.frombuffer(read_bytes(path, "picture"), np.uint8), cv2.IMREAD_COLOR)
         if image is None:
@@ -177,9 +177,9 @@ def demonstration_path(samples: list, z: float | None) -> tuple[np.ndarray, np.n
 
 
 def proposal(path, times, k: int, method: str, seed: int = 0) -> dict:
-    """The cuts hila proposes (``hila learn``'s :func:`hila_lang.segmentation.segments`) and the
+    """The cuts hila proposes (``hila learn``'s :func:`hila_lang.osila.segmentation.segments`) and the
     hand's speed under the path."""
-    from ..segmentation import segments, speed
+    from ..osila.segmentation import segments, speed
 
     path = np.asarray(path, float)
     times = np.asarray(times, float)
@@ -209,9 +209,9 @@ def save(folder: Path, req: dict) -> dict:
     import yaml
 
     from ..commands import learn
-    from ..fileio import atomic_write_text
+    from ..core.fileio import atomic_write_text
     from ..language.transformer import usable_as_tag
-    from ..template import Segment, check_segments, load_template, save_template
+    from ..osila.template import Segment, check_segments, load_template, save_template
     from .security import inside
 
     name = str(req.get("name", "")).strip()
@@ -275,11 +275,11 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
     from .security import inside
 
     if kind == "template":
-        from ..template import load_template
+        from ..osila.template import load_template
 
         return template_json(load_template(inside(folder, name)))
     if kind == "csv":
-        from ..demofile import load_icps, read_demo_csv
+        from ..osila.demofile import load_icps, read_demo_csv
 
         file = inside(folder, name)
         path, times = read_demo_csv(file)

@@ -1,8 +1,8 @@
 """Imitate, live: the task scene's ICPs, ``via`` points and ``avoid`` discs as the person drags them,
-and OSILA's path through THE HILA step (:func:`hila_lang.hierarchy.hila_step`, the one every
+and OSILA's path through THE HILA step (:func:`hila_lang.hierarchy.step.hila_step`, the one every
 ``run`` state, ``hila imitate`` and ``hila eval`` use), with the reason for its map and plan
-adjustment in ``hila explain``'s words (:func:`hila_lang.explain.warp_reason`; the full account,
-:func:`hila_lang.explain.explain_run`, when the drag ends).  The evaluation's controls (bare TPS,
+adjustment in ``hila explain``'s words (:func:`hila_lang.hierarchy.explain.warp_reason`; the full account,
+:func:`hila_lang.hierarchy.explain.explain_run`, when the drag ends).  The evaluation's controls (bare TPS,
 similarity, aligned DMP: :func:`hila_lang.evaluation.controls.generator`) on the same pairs can
 be drawn beside it.
 """
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HilaError, InputError
+from ..core.errors import HilaError, InputError
 
 #: the controls drawn beside OSILA (names of hila_lang.evaluation.controls)
 CONTROLS = ("tps", "similarity", "dmp-aligned")
@@ -32,7 +32,7 @@ def _points(mapping, dim: int, what: str) -> dict[str, np.ndarray]:
 
 def scene_parts(template, req: dict):
     """(binding {ICP: point}, constraints) of a request ``{icps, via: [p], avoid: [{centre, radius}]}``."""
-    from ..hierarchy import Constraint
+    from ..hierarchy.step import Constraint
 
     dim = template.path.shape[1]
     icps = _points(req.get("icps"), dim, "ICP")
@@ -53,8 +53,8 @@ def scene_parts(template, req: dict):
 def imitate(template, req: dict) -> dict:
     """OSILA's path for the scene in ``req`` and why its map is what it is; the controls when
     ``req["controls"]``.  Returns ``{path, reason, server_ms, controls?}`` or ``{error}``."""
-    from ..explain import warp_reason
-    from ..hierarchy import hila_step
+    from ..hierarchy.explain import warp_reason
+    from ..hierarchy.step import hila_step
 
     t0 = time.perf_counter()
     icps, constraints = scene_parts(template, req)
@@ -96,8 +96,8 @@ def controls(template, icps: dict) -> dict:
 
 
 def explain(template, req: dict) -> list[str]:
-    """``hila explain``'s account of this step (:func:`hila_lang.explain.explain_run`)."""
-    from ..explain import explain_run
+    """``hila explain``'s account of this step (:func:`hila_lang.hierarchy.explain.explain_run`)."""
+    from ..hierarchy.explain import explain_run
 
     icps, constraints = scene_parts(template, req)
     return explain_run(template, icps, None, constraints, {})
@@ -154,7 +154,7 @@ def path_csv(path, times) -> str:
 
 
 def load(folder: Path, name: str):
-    from ..template import load_template
+    from ..osila.template import load_template
     from .security import inside
 
     return load_template(inside(folder, name))

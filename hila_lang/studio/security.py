@@ -18,7 +18,7 @@ from http.cookies import SimpleCookie
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from urllib.parse import parse_qs
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 #: largest request body accepted (an uploaded picture, CSV, recording or program), bytes.
 #: 20 MB: an A4 photograph from a phone (3-8 MB) or a long recording with eye images fits.

@@ -25,7 +25,7 @@ import json
 from importlib import resources
 from pathlib import Path
 
-from ..errors import HilaError, InputError
+from ..core.errors import HilaError, InputError
 from .security import MAX_UPLOAD, Guard, cookie_name, inside
 
 LISTED = (".yaml", ".hila", ".csv", ".hilarec", ".png", ".jpg", ".jpeg")
@@ -66,7 +66,7 @@ def make_app(folder: Path, token: str, port: int):
                     return problem(InputError(f"{exc.filename or ''}: {exc.strerror or exc}"), 400)
                 return problem(exc, 403 if str(getattr(exc, "message", exc)).startswith("refused") else 400)
             except Exception as exc:  # noqa: BLE001 - a bug in hila: said as such, the studio goes on
-                from ..errors import internal_error_message
+                from ..core.errors import internal_error_message
 
                 return JSONResponse({"error": internal_error_message(exc)}, status_code=500)
         return wrapped
@@ -125,7 +125,7 @@ def make_app(folder: Path, token: str, port: int):
 
     @guarded
     async def file(request: Request) -> Response:
-        from ..fileio import atomic_write_text, read_text
+        from ..core.fileio import atomic_write_text, read_text
 
         path = inside(folder, request.query_params.get("path", ""))
         if request.method == "PUT":
@@ -140,14 +140,14 @@ def make_app(folder: Path, token: str, port: int):
 
     @guarded
     async def raw(request: Request) -> Response:
-        from ..fileio import read_bytes
+        from ..core.fileio import read_bytes
 
         path = inside(folder, request.query_params.get("path", ""))
         return Response(read_bytes(path, "file"), media_type="application/octet-stream")
 
     @guarded
     async def upload(request: Request) -> Response:
-        from ..fileio import atomic_write_bytes
+        from ..core.fileio import atomic_write_bytes
 
         path = inside(folder, request.query_params.get("path", ""))
         data = await body(request)
@@ -241,7 +241,7 @@ def make_app(folder: Path, token: str, port: int):
                 except (HilaError, ValueError, OSError) as exc:
                     out = {"error": getattr(exc, "message", None) or str(exc)}
                 except Exception as exc:  # noqa: BLE001 - a bug: said on the page, the studio goes on
-                    from ..errors import internal_error_message
+                    from ..core.errors import internal_error_message
 
                     out = {"error": internal_error_message(exc)}
                 out["seq"] = doc.get("seq")
@@ -277,7 +277,7 @@ def make_app(folder: Path, token: str, port: int):
                             session = None
                         path = inside(folder, str(doc.get("path", "")))
                         if cmd == "start":
-                            from ..fileio import read_text
+                            from ..core.fileio import read_text
 
                             # an opponent only for a world that has one (the page offers it to every program)
                             known = (await run_in_threadpool(analyse, path, read_text(path, "program")))["settings"]
@@ -315,7 +315,7 @@ def make_app(folder: Path, token: str, port: int):
                 except (HilaError, ValueError, OSError) as exc:
                     emit({"type": "error", "text": getattr(exc, "message", None) or str(exc)})
                 except Exception as exc:  # noqa: BLE001 - a bug: said on the page, the studio goes on
-                    from ..errors import internal_error_message
+                    from ..core.errors import internal_error_message
 
                     emit({"type": "error", "text": internal_error_message(exc)})
         except WebSocketDisconnect:

@@ -21,7 +21,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from ..errors import HilaError
+from ..core.errors import HilaError
 
 
 class LineInput(io.TextIOBase):

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...motion import minimum_jerk
+from ...osila.motion import minimum_jerk
 from .shapes import ALPHABET, LETTERS
 
 #: samples per second
@@ -172,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
     import subprocess
     import sys
 
-    from ...fileio import atomic_write_text, dump_yaml
+    from ...core.fileio import atomic_write_text, dump_yaml
 
     def hila(argv: list[str]) -> int:  # the command line in a child process: no import runs up to cli
         return subprocess.run([sys.executable, "-m", "hila_lang", *argv]).returncode

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import InputError
+from ...core.errors import InputError
 from ...robot.workspace import PAPER_THICKNESS, TABLE_TOP_Z
 from ...sim.surface import Surface
 from .handwriting import BOX

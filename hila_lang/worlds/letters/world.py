@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HilaRuntimeError, UnknownNameError
-from ...fileio import OutputFolder
+from ...core.errors import HilaRuntimeError, UnknownNameError
+from ...core.fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import CONTACT_TOLERANCE, Scene
 from .layout import PAPER, layout

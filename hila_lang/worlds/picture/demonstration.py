@@ -68,7 +68,7 @@ def demonstrated_path(sheet) -> np.ndarray:
 
 def learn(path_out: str) -> None:
     from ...robot.backend import PyBulletBackend
-    from ...template import Segment, Template, save_template
+    from ...osila.template import Segment, Template, save_template
 
     with PyBulletBackend(S.mat()) as backend:
         seen, sheet, _, _ = demonstration_features(backend)

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HilaRuntimeError, InputError, UnknownNameError
-from ...fileio import OutputFolder
+from ...core.errors import HilaRuntimeError, InputError, UnknownNameError
+from ...core.fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from . import scenes as S

@@ -3,6 +3,9 @@
 See :mod:`hila_lang.worlds.scripted.world`.  Its questions, events and points are whatever the
 script names, so ``hila check --set script=FILE.yaml`` checks a program against the script
 (``declare``); without a script the world is empty.
+
+- ``world``  the world itself
+- ``demos``  seeded stand-in demonstrations behind ``primitives/abc.yaml`` and ``reach.yaml``
 """
 
 from ...plugins.registry import WorldInfo

@@ -11,7 +11,7 @@ Every ``notify`` is kept in :attr:`log` as ``(event, data)`` (the newest :data:`
 ``--set script=FILE.yaml`` loads a YAML mapping with the keys ``points``, ``answers``,
 ``events`` (and optionally ``home``: where the back end starts the hand, ``scene.home``); without
 a script the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
-A question or event the script does not name is an :class:`~hila_lang.errors.UnknownNameError`.
+A question or event the script does not name is an :class:`~hila_lang.core.errors.UnknownNameError`.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from ...bounded import BoundedLog
-from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...core.bounded import BoundedLog
+from ...core.errors import HilaRuntimeError, InputError, UnknownNameError
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 
@@ -103,7 +103,7 @@ def _point(value, what: str) -> np.ndarray:
 
 def load_script(path, stdout=None) -> ScriptedWorld:
     """A :class:`ScriptedWorld` from a YAML script file."""
-    from ...fileio import load_yaml
+    from ...core.fileio import load_yaml
 
     doc = load_yaml(path, "world script", unique_keys=True) or {}
     if not isinstance(doc, dict):

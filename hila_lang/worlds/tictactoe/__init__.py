@@ -7,6 +7,7 @@
 - :mod:`.vision` -- the robot reads the board through its eyes and decides when to look again;
 - :mod:`.player` -- the robot's side: what it saw and did, and what it decides from that;
 - :mod:`.referee` -- the game's record, the opponent's moves, the perturbations, the scores;
+- :mod:`.recording` -- the circle demonstration seen by the iCub's eyes: scene, recording, learning;
 - :mod:`.demonstration` -- the seeded human-like demonstration behind ``primitives/circle.yaml``;
 - :mod:`.world` -- the ``tictactoe`` world ``hila exec programs/game.hila`` runs in;
 - :mod:`.report` -- the output folder of a game.

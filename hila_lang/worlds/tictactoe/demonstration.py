@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...motion import minimum_jerk_samples
+from ...osila.motion import minimum_jerk_samples
 
 #: the four corners of the target cell, as ICP names
 CORNER_ICPS = ("tl", "tr", "br", "bl")
@@ -209,8 +209,8 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
         Named ``circle``, ICPs :data:`ICP_NAMES`, segments tagged :data:`TAGS` with contact on
         ``draw``, times in seconds, and a description saying how it was made.
     """
-    from ...segmentation import segment_template
-    from ...template import Template
+    from ...osila.segmentation import segment_template
+    from ...osila.template import Template
 
     demo = demonstrate(seed)
     description = (
@@ -239,8 +239,8 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m hila_lang.worlds.tictactoe.demonstration -o primitives/circle.yaml [--seed N]``."""
-    from ...errors import HilaError
-    from ...template import save_template
+    from ...core.errors import HilaError
+    from ...osila.template import save_template
 
     parser = argparse.ArgumentParser(
         prog="python -m hila_lang.worlds.tictactoe.demonstration",

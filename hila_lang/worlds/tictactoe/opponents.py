@@ -15,7 +15,7 @@ import random
 import sys
 from typing import Protocol, TextIO
 
-from ...errors import HilaRuntimeError, InputError
+from ...core.errors import HilaRuntimeError, InputError
 from .rules import CROSS, Board, best_moves, free_cells, render
 
 #: names accepted by ``--opponent``

@@ -28,7 +28,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ...errors import HilaRuntimeError
+from ...core.errors import HilaRuntimeError
 from . import rules as ttt
 from .board import Grid, cell_at, cell_corners, cell_number
 

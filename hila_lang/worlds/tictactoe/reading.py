@@ -30,7 +30,7 @@ threshold: ink amount for an empty cell, the circle fit's residual for a mark) a
 *occluded* (more than 20 % of it neither paper nor ink, e.g. the arm in
 front): the robot's looking (:mod:`.vision`) uses both to decide whether to look again.
 
-An image where no grid can be found raises :class:`~hila_lang.errors.InputError` saying why.
+An image where no grid can be found raises :class:`~hila_lang.core.errors.InputError` saying why.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...errors import InputError
+from ...core.errors import InputError
 from .board import cell_number
 
 #: size of a top-down pixel, metres

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError
-from ...segmentation import DEFAULT_METHOD
+from ...core.errors import InputError
+from ...osila.segmentation import DEFAULT_METHOD
 from ...sim.camera import STUDIO, Camera
 from .board import Grid, cell_center
 from .marks import cross_strokes

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HilaRuntimeError
+from ...core.errors import HilaRuntimeError
 from . import rules as ttt
 from .board import Grid, cell_at, cell_corners
 from .marks import cross_strokes, on_paper

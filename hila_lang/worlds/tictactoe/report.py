@@ -1,6 +1,6 @@
 """The output folder of a game: images, pen traces, the FSM and ``report.json``.
 
-Files (all written atomically through :mod:`hila_lang.fileio`):
+Files (all written atomically through :mod:`hila_lang.core.fileio`):
 
 - ``report.json``: seed, opponent, who started, the moves, the final board, the result, per-mark
   R of each drawn circle against the demonstrated one (after similarity alignment), how far each
@@ -144,8 +144,8 @@ FILES = ("eye.png", "fsm.dot", "paper.png", "report.json", "top.png", "traces.cs
 
 def output_folder(out: Path | str | None, seed: int):
     """``out`` as given, or a fresh ``runs/game-<UTC time>-seed<N>[-k]`` folder: an
-    :class:`~hila_lang.fileio.OutputFolder`, created and proved writable."""
-    from ...fileio import OutputFolder
+    :class:`~hila_lang.core.fileio.OutputFolder`, created and proved writable."""
+    from ...core.fileio import OutputFolder
 
     return OutputFolder(out, f"game-{{time}}-seed{seed}", owned=FILES)
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from functools import lru_cache
 from typing import Sequence
 
-from ...errors import InputError
+from ...core.errors import InputError
 
 EMPTY, CIRCLE, CROSS = "", "O", "X"
 #: the three-in-a-row lines, as 0-based indices

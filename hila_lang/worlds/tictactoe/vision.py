@@ -30,7 +30,7 @@ mean of those images' corners.  After going aside the pen comes back to ``lift``
 program's next reach starts where it would have.  When the last view still leaves a doubt the
 robot plays on what it saw (the game goes on from its own reading) and the sighting lists the
 cells it was unsure of; no view finding the grid at all is a
-:class:`~hila_lang.errors.HilaRuntimeError`.
+:class:`~hila_lang.core.errors.HilaRuntimeError`.
 
 The table.  The paper's plane is not given: the robot starts from a rough prior (a table a
 little below its waist, :data:`TABLE_PRIOR_BELOW_ROOT`), reads both eyes' images on it, and
@@ -49,7 +49,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ...errors import HilaRuntimeError, InputError
+from ...core.errors import HilaRuntimeError, InputError
 from .board import CORNER_NAMES, cell_number
 
 #: the views tried in order while in doubt: (name, eye, where the arm is -- None: where the views
@@ -379,7 +379,7 @@ def _move_arm(hand, target: np.ndarray, *, straight_up: bool) -> bool:
     """Move the pen to ``target`` (3,); ``straight_up``: only up to its height, and only when
     the pen is more than :data:`LIFT_TOLERANCE` lower.  True when the arm moved; False when it
     did not need to, or could not (the place is out of reach: that view is skipped)."""
-    from ...errors import UnreachableError
+    from ...core.errors import UnreachableError
 
     here = np.asarray(hand.position(), dtype=float)
     if straight_up:

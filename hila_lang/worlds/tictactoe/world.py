@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import HilaRuntimeError, InputError, UnknownNameError
+from ...core.errors import HilaRuntimeError, InputError, UnknownNameError
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from . import rules as ttt

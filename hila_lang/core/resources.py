@@ -34,7 +34,7 @@ def shipped(kind: str) -> Path | None:
         folders = list(getattr(importlib.import_module(f"hila_lang.{kind}"), "__path__", []))
     except ModuleNotFoundError:
         folders = []
-    folders.append(Path(__file__).resolve().parent.parent / SHIPPED[kind])  # running from the checkout
+    folders.append(Path(__file__).resolve().parents[2] / SHIPPED[kind])  # the checkout: hila_lang/core/ is 2 down
     return next((Path(f) for f in folders if Path(f).is_dir()), None)
 
 

@@ -1,6 +1,6 @@
 """What one HILA step did, in words: ``hila explain`` and the REPL's ``explain``.
 
-For a run state (a :class:`hila_lang.hierarchy.Step`) :func:`explain_step` lists
+For a run state (a :class:`hila_lang.hierarchy.step.Step`) :func:`explain_step` lists
 
 - the ICP pairs the warp was fitted on (template point -> task point, by name), saying which
   pairs merged because their template points coincide (the later binding wins);
@@ -17,31 +17,13 @@ from __future__ import annotations
 import numpy as np
 
 
-
 def _fmt(p) -> str:
     return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
 
 
-def _coincide(template, names: list[str]) -> list[list[str]]:
-    """Groups (>= 2) of bound ICP names whose template points coincide (OSILA merges them)."""
-    from .osila.tps import MERGE_TOL
-
-    pts = np.array([template.icps[k] for k in names], dtype=float)
-    extent = float(np.ptp(pts, axis=0).max()) if len(pts) > 1 else 0.0
-    groups: list[list[str]] = []
-    for name, p in zip(names, pts):
-        for g in groups:
-            if np.linalg.norm(template.icps[g[0]] - p) <= MERGE_TOL * max(extent, 1e-300):
-                g.append(name)
-                break
-        else:
-            groups.append([name])
-    return [g for g in groups if len(g) > 1]
-
-
 def warp_reason(warp, dim: int) -> str:
     """Why OSILA's map is what it is (``warp.kind``), from the pairs it kept."""
-    from .osila.tps import affine_rank
+    from ..osila.tps import affine_rank
 
     kept = len(warp.src)
     if warp.kind == "tps":
@@ -79,7 +61,7 @@ def pairs_line(pairs, names: list[str]) -> str:
 
 def _threshold_origin(options: dict) -> str:
     """Where OSILA's threshold came from: the setting, or its default rule (:mod:`.osila.noise`)."""
-    from .osila.noise import NOISE_MULTIPLE
+    from ..osila.noise import NOISE_MULTIPLE
 
     if options.get("threshold") is not None:
         return "(as set: osila.threshold)"
@@ -90,11 +72,11 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
                 title: str = "") -> list[str]:
     """Lines explaining the HILA step of ``template`` with ``binding`` (ICP name -> point or None),
     ``hand``, ``constraints``, OSILA ``options`` and the drawing ``surface`` a 2-D template runs
-    on, as :func:`hila_lang.hierarchy.hila_step` runs it (deterministic: the same as the run it
+    on, as :func:`hila_lang.hierarchy.step.hila_step` runs it (deterministic: the same as the run it
     explains).  A step whose constraints cannot be met is explained up to its last round, then
     OSILA's error."""
-    from .errors import ConstraintError
-    from .hierarchy import bind, hila_step, name_constraints, surface_points, three_d, violations
+    from ..core.errors import ConstraintError
+    from .step import bind, hila_step, name_constraints, surface_points, three_d, violations
 
     options = dict(options or {})
     forced = [c for c in constraints if c.radius is None]
@@ -114,13 +96,13 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
     else:
         icps = bind(template, binding, hand)
     lines = [f"{title}: {template.name}" if title else template.name]
-    from .recognition.written import library_parts  # issue 26: which library parts this run used
+    from ..recognition.written import library_parts  # issue 26: which library parts this run used
 
     lines += [f"  library part: {part}" for part in library_parts(template)]
     lines.append(f"  ICP pairs (template -> task), {len(icps)}:")
-    for k, q in icps.items():
-        lines.append(f"    {k:<12} {_fmt(template.icps[k])} -> {_fmt(q)}")
-    for group in _coincide(template, list(icps)):
+    for k, p, q in zip(icps.names, icps.src, icps.dst):
+        lines.append(f"    {k:<12} {_fmt(p)} -> {_fmt(q)}")
+    for group in icps.groups():
         lines.append(f"    {', '.join(group)} coincide in the template: one pair, {group[-1]}'s, is kept")
     try:
         step = hila_step(template, binding, hand, constraints=constraints, surface=surface, **options)
@@ -159,6 +141,6 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
 
 
 def explain_step(template, step, *, title: str = "") -> list[str]:
-    """:func:`explain_run` of a step that ran (a :class:`~hila_lang.hierarchy.Step`)."""
+    """:func:`explain_run` of a step that ran (a :class:`~hila_lang.hierarchy.step.Step`)."""
     binding = {k: step.icps.get(k) for k in template.icps}
     return explain_run(template, binding, None, step.constraints, step.options, title=title)

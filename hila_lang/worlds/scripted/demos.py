@@ -7,7 +7,7 @@ from this motion model, in the world frame (metres, z up, table top z = 0.57, 20
   acceleration at each via point) through via points that lift over the table in an arc;
 - a seeded tremor (0.3 mm, low-pass) and a seeded wobble of each arc's height (±20 %) are added,
   so the path is not a clean parametric curve;
-- the recording is segmented with :func:`hila_lang.segmentation.segment_template`, method
+- the recording is segmented with :func:`hila_lang.osila.segmentation.segment_template`, method
   ``"equal"``: the legs last equally long, so equal-N cuts fall on the touches.  (k-means on
   these minimum-jerk recordings cut mid-leg — e.g. at 19 and 51 of 89 samples for abc — because
   the slow ends of each leg dominate the clusters; the tic-tac-toe demonstration uses k-means.)
@@ -17,7 +17,7 @@ from this motion model, in the world frame (metres, z up, table top z = 0.57, 20
 ``reach``: "move the arm to an object and back": from ``home`` to touch ``object`` and back to
 ``home``; k = 2, tags reach, back.
 
-Regenerate with ``python -m hila_lang.language.demos [--seed N] [--out primitives]``.
+Regenerate with ``python -m hila_lang.worlds.scripted.demos [--seed N] [--out primitives]``.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..motion import minimum_jerk_samples
+from ...osila.motion import minimum_jerk_samples
 
 RATE = 20.0  # samples per second
 TABLE_Z = 0.57
@@ -64,13 +64,13 @@ def movement(points, seconds, lifts, rng: np.random.Generator) -> tuple[np.ndarr
 
 
 def _demonstration(name: str, path: np.ndarray, icps: dict, seed: int, what: str, tags: list[str]):
-    """A 20 Hz recording as a :class:`~hila_lang.template.Template`, segmented equal-N into ``tags``."""
-    from ..segmentation import segment_template
-    from ..template import Template
+    """A 20 Hz recording as a :class:`~hila_lang.osila.template.Template`, segmented equal-N into ``tags``."""
+    from ...osila.segmentation import segment_template
+    from ...osila.template import Template
 
     t = Template(name, path, icps, times=np.arange(len(path)) / RATE, description=(
-        f"Stand-in demonstration made by hila_lang.language.demos (seed {seed}; python -m "
-        f"hila_lang.language.demos): {what}"))
+        f"Stand-in demonstration made by hila_lang.worlds.scripted.demos (seed {seed}; python -m "
+        f"hila_lang.worlds.scripted.demos): {what}"))
     return segment_template(t, len(tags), tags, method="equal")
 
 
@@ -105,7 +105,7 @@ def make_reach(seed: int = 0):
 
 
 def main(argv: list[str] | None = None) -> int:
-    from ..template import save_template
+    from ...osila.template import save_template
 
     ap = argparse.ArgumentParser(description="Write primitives/abc.yaml and primitives/reach.yaml.")
     ap.add_argument("--seed", type=int, default=0)

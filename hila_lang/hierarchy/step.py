@@ -1,27 +1,10 @@
-"""Hierarchical generation (HILA): THE HILA step, and sequences of steps stitched together.
+"""THE HILA step: bind a (sub-)template to scene points and the hand (:func:`bind`), run OSILA,
+begin exactly at the hand (:func:`hila_step`).
 
-:func:`hila_step` is the one step: bind a (sub-)template to scene points and the hand
-(:func:`bind`), run OSILA, begin exactly at the hand.  The interpreter runs every ``run`` state
-through it; :func:`generate` (``hila imitate``, ``hila eval --hila``) runs every step of a
-sequence through it, so the same step makes the same path in every command.
-
-A new task is a sequence of stored templates and sub-templates (a hierarchy is flattened into
-its sequence of leaves first, e.g. by the language's FSM).  :func:`generate` runs OSILA on each
-step in turn:
-
-- the step's template ICPs are bound by name to the task ICPs (one mapping for all steps, or one
-  mapping per step); every scene ICP of the template must be bound — a missing name is an
-  :class:`~hila_lang.errors.InputError` that lists what the template has and the task gives;
-- the boundary ICPs a sub-template carries (``"start"``, ``"end"``, see
-  :meth:`Template.sub <hila_lang.template.Template.sub>`) are bound when known: ``"start"`` to
-  where the hand is (``start`` for the first step, the previous step's last point after that)
-  and pinned there exactly; ``"end"`` only when the task mapping gives ``"end"``; unbound
-  boundary ICPs are dropped;
-- the pieces are stitched into one path; a piece's first point, equal to the previous piece's
-  last one, is not repeated.
-
-The paper's example: demonstrate A-B-C once, segment it, then
-``generate(resolve({"demo": t}, ["C", "B", "A", "A", "C"]), t.icps)`` — no new demonstration.
+The interpreter runs every ``run`` state through it; :func:`hila_lang.hierarchy.generate.generate`
+(``hila imitate``, ``hila eval --hila``) runs every step of a sequence through it, so the same step
+makes the same path in every command.  Also here: named constraints (:class:`Constraint`), a
+surface's points, and the reasons a step is blocked.
 """
 
 from __future__ import annotations
@@ -32,92 +15,10 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .errors import InputError
-from .template import END, START, Template
-from .validation import check_points
-
-
-@dataclass
-class Piece:
-    """One generated step inside the stitched path.
-
-    Attributes
-    ----------
-    tag : str
-        The step's segment tag (or template name when unsegmented).
-    template : str
-        Name of the template imitated.
-    start, stop : int
-        Index range ``[start, stop)`` of this piece in the stitched path.
-    contact : bool
-        The step touches the surface (copied from the template's segment).
-    warp : str
-        Warp kind used (``"tps"``, ``"similarity"``, ``"translation"``).
-    threshold : float
-        Distortion threshold used (task units).
-    rounds : int
-        Plan-adjustment rounds run.
-    added : int
-        Constraint pairs added by plan adjustment.
-    """
-
-    tag: str
-    template: str
-    start: int
-    stop: int
-    contact: bool
-    warp: str
-    threshold: float = 0.0
-    rounds: int = 1
-    added: int = 0
-
-
-@dataclass
-class Generated:
-    """A stitched multi-step path.
-
-    Attributes
-    ----------
-    path : ndarray, shape (N, D)
-    pieces : list[Piece]
-        In order, contiguous, covering the path.
-    times : ndarray, shape (N,), optional
-        Seconds from the first point, when every step's template has times.
-    """
-
-    path: np.ndarray
-    pieces: list[Piece] = field(default_factory=list)
-    times: np.ndarray | None = None
-
-    def tags(self) -> list[str]:
-        """Tags of the pieces in order."""
-        return [p.tag for p in self.pieces]
-
-
-def resolve(library: Mapping[str, Template], names: Sequence[str]) -> list[Template]:
-    """Turn step names into templates.
-
-    A name is ``"TEMPLATE.TAG"`` (a sub-template), ``"TAG"`` (a sub-template whose tag is unique
-    across the library) or ``"TEMPLATE"`` (a whole template).  Unknown or ambiguous names raise
-    :class:`InputError` listing the choices.
-    """
-    out = []
-    choices = sorted([*library, *(f"{n}.{tag}" for n, t in library.items() for tag in t.tags())])
-    for name in names:
-        tpl, dot, tag = name.rpartition(".")
-        if dot and tpl in library and tag in library[tpl].tags():
-            out.append(library[tpl].sub(tag))
-            continue
-        owners = [n for n, t in library.items() if name in t.tags()]
-        if len(owners) == 1:
-            out.append(library[owners[0]].sub(name))
-        elif len(owners) > 1:
-            raise InputError(f"step {name!r} is ambiguous: tag of {', '.join(owners)}; write TEMPLATE.{name}")
-        elif name in library:
-            out.append(library[name])
-        else:
-            raise InputError(f"unknown step {name!r}; expected one of: {', '.join(choices)}")
-    return out
+from ..core.errors import InputError
+from ..core.validation import check_points
+from ..osila.pairs import Pairs
+from ..osila.template import END, START, Template
 
 
 @dataclass(frozen=True)
@@ -201,8 +102,9 @@ class Step:
     ----------
     path : ndarray, shape (T, D)
         The generated path; it begins exactly at the hand when ``"start"`` was bound.
-    icps : dict[str, ndarray]
-        The task ICPs used, name -> point (D,), in the template's ICP order.
+    icps : Pairs
+        The ICP pairs used (:class:`hila_lang.osila.Pairs`): a mapping name -> task point (D,),
+        in the template's ICP order, with the template points OSILA paired them with.
     start_bound : bool
         Whether the template's ``"start"`` ICP was bound (to the hand, or by the caller).
     result : OsilaResult
@@ -214,7 +116,7 @@ class Step:
     """
 
     path: np.ndarray
-    icps: dict[str, np.ndarray]
+    icps: Pairs
     start_bound: bool
     result: Any
     constraints: tuple = ()
@@ -230,8 +132,9 @@ def _fmt(p) -> str:
     return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
 
 
-def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> dict[str, np.ndarray]:
-    """Task ICPs of one step: name -> point (D,), in the template's ICP order.
+def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> Pairs:
+    """The ICP pairs of one step (:class:`hila_lang.osila.Pairs`, name -> task point (D,)), in the
+    template's ICP order: the one place a template's ICPs take the shape OSILA takes.
 
     ``task_icps`` maps ICP names to points; a value of None leaves that ICP out on purpose, and
     every scene ICP of the template must be named.  ``"start"`` is ``task_icps["start"]`` when
@@ -243,8 +146,8 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
     if missing:
         raise InputError(f"task gives no ICP {missing[0]!r}; template has {', '.join(template.icps)}; "
                          f"task gives {', '.join(task_icps) or 'none'}")
-    out: dict[str, np.ndarray] = {}
-    for name in template.icps:
+    names, src, dst = [], [], []
+    for name, at in template.icps.items():
         point = hand if name == START and START not in task_icps else task_icps.get(name)
         if point is None:
             continue
@@ -252,11 +155,13 @@ def bind(template: Template, task_icps: Mapping[str, Any], hand: Any = None) -> 
         if arr.shape != (D,):
             raise InputError(f"template '{template.name}' is {D}-D but ICP '{name}' is bound to the "
                              f"{arr.size}-D point {_fmt(arr)}")
-        out[name] = check_points(arr, D, f"ICP {name!r}")[0]
-    if not out:
+        names.append(name)
+        src.append(at)
+        dst.append(check_points(arr, D, f"ICP {name!r}")[0])
+    if not names:
         raise InputError(f"no ICP of '{template.name}' is bound; bind at least one "
                          f"(it has {', '.join(template.icps) or 'none'})")
-    return out
+    return Pairs(tuple(names), np.array(src, dtype=float), np.array(dst, dtype=float))
 
 
 def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None, *, forced: Any = None,
@@ -278,7 +183,7 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     any other pair is an :class:`InputError` naming both (:func:`check_coincident`); a binding is
     never dropped in silence.  When OSILA cannot avoid an
     obstacle because it covers a bound ICP the path passes through, the
-    :class:`~hila_lang.errors.ConstraintError` says so (:func:`explain_blocked`).
+    :class:`~hila_lang.core.errors.ConstraintError` says so (:func:`explain_blocked`).
 
     A 2-D template on a 3-D scene runs on ``surface`` (a drawing surface: ``to_local`` and
     ``to_world``, e.g. :class:`hila_lang.sim.surface.Surface`): the bound points and the hand are
@@ -298,7 +203,7 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     constraints : sequence of Constraint
         Named forced waypoints and obstacles (a program's ``via`` and ``avoid``), given to OSILA's
         plan adjustment before ``forced`` and ``obstacles``.  When they cannot be met, the
-        :class:`~hila_lang.errors.ConstraintError` names them as the user wrote them.
+        :class:`~hila_lang.core.errors.ConstraintError` names them as the user wrote them.
     surface : drawing surface, optional
         Where a 2-D template runs when the scene is 3-D.
 
@@ -306,7 +211,7 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     -------
     Step
     """
-    from .errors import ConstraintError
+    from ..core.errors import ConstraintError
 
     named_forced = [c for c in constraints if c.radius is None]
     named_obstacles = [c for c in constraints if c.radius is not None]
@@ -332,23 +237,17 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
 def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: Any, obstacles: Any,
           options: dict) -> Step:
     """Bind, then OSILA with the bound start and end pinned (the plain step of :func:`hila_step`)."""
-    from .errors import ConstraintError
-    from .osila import imitate_detailed
+    from ..core.errors import ConstraintError
+    from ..osila import imitate_detailed
 
-    icps = bind(template, task_icps, hand)
-    notes = check_coincident(template, icps, task_icps, options.get("threshold"))
-    names = list(icps)
-    src = np.array([template.icps[k] for k in names], dtype=float)
-    dst = np.array([icps[k] for k in names], dtype=float)
+    icps, notes = check_coincident(template, bind(template, task_icps, hand), task_icps, options.get("threshold"))
     options = dict(options)
-    ends = {i: icps[name] for i, name in ((0, START), (-1, END)) if name in icps}
-    if ends:
-        options.setdefault("pin", ends)
+    if icps.pins():
+        options.setdefault("pin", icps.pins())
     try:
-        res = imitate_detailed(template.path, src, dst, forced=forced, obstacles=obstacles, **options)
+        res = imitate_detailed(template.path, icps.src, icps.dst, forced=forced, obstacles=obstacles, **options)
     except ConstraintError as exc:
-        exc.message = re.sub(r"\bICP (\d+)\b", lambda m: f"ICP '{names[int(m.group(1))]}'"
-                             if int(m.group(1)) < len(names) else m.group(0), exc.message)  # OSILA's rows by name
+        exc.message = icps.renamed(exc.message)  # OSILA's rows by name
         exc.args = (exc.message,)
         raise explain_blocked(exc, template, icps, obstacles, options) from None
     given = {k: v for k, v in options.items() if k != "pin"}
@@ -394,9 +293,9 @@ def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surf
     flat_forced = None if forced is None else np.array([local(f) for f in np.asarray(forced, float).reshape(-1, 3)])
     flat_obstacles = None
     if obstacles is not None:
-        from .osila import _obstacles  # the one reader of obstacle specs (3-D here)
+        from ..osila import obstacle_spheres  # the one reader of obstacle specs (3-D here)
 
-        spheres = _obstacles(obstacles, 3)
+        spheres = obstacle_spheres(obstacles, 3)
         flat_obstacles = np.column_stack([np.array([local(c) for c in spheres[:, :3]]).reshape(-1, 2),
                                           spheres[:, 3]])
     step = _step(template, flat, None if hand is None else local(hand), flat_forced, flat_obstacles, options)
@@ -405,71 +304,56 @@ def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surf
         points = np.asarray(points, dtype=float)
         return np.asarray(surface.to_world(points[..., 0], points[..., 1]), dtype=float)
 
-    return replace(step, path=lift(step.path), icps={k: lift(v) for k, v in step.icps.items()})
+    return replace(step, path=lift(step.path), icps=step.icps.mapped(lift))
 
 
-def check_coincident(template: Template, icps: dict[str, np.ndarray], given: Mapping[str, Any],
-                     threshold: float | None = None) -> list[str]:
-    """ICPs that are one point of the template but bound to different task points.
+def check_coincident(template: Template, icps: Pairs, given: Mapping[str, Any],
+                     threshold: float | None = None) -> tuple[Pairs, list[str]]:
+    """ICPs that are one point of the template but bound to different task points
+    (:meth:`Pairs.coincident <hila_lang.osila.pairs.Pairs.coincident>`), and what becomes of them.
 
-    OSILA keeps one pair per template point (:func:`hila_lang.osila.tps.merge_pairs`), so one of
-    the bindings would be dropped and the path would ignore it -- never in silence here:
+    OSILA keeps one pair per template point, so one of the bindings would be dropped and the path
+    would ignore it -- never in silence here:
 
     - ``start`` bound to the hand by default wins (a step begins where the hand is): the other
-      ICP is taken out of ``icps`` and a note says so (returned, for the trace);
+      ICP is taken out of the pairs returned and a note says so (returned, for the trace);
     - any other pair (both bound by the caller) is an :class:`InputError` naming both.
 
-    Points closer than the distortion threshold (given, else :data:`~hila_lang.osila.adjust.ON_PATH`
-    = 1 % of the template path's size) are one point for the route anyway and pass.  ``given``: what the
-    caller bound by name (a ``start`` missing from it is the hand).
+    Points closer than the distortion threshold (given, else 1 % of the template path's size)
+    are one point for the route anyway and pass.  ``given``: what the caller bound by name (a
+    ``start`` missing from it is the hand).
     """
-    from .osila.adjust import ON_PATH
-    from .osila.tps import MERGE_TOL
-
-    names = list(icps)
     notes: list[str] = []
-    if len(names) < 2:
-        return notes
-    src = np.array([template.icps[k] for k in names], dtype=float)
-    same = MERGE_TOL * float(np.ptp(src, axis=0).max())
-    tol = threshold if threshold else ON_PATH * float(np.linalg.norm(np.ptp(template.path, axis=0)))
     hand_start = START in icps and START not in given
-    for i in range(len(names)):
-        for j in range(i + 1, len(names)):
-            a, b = names[i], names[j]
-            if a not in icps or b not in icps or np.linalg.norm(src[i] - src[j]) > same:
-                continue
-            gap = float(np.linalg.norm(icps[a] - icps[b]))
-            if gap <= tol:
-                continue
-            if hand_start and START in (a, b):
-                other = b if a == START else a
-                notes.append(f"'{other}' is where '{template.name}' starts in the demonstration; the step starts "
-                             f"where the hand is, {gap:.3g} from {other} = {_fmt(icps[other])}, so that binding is "
-                             f"not used (bind {other} = none to say so)")
-                del icps[other]
-                continue
-            raise InputError(
-                f"ICPs '{a}' and '{b}' of '{template.name}' are one point in the demonstration but are bound "
-                f"{gap:.3g} apart: {a} = {_fmt(icps[a])}, {b} = {_fmt(icps[b])}; the warp maps one point to one "
-                "place only", hint=f"bind one of them to none (e.g. {b} = none), or both to the same point")
-    return notes
+    for a, b, gap in icps.coincident(template.path, threshold):
+        if a not in icps or b not in icps:
+            continue
+        if hand_start and START in (a, b):
+            other = b if a == START else a
+            notes.append(f"'{other}' is where '{template.name}' starts in the demonstration; the step starts "
+                         f"where the hand is, {gap:.3g} from {other} = {_fmt(icps[other])}, so that binding is "
+                         f"not used (bind {other} = none to say so)")
+            icps = icps.without(other)
+            continue
+        raise InputError(
+            f"ICPs '{a}' and '{b}' of '{template.name}' are one point in the demonstration but are bound "
+            f"{gap:.3g} apart: {a} = {_fmt(icps[a])}, {b} = {_fmt(icps[b])}; the warp maps one point to one "
+            "place only", hint=f"bind one of them to none (e.g. {b} = none), or both to the same point")
+    return icps, notes
 
 
-def explain_blocked(exc, template: Template, icps: Mapping[str, np.ndarray], obstacles: Any, options) -> Exception:
+def explain_blocked(exc, template: Template, icps: Pairs, obstacles: Any, options) -> Exception:
     """``exc`` (OSILA's ConstraintError) with what can help when an obstacle covers an ICP the
     path passes through (its start, a touched object): no threshold or number of rounds gets
     the route out, the obstacle or the binding has to change."""
-    from .errors import ConstraintError
-    from .osila import _obstacles
-    from .osila.adjust import on_path
+    from ..core.errors import ConstraintError
+    from ..osila import obstacle_spheres
 
     if obstacles is None or not len(icps):
         return exc
-    spheres = _obstacles(obstacles, template.dim)
+    spheres = obstacle_spheres(obstacles, template.dim)
     margin = float(options.get("margin") or 0.0)
-    names = list(icps)
-    through = {names[k] for k in on_path(template.path, np.array([template.icps[n] for n in names], dtype=float))}
+    through = icps.through(template.path)
     covered = []
     for name, point in icps.items():
         for o, sphere in enumerate(spheres):
@@ -496,93 +380,3 @@ def _named(constraints: list, given: Any, what: str, template: Template, dim: in
                              f"{point.size}-D point {_fmt(point)}")
         rows.append(point if c.radius is None else np.append(point, c.radius))
     return np.array(rows, dtype=float)
-
-
-
-def _extent(path: np.ndarray) -> float:
-    """Bounding-box diagonal of ``path`` (at least 1, so a point-like path keeps a tolerance)."""
-    return max(float(np.linalg.norm(np.ptp(path, axis=0))), 1.0)
-
-
-def generate(
-    steps: Sequence[Template],
-    task_icps: Mapping[str, Any] | Sequence[Mapping[str, Any]],
-    *,
-    start: Any = None,
-    forced: Mapping[int, Any] | None = None,
-    obstacles: Any = None,
-    **options: Any,
-) -> Generated:
-    """Imitate each step against the task ICPs and stitch the pieces (see the module docstring).
-
-    Parameters
-    ----------
-    steps : sequence of Template
-        Usually sub-templates (``Template.sub``); see :func:`resolve`.
-    task_icps : mapping name -> (D,), or one such mapping per step
-        Task-scene ICPs (metres); ``"end"`` binds a step's end point.
-    start : array_like, shape (D,), optional
-        Where the hand is before the first step (binds its ``"start"`` ICP).
-    forced : mapping step index -> (F, D), optional
-        Forced waypoints per step.
-    obstacles : optional
-        Spheres applied to every step (as in :func:`hila_lang.osila.imitate`).
-    **options
-        Passed to :func:`hila_lang.osila.imitate` for every step.
-
-    Returns
-    -------
-    Generated
-    """
-    if not steps:
-        raise InputError("expected at least one step, got an empty sequence")
-    if isinstance(task_icps, Mapping):
-        tasks = [task_icps] * len(steps)
-    else:
-        tasks = list(task_icps)
-        if len(tasks) != len(steps):
-            raise InputError(f"expected one task ICP mapping per step ({len(steps)}), got {len(tasks)}")
-    D = steps[0].dim
-    if any(s.dim != D for s in steps):
-        raise InputError(f"expected every step in D = {D}, got {[s.dim for s in steps]}")
-    hand = None if start is None else check_points(start, D, "start")[0]
-    forced = forced or {}
-    options = {k: v for k, v in options.items() if k != "pin"}  # the step pins a bound start itself
-    parts: list[np.ndarray] = []
-    pieces: list[Piece] = []
-    clocks: list[np.ndarray] | None = [] if all(s.times is not None for s in steps) else None
-    clock = 0.0
-    for i, (step, task) in enumerate(zip(steps, tasks)):
-        if hand is not None:  # the hand, once known, binds "start" (a task's own "start" does not)
-            task = {k: v for k, v in task.items() if k != START}
-        try:
-            done = hila_step(step, task, hand, forced=forced.get(i), obstacles=obstacles, **options)
-        except InputError as exc:
-            exc.message = f"step {i} ({step.name}): {exc.message}"
-            exc.args = (exc.message,)
-            raise
-        res, pinned = done.result, done.start_bound
-        piece, skip = done.path, 0
-        # A pinned start is the hand, i.e. the previous piece's last point: keep that joint once.
-        # (The warp meets it only to rounding, or to the merge of coincident ICPs.)
-        if parts and (pinned or np.allclose(piece[0], parts[-1][-1], rtol=0, atol=1e-9 * _extent(piece))):
-            piece, skip = piece[1:], 1
-        if clocks is not None:
-            rel = step.times - step.times[0]
-            if parts and not skip:  # no shared joint point: one sampling step between pieces
-                rel = rel + (float(np.median(np.diff(step.times))) if len(rel) > 1 else 0.0)
-            rel = rel[skip:] + clock
-            clocks.append(rel)
-            clock = float(rel[-1]) if len(rel) else clock
-        seg = step.segments[0] if len(step.segments) == 1 else None
-        tag = seg.tag if seg is not None else step.name
-        start_idx = sum(len(p) for p in parts)
-        pieces.append(
-            Piece(tag, step.name, start_idx, start_idx + len(piece), bool(seg and seg.contact), res.warp.kind,
-                  res.threshold, res.rounds, len(res.added))
-        )
-        parts.append(piece)
-        hand = done.path[-1]
-    path = np.vstack(parts)
-    times = None if clocks is None else np.concatenate(clocks)
-    return Generated(path, pieces, times)

@@ -2,7 +2,7 @@
 
 The stand-in demonstrations (tic-tac-toe in :mod:`hila_lang.worlds.tictactoe.demonstration`, Experiment A in
 :mod:`hila_lang.evaluation.dataset`, the A-B-C and reach templates in
-:mod:`hila_lang.language.demos`) move along their curves with a human arm's speed profile.
+:mod:`hila_lang.worlds.scripted.demos`) move along their curves with a human arm's speed profile.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ File format (``primitives/NAME.yaml``), meant to be read and edited by hand::
 Move a segment boundary or rename a tag and the next run uses it.  Floats are written with
 ``repr`` precision, so a save/load round trip is lossless.  Unknown fields, duplicate keys (e.g.
 two ICPs of the same name), ragged rows, overlapping or gapped segments raise
-:class:`~hila_lang.errors.InputError` naming the file and the field.
+:class:`~hila_lang.core.errors.InputError` naming the file and the field.
 """
 
 from __future__ import annotations
@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError
-from .validation import check_path
+from ..core.errors import InputError
+from ..core.validation import check_path
 
 SCHEMA_VERSION = 1
 _FIELDS = ("hila_template", "name", "description", "units", "icps", "segments", "times", "path")
@@ -104,7 +104,7 @@ class Template:
         Length unit of ``path`` and ``icps``.
 
     Construction validates and converts (lists become float arrays); a problem raises
-    :class:`~hila_lang.errors.InputError` naming the field.
+    :class:`~hila_lang.core.errors.InputError` naming the field.
     """
 
     name: str
@@ -336,7 +336,7 @@ def load_template(path: str | os.PathLike) -> Template:
         Naming the file (and line/column for YAML errors) and the offending field: a missing or
         non-YAML file, duplicate keys, unknown fields, wrong shapes, bad segments.
     """
-    from .fileio import load_yaml
+    from ..core.fileio import load_yaml
 
     doc = load_yaml(path, "template", unique_keys=True)
     return template_from_dict(doc, str(path))
@@ -344,7 +344,7 @@ def load_template(path: str | os.PathLike) -> Template:
 
 def save_template(template: Template, path: str | os.PathLike) -> Path:
     """Write ``template`` as human-readable YAML, atomically; returns the path written."""
-    from .fileio import dump_yaml
+    from ..core.fileio import dump_yaml
 
     _validate(template)
     header = (

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .fileio import load_yaml, read_text
+from ..core.errors import InputError
+from ..core.fileio import load_yaml, read_text
 from .template import MAX_COORDINATE, check_coordinates
 
 def read_demo_csv(path: str | Path):

@@ -35,9 +35,9 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from .errors import InputError
+from ..core.errors import InputError
 from .template import Segment, Template
-from .validation import check_int, check_path
+from ..core.validation import check_int, check_path
 
 METHODS = ("speed", "kmeans", "changepoint", "equal")
 #: the default segmenter, chosen by ``bench/segmentation.py`` (see the module docstring)
@@ -46,7 +46,7 @@ DEFAULT_METHOD = "speed"
 
 def describe(method: str, k: int) -> str:
     """How a template was segmented, one sentence for its description."""
-    how = {"speed": "at the deepest dips in speed (hila_lang.segmentation.speed_segments)",
+    how = {"speed": "at the deepest dips in speed (hila_lang.osila.segmentation.speed_segments)",
            "kmeans": "by k-means", "changepoint": "by change points of the velocity (ruptures)",
            "equal": "into equal lengths"}[method]
     return f"Segmented {how} (k = {k})."
