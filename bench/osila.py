@@ -74,7 +74,7 @@ def floor_fn(path: np.ndarray, src: np.ndarray, dst: np.ndarray):
     """The cheapest exact TPS fit + evaluation in numpy (one symmetric solve, one T x K kernel)."""
     from scipy.linalg import solve
 
-    from hila_lang.osila.tps import _dist, kernel
+    from hila_lang.osila.tps import _dist_numpy as _dist, kernel
 
     def run():
         K, D = src.shape
