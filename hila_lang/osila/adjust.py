@@ -324,7 +324,8 @@ def adjust(
                 raise ConstraintError("contradictory constraints: " + "; ".join(bad))
             offsets = ball_offsets(D, threshold, shells, directions)
             # (only an obstacle repair uses it)
-            clearance = max(threshold, CLEARANCE * float(np.linalg.norm(span(mapped)))) if len(obstacles) else 0.0
+            clearance = (max(threshold, CLEARANCE * float(np.linalg.norm(span(mapped)))) if len(obstacles)
+                         else 0.0)
         blocked = None
         if len(obstacles):
             cand = mapped[:, None, :] + offsets[None, :, :]  # (T, M, D)
