@@ -74,7 +74,7 @@ def floor_fn(path: np.ndarray, src: np.ndarray, dst: np.ndarray):
     """The cheapest exact TPS fit + evaluation in numpy (one symmetric solve, one T x K kernel)."""
     from scipy.linalg import solve
 
-    from hila_lang.osila.tps import _dist, kernel
+    from hila_lang.osila.tps import _dist_numpy as _dist, kernel
 
     def run():
         K, D = src.shape
@@ -102,10 +102,14 @@ def median_ms(fn, repeat: int) -> float:
 
 def scaling(sizes, stamps, repeat: int) -> None:
     from hila_lang.osila import imitate_detailed
+    from hila_lang.osila.candidates import ball_offsets
+    from hila_lang.osila.route import min_energy_route
     from hila_lang.osila.tps import fit_warp
 
-    print("scaling: imitate / floor (floor = exact TPS: kernel matrix + one symmetric solve + T x K evaluation)")
-    print(f"  {'D':>2} {'T':>6} {'K':>5}  {'scene':<8} {'chosen':<10} {'imitate ms':>11} {'floor ms':>9} {'ratio':>6}  goal")
+    print("scaling: imitate / floor (floor = exact TPS: kernel matrix + one symmetric solve + T x K evaluation);")
+    print("  route/floor = the minimum-energy route alone on the mapped path (part of imitate, not of the floor)")
+    print(f"  {'D':>2} {'T':>6} {'K':>5}  {'scene':<8} {'chosen':<10} {'imitate ms':>11} {'floor ms':>9} {'ratio':>6}  "
+          f"{'route/floor':>11}  goal")
     for dim in (2, 3):
         for T in stamps:
             for K in sizes:
@@ -114,21 +118,23 @@ def scaling(sizes, stamps, repeat: int) -> None:
                     mapped = fit_warp(src, dst)(path)
                     threshold = 0.01 * float(np.linalg.norm(np.ptp(mapped, axis=0)))
                     floor = floor_fn(path, src, dst)
-                    chosen = imitate_detailed(path, src, dst, threshold=threshold).warp.kind  # also warms up
+                    got = imitate_detailed(path, src, dst, threshold=threshold)  # also warms up
+                    chosen, offsets = got.warp.kind, ball_offsets(dim, threshold)
                     floor()
                     reps = repeat if K * K * max(T, K) < 2e9 else max(2, repeat // 2)
-                    t_im, t_fl = [], []
+                    t_im, t_fl, t_ro = [], [], []
                     for _ in range(reps):
                         t_im.append(median_ms(lambda: imitate_detailed(path, src, dst, threshold=threshold), 1))
                         t_fl.append(median_ms(floor, 1))
-                    im, fl = float(np.median(t_im)), float(np.median(t_fl))
+                        t_ro.append(median_ms(lambda: min_energy_route(got.mapped, offsets, pinned=[0, T - 1]), 1))
+                    im, fl, ro = float(np.median(t_im)), float(np.median(t_fl)), float(np.median(t_ro))
                     goal = GOAL["tps" if chosen == "tps" else "fallback"]
                     flag = "ok" if im / fl <= goal else "OVER"
                     extra = ""
                     if K == 1000 and T == 10000:
                         extra = f"; {im / 1e3:.2f} s ({'ok' if im < 1e3 else 'OVER'} 1 s)"
                     print(f"  {dim:>2} {T:>6} {K:>5}  {kind:<8} {chosen:<10} {im:>11.1f} {fl:>9.1f} {im / fl:>6.2f}  "
-                          f"<= {goal:g} {flag}{extra}", flush=True)
+                          f"{ro / fl:>11.2f}  <= {goal:g} {flag}{extra}", flush=True)
 
 
 def small(repeat: int, label: str) -> None:

@@ -137,3 +137,37 @@ def test_rippa_holds_for_the_smoothed_system():
         sol = np.linalg.solve(A[np.ix_(rows, rows)], rhs)
         pred = tps.kernel(tps._dist(x[k:k + 1], np.delete(x, k, 0)), D) @ sol[: K - 1] + sol[K - 1] + x[k] @ sol[K:]
         np.testing.assert_allclose(dst[k] - pred[0], e[k], rtol=1e-8)
+
+
+def test_median_is_numpys_bit_for_bit():
+    """The screen's median (partition, then the middle or the mean of the two middle values)
+    equals np.median exactly, odd and even counts, batched along the last axis."""
+    from hila_lang.osila.robust import _median
+
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 10, 11, 104):
+        x = rng.normal(size=(6, n)) * 10.0 ** rng.uniform(-6, 6, (6, 1))
+        np.testing.assert_array_equal(_median(x), np.median(x, axis=1))
+        assert _median(x[0]) == np.median(x[0])
+    assert _median(np.array([1.0, 3.0, 2.0, 10.0])) == 2.5
+
+
+def test_screen_asks_each_pair_set_once(monkeypatch):
+    """One screen computes the leave-one-out errors of a set of pairs once, however often its
+    stages ask (the first check, the rounds, the residual)."""
+    from hila_lang.osila import robust
+
+    rng = np.random.default_rng(6)
+    src = rng.uniform(-1, 1, (20, 2))
+    dst = 1.2 * src + rng.normal(0, 0.02, src.shape)
+    dst[3] += 0.8  # one outlier: LMedS, then rounds
+    calls = []
+    real = robust.loo_errors
+
+    def counted(s, d, fast=False):
+        calls.append(s.tobytes())
+        return real(s, d, fast)
+
+    monkeypatch.setattr(robust, "loo_errors", counted)
+    pairs = screen(src, dst, "lmeds", 0, 0.0)
+    assert 3 in pairs.rejected and len(calls) == len(set(calls))

@@ -290,7 +290,8 @@ def adjust(
     pin_src = path[[t for t, _ in exact_pins]].reshape(-1, D)
     pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
     # which part of the template passes an on-path ICP: re-timed before the warp (pins never move)
-    moved = retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given))
+    moved = (retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given))
+             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given)))
     path, src = moved.path, moved.src[: len(src)]
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []
@@ -322,7 +323,9 @@ def adjust(
             if bad:
                 raise ConstraintError("contradictory constraints: " + "; ".join(bad))
             offsets = ball_offsets(D, threshold, shells, directions)
-            clearance = max(threshold, CLEARANCE * float(np.linalg.norm(span(mapped))))
+            # (only an obstacle repair uses it)
+            clearance = (max(threshold, CLEARANCE * float(np.linalg.norm(span(mapped)))) if len(obstacles)
+                         else 0.0)
         blocked = None
         if len(obstacles):
             cand = mapped[:, None, :] + offsets[None, :, :]  # (T, M, D)

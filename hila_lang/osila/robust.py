@@ -126,21 +126,34 @@ def loo_errors(src: np.ndarray, dst: np.ndarray, compiled_kernel: bool = False) 
     if (np.abs(diag) <= SINGULAR_TOL).any():
         return np.sqrt(sim_each)
     tps_each = (((card @ dst)[:K] / diag[:, None]) ** 2).sum(1)
-    best = tps_each if np.median(tps_each) <= np.median(sim_each) else sim_each
+    best = tps_each if _median(tps_each) <= _median(sim_each) else sim_each
     return np.sqrt(best)
 
 
+def _median(x: np.ndarray) -> np.ndarray:
+    """``np.median(x, axis=-1)`` of finite values, bit for bit (the middle order statistic, or
+    (a + b) / 2 of the two middle ones, as np.median's mean of them), without its fixed cost
+    (about 20 µs a call: a third of the outlier screen at K = 10)."""
+    n = x.shape[-1]
+    h = n // 2
+    if n % 2:
+        return np.partition(x, h, axis=-1)[..., h]
+    part = np.partition(x, (h - 1, h), axis=-1)
+    return (part[..., h - 1] + part[..., h]) / 2
+
+
 def _sigma(e: np.ndarray) -> float:
-    return 1.4826 * float(np.median(np.abs(e)))
+    return 1.4826 * float(_median(np.abs(e)))
 
 
-def _loo_rounds(src, dst, keep: np.ndarray, floor: float, fast: bool) -> np.ndarray:
-    """Drop pairs beyond :data:`CUT` robust σ of the leave-one-out errors until none is."""
+def _loo_rounds(errors, keep: np.ndarray, floor: float) -> np.ndarray:
+    """Drop pairs beyond :data:`CUT` robust σ of the leave-one-out errors until none is
+    (``errors(idx)``: :func:`loo_errors` of the pairs ``idx``)."""
     for _ in range(MAX_ROUNDS):
         idx = np.flatnonzero(keep)
         if len(idx) < MIN_PAIRS:
             break
-        e = loo_errors(src[idx], dst[idx], fast)
+        e = errors(idx)
         if e is None:
             break
         bad = e > max(CUT * _sigma(e), floor)
@@ -177,7 +190,7 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int) -> np.ndarray:
         sR = (S.sum(1) / np.where(ok, var, 1.0))[:, None, None] * np.matmul(U, Vt)  # scale * R
         pred = np.matmul(src[None] - ma, sR.transpose(0, 2, 1)) + mb  # (N, K, D)
         r = np.sqrt(((pred - dst[None]) ** 2).sum(2))
-    med = np.where(ok, np.median(r, axis=1), np.inf)
+    med = np.where(ok, _median(r), np.inf)
     if not np.isfinite(med).any():
         return np.ones(K, bool)
     best = r[int(np.argmin(med))]
@@ -252,15 +265,23 @@ def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0
     if method == "none" or K < MIN_PAIRS:
         e = loo_errors(src, dst, fast) if K >= MIN_PAIRS else None
         return Pairs(K, np.arange(K), residual=None if e is None else float(np.sqrt((e**2).mean())))
+    memo: dict[bytes, np.ndarray | None] = {}  # the same set of pairs is checked up to three times
+
+    def errors(idx: np.ndarray) -> np.ndarray | None:
+        key = idx.tobytes()
+        if key not in memo:
+            memo[key] = loo_errors(src[idx], dst[idx], fast)
+        return memo[key]
+
     if method == "lmeds":
-        e = loo_errors(src, dst, fast)
+        e = errors(np.arange(K))
         if e is None or e.max() > floor:  # not a clean scene
             keep = _lmeds(src, dst, seed)
         if keep.sum() < MIN_PAIRS:
             keep = np.ones(K, bool)
-    keep = _loo_rounds(src, dst, keep, floor, fast)
+    keep = _loo_rounds(errors, keep, floor)
     idx = np.flatnonzero(keep)
-    e = loo_errors(src[idx], dst[idx], fast)
+    e = errors(idx)
     if method == "lmeds" and e is not None and not keep.all():
         # a dropped pair the kept pairs' map predicts within the cut comes back
         from .tps import fit_warp
@@ -270,5 +291,5 @@ def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0
         miss = np.sqrt(((warp(src[back]) - dst[back]) ** 2).sum(1))
         keep[back[miss <= max(CUT * _sigma(e), floor)]] = True
         idx = np.flatnonzero(keep)
-        e = loo_errors(src[idx], dst[idx], fast)
+        e = errors(idx)
     return Pairs(K, idx, np.flatnonzero(~keep), None if e is None else float(np.sqrt((e**2).mean())), method)
