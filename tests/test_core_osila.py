@@ -469,7 +469,7 @@ def test_choice_kernel_equals_numpy(dim):
 def test_distance_kernel_equals_numpy_bit_for_bit(dim):
     """The compiled distances (used from MIN_STAMPS rows on) equal the numpy twin exactly, zeros
     included (an ICP on the path is found by its distance), at T x K = 1000 x 260."""
-    from hila_lang import jit
+    from hila_lang.core import jit
     from hila_lang.osila import tps
 
     pytest.importorskip("numba")

@@ -123,7 +123,7 @@ def kernel(r: np.ndarray, dim: int) -> np.ndarray:
 def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Pairwise Euclidean distances, (N, D) x (M, D) -> (N, M), from coordinate differences (exact at 0).
 
-    From :data:`hila_lang.jit.MIN_STAMPS` rows on, by the compiled :func:`_dist_kernel` (one pass,
+    From :data:`hila_lang.core.jit.MIN_STAMPS` rows on, by the compiled :func:`_dist_kernel` (one pass,
     no temporaries: 1.5-3x faster than :func:`_dist_numpy` at T x K = 1000 x 200 to 10000 x 1000);
     the same operations in the same order, so bit for bit the same distances (tested).
     """
@@ -147,7 +147,7 @@ def _dist_numpy(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sqrt(d2, out=d2)
 
 
-def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.jit)
+def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
     """:func:`_dist_numpy` as loops into ``out`` (N, M): the same sums in the same order."""
     N, D = a.shape
     M = b.shape[0]
@@ -163,7 +163,7 @@ def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.
 
 def _dist_compiled():
     """The compiled :func:`_dist_kernel`, or None."""
-    from ..jit import compiled
+    from ..core.jit import compiled
 
     return compiled(_dist_kernel, _WARM[0], _WARM[1], np.zeros((4, 4)))
 
