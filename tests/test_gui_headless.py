@@ -154,6 +154,8 @@ def test_under_xvfb_the_window_never_shows_the_robot_unframed():
     red = [((s[:, :, 0] > 110) & (s[:, :, 1] < 70) & (s[:, :, 2] < 70)).sum() for s in before + after]
     framed = max(red)
     assert after and framed > 5000  # the robot's red shell, framed, fills a good part of the window
-    # every screenshot shows nothing (loading, or closed) or the robot exactly as framed: never elsewhere
-    assert set(red) <= {0, framed}, red
+    # every screenshot shows nothing (loading, or closed) or the robot as framed, never elsewhere: the
+    # same red area within 2 % (the held arm settles by a few dozen pixels: 6748 vs 6794 seen in CI;
+    # PyBullet's default view of an unframed robot shows a fraction of that area)
+    assert all(r == 0 or abs(r - framed) <= 0.02 * framed for r in red), red
     assert red[0] == 0  # the first screenshot is taken while it loads
