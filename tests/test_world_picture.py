@@ -32,6 +32,20 @@ def test_the_program_checks():
     assert main(["check", PROGRAM]) == 0
 
 
+@pytest.mark.parametrize("line, message", [
+    ("let n = ask pairs(1)", "3:13: error: question 'pairs' of the picture world takes 0 argument(s), got 1"),
+    ("let n = ask matchd", "3:13: error: the picture world has no question 'matchd'"),
+    ("wait moved", "3:5: error: the picture world has no event 'moved'"),
+])
+def test_check_knows_the_picture_worlds_questions(tmp_path, capsys, line, message):
+    """The world's questions are its declared table (plugins/names.py): a misspelt one, or one
+    given arguments it does not take, is a located error of 'hila check', before any run."""
+    prog = tmp_path / "p.hila"
+    prog.write_text(f"world picture\nmain {{\n    {line}\n}}\n")
+    assert main(["check", str(prog)]) == 2
+    assert f"{prog}:{message}" in capsys.readouterr().err
+
+
 def test_matched_icps_retrace_the_route_on_a_bent_sheet(matched):
     report, out = matched
     assert report["bent_m"] > 0.015

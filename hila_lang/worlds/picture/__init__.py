@@ -10,6 +10,7 @@
 the matching over seeded scenes (``docs/scene-matching.md``).
 """
 
+from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
 from ...plugins.settings import Setting, boolean, choice
 
@@ -25,11 +26,11 @@ WORLD = WorldInfo(
         Setting("report", "write the output folder (report.json, route.png, eyes.png)", boolean, default=True,
                 metavar="yes|no"),
     ),
-    questions={
-        "matched": "look, match the eyes' images against the demonstration's and answer the point group "
-                   "\"match\": match.fNNN is the task point of demonstration feature fNNN, or none where unmatched",
-        "pairs": "how many matched pairs were kept (0 before 'matched')",
-    },
-    default_backend="pybullet",
-    dynamic_names=True,
+    questions=Names("question", [
+        Name("matched", "look, match the eyes' images against the demonstration's and answer the point group "
+                        "\"match\": match.fNNN is the task point of demonstration feature fNNN, or none where "
+                        "unmatched", answer="ask_matched"),
+        Name("pairs", "how many matched pairs were kept (0 before 'matched')", answer="ask_pairs"),
+    ]),
+    default_backend="pybullet",  # its questions are all declared; its points (match.fNNN) are made as it runs
 )

@@ -84,14 +84,17 @@ class PictureWorld:
         return dict(self.points_now)
 
     def query(self, name: str, *args: Any) -> Any:
-        if name == "matched":
-            self._match()
-            return "match"
-        if name == "pairs":
-            return 0 if self.pairs is None else int(self.pairs.kept.sum())
         from . import WORLD
 
-        raise UnknownNameError("question", name, WORLD.questions, owner="the picture world")
+        return WORLD.questions.answer(self, name, args, "the picture world")
+
+    # the questions, as declared in :data:`hila_lang.worlds.picture.WORLD` (name, arguments, doc)
+    def ask_matched(self) -> str:
+        self._match()
+        return "match"
+
+    def ask_pairs(self) -> int:
+        return 0 if self.pairs is None else int(self.pairs.kept.sum())
 
     def _match(self) -> None:
         from ...perception.matching import match_scenes, scene_features
