@@ -88,7 +88,7 @@ def test_snippet_is_a_program_hila_check_accepts(tmp_path):
     assert "via via_1" in text and "avoid avoid_1 radius 0.0100" in text and len(fsm.states) >= 2
     renamed = imitate.snippet(tpl, dict(req, names={"object": "cup"}), "reach")
     assert "point cup = (0.3600, -0.0500, 0.6000)" in renamed and "object = cup" in renamed
-    for bad, why in (("2cup", "expected a letter"), ("main", "not a keyword"), ("home", "given to two ICPs")):
+    for bad, why in (("2cup", "expected a letter"), ("none", "not a keyword"), ("home", "given to two ICPs")):
         with pytest.raises(InputError, match=why):
             imitate.snippet(tpl, dict(req, names={"object": bad}), "reach")
     with pytest.raises(InputError, match="has no ICP 'cup'"):

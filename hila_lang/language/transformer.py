@@ -411,18 +411,33 @@ def _keywords(lark) -> tuple[str, ...]:
 _NAME = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 
 
-def usable_as_tag(tag: str) -> bool:
-    """Whether a program can write ``tag`` as a sub-template's tag: ``run t.TAG(...)`` parses
-    and names it (the grammar decides, keywords and all)."""
+def _parses_as(name: str, text: str, read) -> bool:
+    """Whether ``text`` (a program that writes ``name``) parses and ``read(items)`` gives ``name``
+    back: the grammar decides what a name may be, keywords and all."""
     from lark.exceptions import UnexpectedInput
 
-    if not _NAME.fullmatch(tag):
+    if not _NAME.fullmatch(name):
         return False
     try:
-        items = parse_items(f"main {{ run t.{tag}() }}")
+        return read(parse_items(text)) == name
     except UnexpectedInput:
         return False
-    return items[-1].body[0].tag == tag
+
+
+def usable_as_tag(tag: str) -> bool:
+    """Whether a program can write ``tag`` as a sub-template's tag: ``run t.TAG(...)`` parses
+    and names it."""
+    return _parses_as(tag, f"main {{ run t.{tag}() }}", lambda items: items[-1].body[0].tag)
+
+
+def usable_as_point(name: str) -> bool:
+    """Whether a program can declare a scene point ``name`` and pass it to a template:
+    ``point NAME = (0, 0)`` and ``run t(a = NAME)`` both parse and name it."""
+    def read(items):
+        (binding,) = items[-1].body[0].bindings
+        return items[0].name if getattr(binding.value, "parts", None) == (name,) else None
+
+    return _parses_as(name, f"point {name} = (0, 0)\nmain {{ run t(a = {name}) }}", read)
 
 
 def parse_items(text: str, start: str = "start"):

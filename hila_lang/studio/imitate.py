@@ -109,20 +109,17 @@ def _pt(p) -> str:
 
 def point_names(icps: dict, names: dict | None) -> dict[str, str]:
     """ICP -> the name the task scene gives its point (``req["names"]``: the person renamed it on
-    the page; default the ICP's own name).  A name must be one a program can write -- a letter or
-    ``_``, then letters, digits or ``_``, not a keyword of the language -- and no two points may
-    share one."""
-    import re
+    the page; default the ICP's own name).  A name must be one a program can declare and pass
+    (:func:`hila_lang.language.transformer.usable_as_point`: the grammar decides), and no two
+    points may share one."""
+    from ..language.transformer import usable_as_point
 
-    from ..language.environment import Environment
-
-    keywords = set(Environment.default().keywords)
     out = {}
     for k in icps:
         name = str((names or {}).get(k) or k).strip()
-        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) or name in keywords:
-            raise InputError(f"point name {name!r} for ICP {k!r}: expected a letter or '_', then letters, digits "
-                             "or '_', and not a keyword of the language")
+        if not usable_as_point(name):
+            raise InputError(f"point name {name!r} for ICP {k!r}: a program cannot write it (expected a letter "
+                             "or '_', then letters, digits or '_', and not a keyword of the language)")
         if name in out.values():
             raise InputError(f"point name {name!r} is given to two ICPs; each task point needs its own name")
         out[k] = name
