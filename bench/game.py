@@ -57,7 +57,7 @@ def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
     first line for a game that failed: a finding, and the series goes on) per game."""
     from hila_lang.core.errors import HilaError
     from hila_lang.plugins.options import RunOptions
-    from hila_lang.language.runner import finish, prepare
+    from hila_lang.session.runner import finish, prepare
 
     rows = []
     for k in range(n):

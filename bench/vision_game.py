@@ -63,7 +63,7 @@ EXTRA = {"harsh": {"board.bump": "0.05", "eyes.noise": "12", "light": "0.35", "c
 def play(seed: int, condition: str, out: Path) -> dict:
     """One game: a summary dict (``error`` set when it did not finish)."""
     from hila_lang.core.errors import HilaError
-    from hila_lang.language.runner import finish, prepare
+    from hila_lang.session.runner import finish, prepare
     from hila_lang.plugins.options import RunOptions
 
     settings = {"opponent": ("random", "minimax")[seed % 2], "first": "opponent" if seed % 3 == 2 else "robot",

@@ -7,7 +7,9 @@ through ``importlib`` too, and checks this list):
 - ``cli``, ``__main__``                  the ``hila`` program; its ``COMMANDS`` table loads a command
 - ``commands/``, ``studio/``             one module per ``hila`` command; the local browser app
 - ``worlds/``                            what a program runs in: scripted, tictactoe, letters, picture
-- ``language/``, ``lsp/``, ``evaluation/``  front end, engine, REPL, replay; the LSP; ``hila eval``
+- ``session/``, ``lsp/``, ``evaluation/``  a run wired and watched: runner, REPL, recording, replay; the LSP; ``hila eval``
+- ``engine/``                            the stepping engine: step loop, one executor per state class, scene, trace
+- ``language/``                          the front end: grammar, AST, checker, compiler, the FSM
 - ``robot/``                             the iCub in PyBullet and the dry back end
 - ``perception/``                        stereo eyes: calibration, marker tracks, scene matching
 - ``sim/``, ``plugins/``                 the simulated scene and camera; the plug-in seam

@@ -22,7 +22,7 @@ from hila_lang.core.fileio import dump_yaml
 from hila_lang.hierarchy.generate import generate
 from hila_lang.hierarchy.step import bind, hila_step
 from hila_lang.language import load_program
-from hila_lang.language.interpreter import Interpreter
+from hila_lang.engine.interpreter import Interpreter
 from hila_lang.osila import imitate
 from hila_lang.robot.dry import DryBackend
 from hila_lang.osila.template import Segment, Template
@@ -43,7 +43,7 @@ def _runs(program: str):
     out = []
     while not interp.done:
         st = interp.state
-        before = (interp.template(st), interp.scene_binding(st), interp.hand()) if st.kind == "run" else None
+        before = (interp.runs.template(st), interp.runs.scene_binding(st), interp.hand()) if st.kind == "run" else None
         entry = interp.step()
         if before is not None:
             out.append((*before, entry.path, st.tag))

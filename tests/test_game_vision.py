@@ -27,7 +27,7 @@ pytest.importorskip("pybullet")
 cv2 = pytest.importorskip("cv2")
 
 from hila_lang.core.errors import HilaRuntimeError  # noqa: E402
-from hila_lang.language.runner import finish, prepare  # noqa: E402
+from hila_lang.session.runner import finish, prepare  # noqa: E402
 from hila_lang.plugins.options import RunOptions  # noqa: E402
 from hila_lang.sim.canvas import PIXELS_PER_METRE  # noqa: E402
 from hila_lang.worlds.tictactoe import rules as ttt  # noqa: E402

@@ -14,7 +14,7 @@ from hila_lang.core.errors import HilaRuntimeError, InputError, UnknownNameError
 from hila_lang.worlds.tictactoe import rules as ttt
 from hila_lang.worlds.tictactoe import WORLD
 from hila_lang.plugins.options import RunOptions
-from hila_lang.language.runner import finish, prepare
+from hila_lang.session.runner import finish, prepare
 from hila_lang.worlds.tictactoe.board import cell_at
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -189,7 +189,7 @@ def test_cli_exec_dry_and_bad_opponent(tmp_path, capsys):
 
 def test_repl_steps_the_game_with_moves_typed_at_the_prompt(tmp_path):
     """The REPL and the human opponent read the same piped stdin, as in a terminal session."""
-    from hila_lang.language.repl import Repl
+    from hila_lang.session.repl import Repl
 
     script = "step 3\nwhere\nrun\n1\n" + "step 3\n" + "run\n2\nrun\n9\nrun\n7\nrun\n6\nrun\n4\nquit\n"
     options = _options(tmp_path, 0, "human", stdin=script)

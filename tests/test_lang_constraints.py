@@ -21,7 +21,7 @@ from hila_lang.language import load_program
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
 from hila_lang.language.fsm import FSM
-from hila_lang.language.interpreter import Interpreter
+from hila_lang.engine.interpreter import Interpreter
 from hila_lang.language.transformer import parse_program
 from hila_lang.robot.dry import DryBackend
 from hila_lang.worlds.scripted.world import ScriptedWorld

@@ -22,7 +22,7 @@ import pytest
 from hila_lang import cli
 from hila_lang.core.errors import Interrupted, StepLimitError
 from hila_lang.language import load_program
-from hila_lang.language.interpreter import Interpreter
+from hila_lang.engine.interpreter import Interpreter
 from hila_lang.language.limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
 from hila_lang.robot.dry import DryBackend
 from hila_lang.worlds.scripted.world import ScriptedWorld

@@ -208,7 +208,7 @@ def test_an_unknown_world_point_is_found_by_check(tmp_path, capsys):
 def test_runtime_error_from_world_question(tmp_path):
     from hila_lang.language import load_program
     from hila_lang.robot.dry import DryBackend
-    from hila_lang.language.interpreter import Interpreter
+    from hila_lang.engine.interpreter import Interpreter
     from hila_lang.worlds.scripted.world import ScriptedWorld
 
     prog = tmp_path / "p.hila"

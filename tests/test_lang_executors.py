@@ -1,14 +1,19 @@
-"""The engine finds a state's executor through the state's class (issue 21), not a string."""
+"""The engine (issue 21): one executor object per state class, found through the state's class,
+not a string; the evaluator works on a scene, not on the step loop."""
 
 import dataclasses
 from pathlib import Path
 
 import pytest
 
+from hila_lang.engine import executors as X
+from hila_lang.engine.interpreter import Interpreter
+from hila_lang.engine.run import RunExecutor
+from hila_lang.engine.scene import Evaluator, Scene
 from hila_lang.language import fsm
-from hila_lang.language.interpreter import EXECUTORS, Interpreter, executor
+from hila_lang.language.transformer import parse_expr
 
-INTERPRETER = Path(__file__).resolve().parents[1] / "hila_lang" / "language" / "interpreter.py"
+ENGINE = Path(__file__).resolve().parents[1] / "hila_lang" / "engine"
 
 
 def _example(cls):
@@ -17,11 +22,15 @@ def _example(cls):
     return cls(**fields)
 
 
-def test_every_state_class_has_its_own_executor():
+def test_every_state_class_has_its_own_executor_class():
+    seen = set()
     for kind, cls in fsm.STATE_KINDS.items():
-        assert executor(_example(cls)) is EXECUTORS[cls], kind
-    assert executor(_example(fsm.CallState)) is Interpreter.exec_call  # not its base's, no kind test
-    assert executor(_example(fsm.SetState)) is Interpreter.exec_set
+        ex = X.executor(_example(cls))
+        assert ex is X.EXECUTORS[cls] and issubclass(ex, X.Executor), kind
+        seen.add(ex)
+    assert len(seen) == len(fsm.STATE_KINDS)  # one each, none shared through a kind test
+    assert X.executor(_example(fsm.RunState)) is RunExecutor
+    assert issubclass(X.CallExecutor, X.SetExecutor)  # a call sets its parameters as a let does
 
 
 def test_a_subclass_without_an_executor_runs_its_bases_and_a_stranger_is_a_clear_error():
@@ -29,14 +38,69 @@ def test_a_subclass_without_an_executor_runs_its_bases_and_a_stranger_is_a_clear
     class Louder(fsm.WaitState):
         kind = ""  # no kind of its own: not registered in place of 'wait'
 
-    assert executor(_example(Louder)) is Interpreter.exec_wait
+    assert X.executor(_example(Louder)) is X.WaitExecutor
 
     class Stranger:
         pass
 
     with pytest.raises(TypeError, match="no executor for the state class Stranger"):
-        executor(Stranger())
+        X.executor(Stranger())
 
 
-def test_no_dispatch_through_a_string():
-    assert 'getattr(self, "exec_"' not in INTERPRETER.read_text()
+def test_no_dispatch_through_a_string_and_the_loop_holds_no_executor():
+    loop = (ENGINE / "interpreter.py").read_text()
+    assert 'getattr(self, "exec_"' not in loop
+    assert "def exec_" not in loop and "visit_" not in loop  # executors and the evaluator live elsewhere
+    assert len(loop.splitlines()) < 320
+
+
+class _World:
+    scene = None
+
+    def __init__(self):
+        self.asked = []
+
+    def points(self):
+        return {"cup": (0.3, 0.1, 0.7), "board.cell1": (0.2, 0.0, 0.6), "board.cell2": (0.25, 0.0, 0.6)}
+
+    def query(self, name, *args):
+        self.asked.append((name, args))
+        return 7
+
+
+class _Backend:
+    def hand_position(self):
+        return (0.1, 0.2, 0.3)
+
+
+def test_the_evaluator_needs_only_a_scene():
+    world = _World()
+    scene = Scene(world, _Backend(), {"home": parse_expr("(1, 2, 3)")})
+    assert isinstance(scene.evaluator, Evaluator)
+    assert list(scene.eval(parse_expr("home + (1, 1, 1)"))) == [2, 3, 4]
+    assert scene.eval(parse_expr("hand.z")) == pytest.approx(0.3)
+    assert scene.eval(parse_expr("ask best_move + 1")) == 8 and world.asked == [("best_move", ())]
+    assert scene.lookup("board") == "board"  # a group prefix
+    assert [m for m, _ in scene.points_of(parse_expr("board"))] == ["board.cell1", "board.cell2"]
+    from hila_lang.core.errors import HilaRuntimeError
+
+    with pytest.raises(HilaRuntimeError, match="did you mean 'cup'"):
+        scene.lookup("cupp")
+
+
+def test_one_executor_object_per_class_in_a_run(tmp_path):
+    from hila_lang.language import load_program
+    from hila_lang.robot.dry import DryBackend
+    from hila_lang.worlds.scripted.world import ScriptedWorld
+
+    p = tmp_path / "x.hila"
+    p.write_text("main {\n let a = 1\n let b = a + 1\n repeat 2 { let a = a + b }\n}\n")
+    checked, machine = load_program(p)
+    it = Interpreter(checked, machine, ScriptedWorld(), DryBackend((0.2, -0.25, 0.75)))
+    made = []
+    it.observers.append(lambda e: made.append(it.executor_for(it.fsm.states[e.state])))
+    it.run()
+    assert it.env["main:a"] == 5 and it.env["main:b"] == 2
+    assert {type(x) for x in made} == {X.SetExecutor, X.BranchExecutor, X.EndExecutor}
+    assert len({id(x) for x in made if type(x) is X.SetExecutor}) == 1  # the same object for every let
+    assert set(it._executors) == {X.SetExecutor, X.BranchExecutor, X.EndExecutor}

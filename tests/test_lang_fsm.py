@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from hila_lang.language import ast as A
 from hila_lang.language import load_program
 from hila_lang.language.fsm import FSM, STATE_KINDS, BranchState, RunState, State
-from hila_lang.language.interpreter import Interpreter
+from hila_lang.engine.interpreter import Interpreter
 from hila_lang.language.transformer import parse_expr, parse_program
 
 ROOT = Path(__file__).resolve().parent.parent

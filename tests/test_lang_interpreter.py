@@ -14,7 +14,7 @@ from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions, parse_pairs
 from hila_lang.plugins.options import split_settings
 from hila_lang.robot.dry import DryBackend
-from hila_lang.language.interpreter import Interpreter
+from hila_lang.engine.interpreter import Interpreter
 from hila_lang.worlds.scripted.world import ScriptedWorld
 
 ROOT = Path(__file__).resolve().parent.parent

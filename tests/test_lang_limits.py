@@ -109,7 +109,7 @@ def test_every_stage_at_the_limit_fits_well_inside_the_stack():
     import json
 
     from hila_lang.language.fsm import FSM
-    from hila_lang.language.interpreter import Interpreter
+    from hila_lang.engine.interpreter import Interpreter
     from hila_lang.robot.dry import DryBackend
     from hila_lang.worlds.scripted.world import ScriptedWorld
 

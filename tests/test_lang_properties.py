@@ -24,7 +24,7 @@ from hypothesis import strategies as st
 
 from hila_lang.core.errors import CheckError, HilaError, HilaRuntimeError, HilaSyntaxError, InputError, UnknownNameError
 from hila_lang.language import load_program
-from hila_lang.language.runner import finish, prepare
+from hila_lang.session.runner import finish, prepare
 from hila_lang.plugins.options import RunOptions
 from hila_lang.osila.template import Template, load_template, save_template
 

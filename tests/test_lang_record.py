@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from hila_lang import cli
-from hila_lang.language.recording import read_record, write_record
-from hila_lang.language.replay import ReplayEngine
-from hila_lang.language.repl import Repl
+from hila_lang.session.recording import read_record, write_record
+from hila_lang.session.replay import ReplayEngine
+from hila_lang.session.repl import Repl
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -70,9 +70,9 @@ def test_replay_steps_back_where_icps_and_plots_without_a_simulator(game, tmp_pa
     script = "\n".join(["break main/mark/draw", "run", "where", "icps", "step", "path --plot " + str(png),
                         "back 1", "where", "explain", "quit"]) + "\n"
     code = ("import sys, io\n"
-            "from hila_lang.language.recording import read_record\n"
-            "from hila_lang.language.replay import ReplayEngine\n"
-            "from hila_lang.language.repl import Repl\n"
+            "from hila_lang.session.recording import read_record\n"
+            "from hila_lang.session.replay import ReplayEngine\n"
+            "from hila_lang.session.repl import Repl\n"
             f"Repl(ReplayEngine(read_record({str(game)!r})), stdin=io.StringIO({script!r}), stdout=sys.stdout).cmdloop()\n"
             "heavy = sorted(m for m in ('pybullet', 'hila_lang.robot.backend', 'hila_lang.sim.scene') if m in sys.modules)\n"
             "print('loaded:', heavy)\n")
@@ -174,7 +174,7 @@ def test_a_replay_offers_every_member_the_repl_reads_from_its_engine(game):
     command, missing from the replay, fails here instead of in a user's session)."""
     import re
 
-    from hila_lang.language import repl
+    from hila_lang.session import repl
 
     used = set(re.findall(r"\b(?:it|self\.interp)\.([a-z_]+)", Path(repl.__file__).read_text()))
     engine = ReplayEngine(read_record(game))

@@ -23,9 +23,9 @@ import pytest
 
 from hila_lang.core.errors import HilaRuntimeError
 from hila_lang.language import load_program
-from hila_lang.language.history import resume_at
-from hila_lang.language.interpreter import Interpreter
-from hila_lang.language.repl import Repl
+from hila_lang.engine.history import resume_at
+from hila_lang.engine.interpreter import Interpreter
+from hila_lang.session.repl import Repl
 from hila_lang.plugins.options import RunOptions
 from hila_lang.robot.dry import DryBackend
 from hila_lang.worlds.scripted.world import ScriptedWorld

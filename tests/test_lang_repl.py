@@ -11,8 +11,8 @@ import pytest
 
 from hila_lang.language import load_program
 from hila_lang.robot.dry import DryBackend
-from hila_lang.language.interpreter import Interpreter
-from hila_lang.language.repl import Repl
+from hila_lang.engine.interpreter import Interpreter
+from hila_lang.session.repl import Repl
 from hila_lang.worlds.scripted.world import load_script
 
 ROOT = Path(__file__).resolve().parent.parent

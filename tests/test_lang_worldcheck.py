@@ -152,7 +152,7 @@ def test_a_2d_template_runs_on_the_worlds_drawing_surface(tmp_path, capsys):
     text = 'world letters\nimport "H2.yaml" as H\nmain { let s = ask next_slot\n run H(s.*) }\n'
     code, out, err = run_cli(tmp_path, capsys, text, "exec", "--set", "word=H", "--out", str(tmp_path / "o"))
     assert code == 0 and "wrote 'H'" in out
-    from hila_lang.language.runner import finish, prepare
+    from hila_lang.session.runner import finish, prepare
     from hila_lang.plugins.options import RunOptions
 
     interp = prepare(tmp_path / "p.hila", RunOptions(settings={"word": "H", "report": "no"}, stdout=io.StringIO()))

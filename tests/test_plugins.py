@@ -26,7 +26,7 @@ import pytest
 
 from hila_lang import cli
 from hila_lang.core.errors import InputError, UnknownNameError, internal_error_message
-from hila_lang.language.runner import finish, prepare
+from hila_lang.session.runner import finish, prepare
 from hila_lang.plugins.options import split_settings
 from hila_lang.plugins import registry
 from hila_lang.plugins.options import RunOptions

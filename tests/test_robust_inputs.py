@@ -208,7 +208,7 @@ def test_flipped_bytes_bad_compression_and_encryption_are_named(tmp_path, capsys
 
 
 def test_a_record_json_beyond_its_limit_is_refused_unread(tmp_path, capsys, recording, monkeypatch):
-    import hila_lang.language.recording as rec
+    import hila_lang.session.recording as rec
 
     monkeypatch.setattr(rec, "RECORD_JSON_LIMIT", 1000)
     code, err = _replay(recording, capsys)
@@ -223,7 +223,7 @@ def test_unused_members_are_not_read(tmp_path, capsys, recording):
     data[start + 10: start + 40] = b"\xff" * 30  # its deflate stream broken
     bad.write_bytes(bytes(data))
     from hila_lang.core.errors import InputError
-    from hila_lang.language.recording import read_record
+    from hila_lang.session.recording import read_record
 
     doc = read_record(bad)
     assert list(doc["images"]) == ["eyes/0001.png"]
@@ -390,7 +390,7 @@ def test_learning_one_row_does_not_hint_k_le_0(tmp_path, capsys):
 
 def test_a_stopped_games_report_says_unfinished(tmp_path, capsys):
     """Ctrl-C's report.json had result: null while the README says 'unfinished'."""
-    from hila_lang.language.runner import finish, prepare
+    from hila_lang.session.runner import finish, prepare
     from hila_lang.plugins.options import RunOptions
 
     out = tmp_path / "g"

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from hila_lang.language.recording import read_record
+from hila_lang.session.recording import read_record
 
 ROOT = Path(__file__).resolve().parent.parent
 GAME = str(ROOT / "programs" / "game.hila")
@@ -136,8 +136,8 @@ def test_replay_is_linear_in_the_steps(tmp_path, monkeypatch):
     """The issue's input: 10,643 of 20,000 steps replayed after 300 s (every step rebuilt the
     trace from the start).  Counted, not timed: each step is recorded into the trace once."""
     from hila_lang import cli
-    from hila_lang.language import replay
-    from hila_lang.language.interpreter import Trace
+    from hila_lang.session import replay
+    from hila_lang.engine.trace import Trace
 
     prog = tmp_path / "loop.hila"
     prog.write_text("main {\n  let i = 0\n  while true {\n    let i = i + 1\n  }\n}\n")

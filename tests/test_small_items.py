@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from hila_lang import cli
-from hila_lang.language.interpreter import TraceEntry
-from hila_lang.language.replay import differing_points, step_difference
+from hila_lang.engine.trace import TraceEntry
+from hila_lang.session.replay import differing_points, step_difference
 
 ROOT = Path(__file__).resolve().parent.parent
 

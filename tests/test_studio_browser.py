@@ -276,7 +276,7 @@ def test_open_a_recording_and_scrub(page, studio, tmp_path):
                         "--record", str(rec), "--out", str(tmp_path / "out")], capture_output=True, text=True,
                        cwd=studio.folder, timeout=120)
     assert r.returncode == 0, r.stderr
-    from hila_lang.language.recording import read_record
+    from hila_lang.session.recording import read_record
 
     steps = read_record(rec)["steps"]
     page.reload()

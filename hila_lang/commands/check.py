@@ -16,7 +16,7 @@ DESCRIPTION = (
 
 
 def add_arguments(parser) -> None:
-    from ..language.runopts import add_setting_arguments
+    from ..session.runopts import add_setting_arguments
 
     parser.add_argument("programs", nargs="+", metavar="PROGRAM", help=".hila files")
     add_setting_arguments(parser)
@@ -25,7 +25,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     from ..core.errors import HilaError
     from ..language.environment import Environment
-    from ..language.runopts import settings_of
+    from ..session.runopts import settings_of
 
     settings = settings_of(args)
     status = 0

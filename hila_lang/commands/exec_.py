@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..language.runopts import add_run_arguments, run_options
+from ..session.runopts import add_run_arguments, run_options
 
 HELP = "run a .hila program (dry kinematic back end or the PyBullet iCub)"
 DESCRIPTION = (
@@ -30,8 +30,8 @@ def run(args) -> int:
     import sys
 
     from ..core.fileio import AtomicFile
-    from ..language.recording import start_recording
-    from ..language.runner import finishing, prepare
+    from ..session.recording import start_recording
+    from ..session.runner import finishing, prepare
 
     options = run_options(args)
     trace = AtomicFile(args.trace) if args.trace else None  # a bad --trace path: refused now

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..language.runopts import add_run_arguments, run_options
+from ..session.runopts import add_run_arguments, run_options
 
 HELP = "run a program and explain each run state: ICP pairs, fallbacks, rounds of plan adjustment and why"
 DESCRIPTION = (
@@ -24,7 +24,7 @@ def run(args) -> int:
     import fnmatch
 
     from ..core.errors import HilaRuntimeError
-    from ..language.runner import finish, prepare
+    from ..session.runner import finish, prepare
 
     options = run_options(args)
     interp = prepare(args.program, options, args.backend, step_limit=args.max_steps)
@@ -41,7 +41,7 @@ def run(args) -> int:
             failed = exc
         for entry in interp.trace:
             if entry.step_result is not None and wanted(entry.state):
-                template = interp.template(interp.fsm.states[entry.state])
+                template = interp.runs.template(interp.fsm.states[entry.state])
                 from ..hierarchy.explain import explain_step
 
                 print("\n".join(explain_step(template, entry.step_result,

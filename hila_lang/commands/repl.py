@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..language.runopts import add_run_arguments, run_options
+from ..session.runopts import add_run_arguments, run_options
 
 HELP = "step a .hila program state by state (step, run, break, where, icps, explain, back, reload, ...)"
 DESCRIPTION = (
@@ -18,8 +18,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..language.repl import Repl
-    from ..language.runner import finish, prepare
+    from ..session.repl import Repl
+    from ..session.runner import finish, prepare
 
     options = run_options(args)
     interp = prepare(args.program, options, args.backend, step_limit=args.max_steps)

@@ -23,19 +23,19 @@ def run(args) -> int:
     import sys
 
     from ..core.errors import InputError
-    from ..language.recording import read_record
+    from ..session.recording import read_record
 
     record = read_record(args.recording)
     if args.verify:
-        from ..language.replay import verify
+        from ..session.replay import verify
 
         if not args.tolerance >= 0:
             raise InputError(f"expected --tolerance >= 0 metres, got {args.tolerance}")
         ok, lines = verify(record, tolerance=args.tolerance)
         print("\n".join(lines), file=sys.stdout)
         return 0 if ok else 1
-    from ..language.repl import Repl
-    from ..language.replay import ReplayEngine
+    from ..session.repl import Repl
+    from ..session.replay import ReplayEngine
 
     engine = ReplayEngine(record)
     Repl(engine, stdin=sys.stdin, stdout=sys.stdout).cmdloop()

@@ -3,7 +3,7 @@
 For a template (``hila show circle``, or a path ``hila show my/reach.yaml``): its tags with their
 spans in samples and seconds and whether the pen touches, its ICPs with their positions, and a
 small picture of the path seen from above with its cuts; ``--plot FILE.png`` draws it
-(:func:`hila_lang.language.plot.plot_path`).  For a world (``hila show world tictactoe``): its
+(:func:`hila_lang.session.plot.plot_path`).  For a world (``hila show world tictactoe``): its
 points, questions, events and settings with their docs, read from the one table the world
 answers through and ``hila check`` checks by (:mod:`hila_lang.plugins.names`).
 """
@@ -186,7 +186,7 @@ def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS) 
 
 def plot_template(template, file):
     """The template's path, cuts and ICPs as a PNG (top and side views)."""
-    from ..language.plot import plot_path
+    from ..session.plot import plot_path
 
     marks = [(s.start, s.tag) for s in template.segments]
     return plot_path(template.path, file, icps=template.icps, title=f"template {template.name}", marks=marks,

@@ -1,4 +1,4 @@
-"""The hila language: grammar -> AST -> checked program -> FSM -> stepping interpreter.
+"""The hila language's front end: grammar -> AST -> checked program -> FSM.
 
 The front end is one object, :class:`.environment.Environment` (the grammar, the template
 loader and its cache, the plug-in registry); every stage is callable on its own (STYLE.md
@@ -12,10 +12,8 @@ habit 2)::
 
 Modules: :mod:`.parser` (reading text, syntax errors), :mod:`.transformer` (the grammar and the
 AST builder), :mod:`.loader` (templates), :mod:`.checker`, :mod:`.compiler`, :mod:`.environment`.
-``load_program(path)`` runs the whole front end; ``hila_lang.language.interpreter`` steps the
-FSM over a world and a back end (found through :mod:`hila_lang.plugins`; :mod:`.runner` wires them);
-:mod:`.repl` is the interactive stepper, :mod:`.recording` writes a run to one file and
-:mod:`.replay` steps through it or verifies it.
+``load_program(path)`` runs the whole front end; :mod:`hila_lang.engine` steps the FSM over a
+world and a back end, and :mod:`hila_lang.session` wires a run (runner, REPL, recording, replay).
 
 One line each:
 
@@ -30,15 +28,6 @@ One line each:
 - ``compiler``     checked program -> FSM
 - ``fsm``          the state machine, plain data
 - ``limits``       every limit of the language and its engine, with the measurement behind it
-- ``interpreter``  the stepping engine: states run over a world and a back end
-- ``history``      going back and reloading
-- ``runner``       wiring a program, a world and a back end into a run
-- ``runopts``      options shared by ``hila exec`` and ``hila repl``
-- ``runout``       ``--out DIR``: a run's picture and report for a world that writes none
-- ``repl``         the interactive stepper
-- ``recording``    a run written to one file
-- ``replay``       stepping through a recording, or verifying it
-- ``plot``         a generated path drawn with OpenCV (top and side views)
 """
 
 

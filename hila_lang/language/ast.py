@@ -414,7 +414,7 @@ _BINARY_PREC = {"or": 1, "and": 2, "==": 4, "!=": 4, "<": 4, "<=": 4, ">": 4, ">
 _COMPARE = {"==", "!=", "<", "<=", ">", ">="}
 
 
-def _num(v: float) -> str:
+def number_text(v: float) -> str:
     return str(int(v)) if float(v).is_integer() and abs(v) < 1e15 else repr(float(v))
 
 
@@ -425,7 +425,7 @@ class _Text(Visitor):
         raise TypeError(f"not an expression: {node!r}")
 
     def visit_Number(self, e, prec=0):
-        return _num(e.value)
+        return number_text(e.value)
 
     def visit_String(self, e, prec=0):
         return f'"{e.value}"'
@@ -502,7 +502,7 @@ def dump(node, indent: int = 0) -> str:
         if is_dataclass(value) or (isinstance(value, tuple) and value and not all(isinstance(v, str) for v in value)):
             children.append((f.name, value))
         elif isinstance(value, float):
-            scalars.append(f"{f.name}={_num(value)}")
+            scalars.append(f"{f.name}={number_text(value)}")
         else:
             scalars.append(f"{f.name}={value!r}")
     lines = [head + ("  " + " ".join(scalars) if scalars else "")]

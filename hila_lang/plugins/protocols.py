@@ -17,7 +17,7 @@ Worlds and back ends both declare ``snapshots`` (:class:`Snapshots`: save what t
 restore it later, for the REPL's ``back``; :class:`hila_lang.plugins.snapshots.AttributeSnapshots`
 does it for state held in a few attributes), or None when they cannot go back.
 
-Lifecycle of a run (:mod:`hila_lang.language.runner`)::
+Lifecycle of a run (:mod:`hila_lang.session.runner`)::
 
     world = WorldInfo.build(options, settings)        # the world (and its scene) exists
     backend = BackendInfo.build(world.scene, options, settings)

@@ -5,7 +5,7 @@ shared front end (one ``Environment`` for ``check``, the REPL and the LSP) lands
 function is switched over and the page cannot disagree with ``hila check`` or ``hila lsp``.
 Today it is ``hila lsp``'s own analysis (:class:`hila_lang.lsp.analysis.Document`): the same
 located problems an editor shows.  Runs load their program through the engine
-(:func:`hila_lang.language.runner.prepare`, the REPL's ``reload``), not here.
+(:func:`hila_lang.session.runner.prepare`, the REPL's ``reload``), not here.
 """
 
 from __future__ import annotations

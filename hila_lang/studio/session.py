@@ -1,14 +1,14 @@
 """Run and watch: a program run (or a recording) driven through the REPL's own commands.
 
 :class:`RunSession` builds the run exactly as ``hila repl`` does
-(:func:`hila_lang.language.runner.prepare`, then :class:`hila_lang.language.repl.Repl`) and feeds
+(:func:`hila_lang.session.runner.prepare`, then :class:`hila_lang.session.repl.Repl`) and feeds
 the page's buttons to ``Repl.onecmd`` -- ``step``, ``run``, ``break STATE``, ``back``,
 ``reload`` -- in a worker thread, one at a time.  A human opponent's cell comes from the page
 (the world reads it from ``stdin``, :class:`LineInput`); ``stop`` quits a waiting game and
 stops a running ``run`` before its next state (a breakpoint on every state).  After every step
 the page gets the state, the trace line, the board and the left eye's image when the back end
 has eyes.  :class:`ReplaySession` opens a ``.hilarec`` with
-:class:`hila_lang.language.replay.ReplayEngine` under the same ``Repl``; scrubbing to step N is
+:class:`hila_lang.session.replay.ReplayEngine` under the same ``Repl``; scrubbing to step N is
 ``reset`` then ``step N``.
 """
 
@@ -100,8 +100,8 @@ class RunSession(_Session):
 
     def __init__(self, program: Path, emit, *, backend: str | None = None, opponent: str | None = None,
                  seed: int = 0) -> None:
-        from ..language.repl import Repl
-        from ..language.runner import prepare
+        from ..session.repl import Repl
+        from ..session.runner import prepare
         from ..plugins.options import RunOptions
 
         super().__init__(emit)
@@ -175,7 +175,7 @@ class RunSession(_Session):
         self.command(line)
 
     def close(self) -> None:
-        from ..language.runner import finish
+        from ..session.runner import finish
 
         if self.stdin.waiting:
             self.stdin.put("q")
@@ -191,9 +191,9 @@ class ReplaySession(_Session):
     """A recording (``.hilarec``), scrubbed step by step without a simulator."""
 
     def __init__(self, file: Path, emit) -> None:
-        from ..language.recording import read_record
-        from ..language.repl import Repl
-        from ..language.replay import ReplayEngine
+        from ..session.recording import read_record
+        from ..session.repl import Repl
+        from ..session.replay import ReplayEngine
 
         super().__init__(emit)
         self.record = read_record(file)

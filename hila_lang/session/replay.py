@@ -1,4 +1,4 @@
-"""Replaying a recording (:mod:`hila_lang.language.recording`) without a simulator, and verifying it.
+"""Replaying a recording (:mod:`hila_lang.session.recording`) without a simulator, and verifying it.
 
 :class:`ReplayEngine` has the stepping engine's face (``step``, ``back``, ``reset``, ``current``,
 ``trace``, ``hand()``, ``explain()``, ...) over the recorded steps, so the REPL's commands work on
@@ -22,8 +22,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..core.errors import HilaError, HilaRuntimeError
-from .fsm import FSM
-from .interpreter import Trace, TraceEntry
+from ..language.fsm import FSM
+from ..engine.trace import Trace, TraceEntry
 from .recording import sha256
 
 

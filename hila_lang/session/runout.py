@@ -7,7 +7,7 @@ run (a bad ``--out`` is refused before anything moves), :func:`write_run_outputs
 the run ends (also when it failed or was stopped: what was done is kept):
 
 - ``path.png``: every run state's planned path (blue) and the path the back end executed (red),
-  the scene points bound to its ICPs (black circles), top and side views (:func:`hila_lang.language.plot.plot_path`), each state's start marked and
+  the scene points bound to its ICPs (black circles), top and side views (:func:`hila_lang.session.plot.plot_path`), each state's start marked and
   named ``NAME STEP`` (the state's last name part and the step number of its trace line; states
   that start at one place share a label: ``reach 2,5,8``);
 - ``report.json``: the program, world, back end, seed, the counts, how the run ended, and one

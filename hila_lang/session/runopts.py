@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .limits import DEFAULT_STEP_LIMIT
+from ..language.limits import DEFAULT_STEP_LIMIT
 
 
 def _whole(note: str = ""):

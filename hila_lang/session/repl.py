@@ -1,4 +1,4 @@
-"""The REPL: a thin ``cmd.Cmd`` over :class:`~hila_lang.language.interpreter.Interpreter`.
+"""The REPL: a thin ``cmd.Cmd`` over :class:`~hila_lang.engine.interpreter.Interpreter`.
 
 Commands: ``step [n]``, ``run`` / ``continue`` (until a breakpoint or the end), ``break
 [STATE]`` (glob patterns allowed: ``break main/*/draw``; no argument lists them), ``clear
@@ -26,7 +26,8 @@ import numpy as np
 
 from ..core.errors import EXIT_INTERRUPTED, HilaError, Interrupted
 from ..core.interrupts import Terminated
-from .interpreter import Interpreter, fmt_point, fmt_value
+from ..engine.interpreter import Interpreter
+from ..engine.trace import fmt_point, fmt_value
 
 HISTORY = Path(os.path.expanduser("~")) / ".hila_history"
 
@@ -199,7 +200,7 @@ class Repl(cmd.Cmd):
         st = it.state
         self.say(f"at {st.name} ({st.kind}): {st.describe()}")
         if st.line:
-            from .parser import source_line
+            from ..language.parser import source_line
 
             src = source_line(it.checked.program.source, st.line) or ""
             self.say(f"  {it.fsm.file}:{st.line}: {src.strip()}")
@@ -278,7 +279,7 @@ class Repl(cmd.Cmd):
         """reload: re-read the program and the templates it imports and go on from the same state
         (the world and the back end keep theirs).  A program that does not load is reported and the
         old one keeps running."""
-        from .environment import Environment
+        from ..language.environment import Environment
 
         file = self.interp.fsm.file
         try:

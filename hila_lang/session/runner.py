@@ -7,9 +7,9 @@ events and points checked against what the world declares, before anything is bu
 up the world it names (``world NAME``, default ``scripted``) and the back end (``--backend``,
 else the world's ``default_backend``) in the registry (:mod:`hila_lang.plugins.registry`),
 builds the world, then the back end on the world's scene, attaches them, and returns an
-:class:`~hila_lang.language.interpreter.Interpreter`.  ``--out DIR`` works in every world: one
+:class:`~hila_lang.engine.interpreter.Interpreter`.  ``--out DIR`` works in every world: one
 that writes no output folder of its own gets the run's picture and report
-(:mod:`hila_lang.language.runout`), written when the run ends.  :func:`finish` ends the run;
+(:mod:`hila_lang.session.runout`), written when the run ends.  :func:`finish` ends the run;
 :func:`finishing` ends it also when it fails.
 """
 
@@ -20,9 +20,9 @@ import sys
 
 from ..plugins import registry
 from ..plugins.options import RunOptions
-from .environment import Environment
-from .interpreter import Interpreter
-from .limits import DEFAULT_STEP_LIMIT
+from ..language.environment import Environment
+from ..engine.interpreter import Interpreter
+from ..language.limits import DEFAULT_STEP_LIMIT
 
 
 def prepare(path, options: RunOptions, backend: str | None = None, *,
@@ -52,7 +52,7 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
 
 def show_states(interp: Interpreter) -> None:
     """Tell the back end's view (a window) each state as it starts: its name and program line."""
-    from .parser import source_line
+    from ..language.parser import source_line
 
     def show(name: str | None) -> None:
         if name is None:

@@ -1,5 +1,5 @@
 """Going back and reloading: the stepping engine's history (:class:`History`, mixed into
-:class:`~hila_lang.language.interpreter.Interpreter`).
+:class:`~hila_lang.engine.interpreter.Interpreter`).
 
 With :meth:`History.keep_history` on (the REPL turns it on), every step is preceded by a
 :class:`Snapshot` -- the interpreter's own state and the tokens of the world's and the back end's
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..core.errors import HilaRuntimeError
-from .fsm import FSM
+from ..language.fsm import FSM
 
 #: how many steps the REPL's ``back`` can undo (older snapshots are discarded)
 HISTORY_LIMIT = 100
@@ -123,7 +123,7 @@ class History:
             raise HilaRuntimeError(f"the program now names world '{fsm.world}', not '{self.fsm.world}': reload "
                                    "keeps the world and the back end", hint="start a new session for another world")
         old, self.checked, self.fsm = self.fsm, checked, fsm
-        self._subs.clear()
+        self._reloaded()
         if self.done:
             return "the program had finished; 'reset' runs the new one from its start"
         self.current, why = resume_at(old, fsm, self.current)

@@ -13,7 +13,7 @@ finished or failed) that any ZIP tool opens, with
 - ``eyes/NNNN.png``: the left eye's image after each run state (``--record-eyes``).
 
 :func:`read_record` reads it back without a simulator (numpy arrays for points and paths);
-:mod:`hila_lang.language.replay` steps through it and verifies it.
+:mod:`hila_lang.session.replay` steps through it and verifies it.
 """
 
 from __future__ import annotations
@@ -97,7 +97,7 @@ def osila_record(step) -> dict:
 
 
 class Recorder:
-    """Collects a run of ``interp`` (an :class:`~hila_lang.language.interpreter.Interpreter`) and
+    """Collects a run of ``interp`` (an :class:`~hila_lang.engine.interpreter.Interpreter`) and
     writes it to ``path`` with :meth:`close`.
 
     Parameters
@@ -372,7 +372,7 @@ def _validate(doc) -> None:
     start["hand"] = _points(_need(start, "hand", list, "its 'start'"), "its start 'hand'", "point")
     fsm = _need(doc, "fsm", dict, "the recording")
     try:
-        from .fsm import FSM
+        from ..language.fsm import FSM
 
         states = FSM.from_dict(fsm).states
     except (HilaError, KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:

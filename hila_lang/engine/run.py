@@ -1,0 +1,146 @@
+"""The executor of ``run`` states: one HILA step (bind a sub-template's ICPs in the scene, warp it
+with OSILA, move the hand along it).
+
+A ``run`` state evaluates its bindings against the scene (variables, ``hand`` = where the back end
+says the hand is, the program's ``point`` s, then the world's ``points()``), warps the
+(sub-)template with :func:`hila_lang.hierarchy.step.hila_step` (the one HILA step, shared with
+``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
+binds it), moves the back end along the path, and calls
+``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
+(``template`` is the sub-template that ran).  Its ``via``/``avoid`` constraints (and those of the
+task calls around it) are evaluated now (:meth:`RunExecutor.constraints`: a point group gives one
+per point) and go to OSILA's plan adjustment through the same step; the trace says how each was
+met.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import HilaRuntimeError, UnreachableError
+from ..language import ast as A
+from ..language.fsm import RunState, State
+from .executors import Executor, executes
+from .scene import src
+from .trace import TraceEntry, fmt_point, fmt_value, met_text
+
+START, END = "start", "end"
+
+
+@executes(RunState)
+class RunExecutor(Executor):
+    """Runs ``run`` states; keeps the (sub-)templates it has cut, until the program is reloaded."""
+
+    def __init__(self, ctx) -> None:
+        super().__init__(ctx)
+        self._subs: dict = {}
+
+    def reload(self) -> None:
+        self._subs.clear()
+
+    def template(self, st: State):
+        """The (sub-)template a run state runs."""
+        key = (st.template, st.tag)
+        if key not in self._subs:
+            t = self.ctx.checked.templates[st.template]
+            self._subs[key] = t if st.tag is None else t.sub(st.tag)
+        return self._subs[key]
+
+    def surface(self):
+        """The world's drawing surface (its scene's), where 2-D templates run; or None."""
+        scene = self.ctx.world.scene
+        return None if scene is None else scene.surface
+
+    def scene_binding(self, st) -> dict[str, np.ndarray | None]:
+        """What a run state's bindings say now: ICP name -> point, or None (``icp = none``).
+
+        ``start`` appears only when the program binds it; :func:`hila_lang.hierarchy.step.hila_step`
+        binds it to the hand otherwise.
+        """
+        t, scene = self.template(st), self.ctx.scene
+        icps = [k for k in t.icps if k not in (START, END)]
+        out: dict[str, np.ndarray | None] = {}
+        spread = None
+        for icp, expr in st.bindings:
+            if icp == A.SPREAD:
+                spread = expr
+            elif icp in t.icps:
+                out[icp] = scene.point(expr, allow_none=True)
+            else:  # a group prefix: icp.K <- value.K
+                prefix = scene.reference(expr)
+                for k in t.icps:
+                    if k.startswith(icp + "."):
+                        out[k] = scene.lookup(f"{prefix}.{k[len(icp) + 1:]}")
+        if spread is not None:
+            prefix = scene.reference(spread)
+            for k in icps:
+                if k not in out:
+                    out[k] = scene.lookup(f"{prefix}.{k}")
+        return out
+
+    def bind(self, st) -> dict[str, np.ndarray]:
+        """Task ICPs of a run state: name -> point (3,), in the template's ICP order (a 2-D
+        template's as bound in the scene, before they are projected onto the drawing surface)."""
+        from ..hierarchy.step import bind
+
+        t, binding, hand = self.template(st), self.scene_binding(st), self.ctx.scene.hand()
+        if t.dim == 2 and self.surface() is not None:
+            given = {START: hand, **binding}
+            return {k: given[k] for k in t.icps if given.get(k) is not None}
+        return bind(t, binding, hand)
+
+    def constraints(self, st) -> list:
+        """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.step.Constraint` s, now:
+        a point group gives one per point; a radius must be a number > 0 (metres)."""
+        from ..hierarchy.step import Constraint
+
+        scene, out = self.ctx.scene, []
+        for c in st.constraints:
+            where = f"{c.text()} at {c.pos.line}:{c.pos.column}" if c.pos.line else c.text()
+            radius = None
+            if c.radius is not None:
+                radius = scene.eval(c.radius)
+                if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not radius > 0:
+                    raise HilaRuntimeError(f"an obstacle's radius must be a number of metres > 0, got "
+                                           f"{fmt_value(radius)} from '{src(c.radius)}' in '{where}'")
+            for member, point in scene.points_of(c.value):
+                name = where if member is None else f"{where} ({member})"
+                out.append(Constraint(point, None if radius is None else float(radius), name))
+        return out
+
+    def execute(self, st, n: int) -> TraceEntry:
+        from ..hierarchy.step import hila_step
+
+        ctx, t = self.ctx, self.template(st)
+        step = hila_step(t, self.scene_binding(st), ctx.scene.hand(), constraints=self.constraints(st),
+                         surface=self.surface(), **ctx.osila_options)
+        path, icps = step.path, step.icps
+        try:
+            executed = ctx.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+        except UnreachableError as exc:  # told as the program's target, not a waypoint index
+            from ..robot.reach import name_the_target
+
+            raise name_the_target(exc, icps, st.ref) from None
+        executed = None if executed is None else np.asarray(executed, dtype=float)
+        ctx.hold()
+        ctx.world.notify("state_done", state=st.name, path=path, executed=executed, kind="run",
+                         pen_down=bool(st.pen_down), icps=dict(icps), template=t)
+        text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
+                f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
+                + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step))
+        text += "".join(f"; note: {n}" for n in step.notes)
+        return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
+                          icps=icps, pen_down=bool(st.pen_down), step_result=step)
+
+    def explain(self, st, title: str) -> list[str]:
+        """What OSILA will do in run state ``st`` (:func:`hila_lang.hierarchy.explain.explain_run`)."""
+        from ..hierarchy.explain import explain_run
+
+        return explain_run(self.template(st), self.scene_binding(st), self.ctx.scene.hand(), self.constraints(st),
+                           self.ctx.osila_options, surface=self.surface(), title=title)
+
+    def explain_done(self, st, entry: TraceEntry, title: str) -> list[str]:
+        """What OSILA did in a run ``entry`` of state ``st`` (:func:`hila_lang.hierarchy.explain.explain_step`)."""
+        from ..hierarchy.explain import explain_step
+
+        return explain_step(self.template(st), entry.step_result, title=title)
