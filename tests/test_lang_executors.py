@@ -104,3 +104,38 @@ def test_one_executor_object_per_class_in_a_run(tmp_path):
     assert {type(x) for x in made} == {X.SetExecutor, X.BranchExecutor, X.EndExecutor}
     assert len({id(x) for x in made if type(x) is X.SetExecutor}) == 1  # the same object for every let
     assert set(it._executors) == {X.SetExecutor, X.BranchExecutor, X.EndExecutor}
+
+
+def test_a_statement_class_needs_no_transformer_or_checker_code_of_its_own(tmp_path, monkeypatch):
+    """A statement registered with ast.statement is built from its rule's children and checked
+    generically (its expressions' names, its blocks), so a new keyword is grammar + ast + compiler."""
+    from hila_lang.core.errors import CheckError
+    from hila_lang.language import ast as A
+    from hila_lang.language import transformer as T
+    from hila_lang.language.checker import check
+    from hila_lang.language.environment import Environment
+
+    assert set(A.RULES) <= {n for n in dir(T.ToAst) if not n.startswith("_")}  # every rule has a builder
+    assert A.STATEMENTS == tuple(A.RULES.values())
+
+    @dataclasses.dataclass(frozen=True)
+    class ShoutStmt:  # not registered: nothing global changes
+        value: object
+        body: tuple
+        pos: A.Pos = A.NOPOS
+
+    from lark import Token
+
+    build = T._generic(ShoutStmt)
+    node = build(None, type("M", (), {"empty": True})(), [Token("NAME", "x"), ()])
+    assert node == ShoutStmt("x", ())  # a token becomes its text, fields in order
+
+    env = Environment.default()
+    program = env.parse("main {\n let a = 1\n}\n", str(tmp_path / "p.hila"))
+    main = program.items[-1]
+    stranger = ShoutStmt(A.Name(("nope",), A.Pos(2, 8)), (), A.Pos(2, 2))
+    monkeypatch.setattr(A, "STATEMENTS", A.STATEMENTS + (ShoutStmt,))
+    bad = A.Program(program.items[:-1] + (A.MainDef(main.body + (stranger,), main.pos),), program.file,
+                    program.source)
+    with pytest.raises(CheckError, match="'nope'"):
+        check(bad)

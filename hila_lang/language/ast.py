@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field, fields, is_dataclass, replace
-from typing import Union, get_args
+from typing import Union
 
 
 @dataclass(frozen=True)
@@ -167,11 +167,32 @@ class Constraint:
         return f"{self.kind} {source_text(self.value)}{radius}"
 
 
+#: grammar rule -> the statement class it writes (:func:`statement`)
+RULES: dict[str, type] = {}
+
+
+def statement(rule: str):
+    """Class decorator: a statement, written by the grammar's ``rule`` (``grammar/hila.lark``).
+
+    :mod:`hila_lang.language.transformer` builds it from the rule's children in order (keywords
+    dropped, a token as its text, an absent ``[optional]`` as None) and ``pos``, unless it has a
+    method of its own for the rule; the checker checks the names in its expressions and the
+    statements in its blocks unless it has a ``visit_`` method for it.  So a new statement whose
+    fields are its rule's children is the rule, this class, and the compiler's ``visit_`` method.
+    """
+    def register(cls):
+        RULES[rule] = cls
+        return cls
+
+    return register
+
+
 def _constraints():
     """The ``constraints`` field of a run or a call: omitted from :func:`dump` when empty."""
     return field(default=(), metadata={"omit_empty": True})
 
 
+@statement("run_stmt")
 @dataclass(frozen=True)
 class RunStmt:
     """``run TEMPLATE[.TAG](bindings) [pen up|down] [via P] [avoid P radius R] ...``."""
@@ -189,6 +210,7 @@ class RunStmt:
         return self.template if self.tag is None else f"{self.template}.{self.tag}"
 
 
+@statement("call_stmt")
 @dataclass(frozen=True)
 class CallStmt:
     task: str
@@ -197,6 +219,7 @@ class CallStmt:
     constraints: tuple[Constraint, ...] = _constraints()
 
 
+@statement("let_stmt")
 @dataclass(frozen=True)
 class LetStmt:
     name: str
@@ -204,12 +227,14 @@ class LetStmt:
     pos: Pos = _pos()
 
 
+@statement("wait_stmt")
 @dataclass(frozen=True)
 class WaitStmt:
     wait: Wait
     pos: Pos = _pos()
 
 
+@statement("if_stmt")
 @dataclass(frozen=True)
 class IfStmt:
     """``if c {..} else if c {..} else {..}``: ``branches`` pairs (condition, body)."""
@@ -219,6 +244,7 @@ class IfStmt:
     pos: Pos = _pos()
 
 
+@statement("while_stmt")
 @dataclass(frozen=True)
 class WhileStmt:
     cond: Expr
@@ -226,6 +252,7 @@ class WhileStmt:
     pos: Pos = _pos()
 
 
+@statement("until_stmt")
 @dataclass(frozen=True)
 class UntilStmt:
     """``until c {..}``: test ``c`` before each round, stop when it holds."""
@@ -235,6 +262,7 @@ class UntilStmt:
     pos: Pos = _pos()
 
 
+@statement("repeat_stmt")
 @dataclass(frozen=True)
 class RepeatStmt:
     count: Expr
@@ -242,9 +270,9 @@ class RepeatStmt:
     pos: Pos = _pos()
 
 
-Stmt = Union[RunStmt, CallStmt, LetStmt, WaitStmt, IfStmt, WhileStmt, UntilStmt, RepeatStmt]
-#: the statement classes (for ``isinstance``)
-STATEMENTS = get_args(Stmt)
+Stmt = Union[RunStmt, CallStmt, LetStmt, WaitStmt, IfStmt, WhileStmt, UntilStmt, RepeatStmt]  # for type hints
+#: the statement classes (for ``isinstance``): every class registered with :func:`statement`
+STATEMENTS = tuple(RULES.values())
 
 # --------------------------------------------------------------------------- top level
 

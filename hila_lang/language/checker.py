@@ -199,8 +199,14 @@ class _Checker(A.Visitor):
         for s in stmts:
             self.visit(s, defined)
 
-    def generic_visit(self, s, defined):  # pragma: no cover - the transformer builds only known kinds
-        raise TypeError(f"unknown statement {s!r}")
+    def generic_visit(self, s, defined):
+        """A statement with no rule of its own here: the names in its expressions, then the
+        statements in its blocks, in source order."""
+        for child in A.children(s):
+            if isinstance(child, A.STATEMENTS):
+                self.visit(child, defined)
+            else:
+                self.expr(child, defined, s.pos)
 
     def visit_RunStmt(self, s: A.RunStmt, defined: set[str]) -> None:
         self.run_stmt(s, defined)

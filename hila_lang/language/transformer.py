@@ -34,9 +34,9 @@ def _items(children) -> tuple:
     return tuple(c for c in children if c is not None and not isinstance(c, Token))
 
 
-@v_args(meta=True)
 class ToAst(Transformer):
-    """Builds the frozen dataclasses bottom-up."""
+    """Builds the frozen dataclasses bottom-up.  A statement registered with
+    :func:`hila_lang.language.ast.statement` and no method here is built by :func:`_generic`."""
 
     # ---- expressions
     def number(self, meta, ch):
@@ -203,6 +203,21 @@ class ToAst(Transformer):
 
     def start(self, meta, ch):
         return _items(ch)
+
+
+def _generic(cls):
+    """The rule method of statement class ``cls``: its fields are the rule's children in order (a
+    token as its text), then ``pos``."""
+    def build(self, meta, ch):
+        return cls(*(str(c) if isinstance(c, Token) else c for c in ch), pos=_pos(meta))
+
+    return build
+
+
+for _rule, _cls in A.RULES.items():
+    if not hasattr(ToAst, _rule):
+        setattr(ToAst, _rule, _generic(_cls))
+ToAst = v_args(meta=True)(ToAst)
 
 
 _EXPR_TYPES = (A.Number, A.String, A.Bool, A.NoneLit, A.Name, A.Vector, A.Unary, A.Binary, A.Ask)
@@ -477,9 +492,6 @@ def parse_expr(text: str):
 
 
 
-_BLOCK_OWNERS = (A.TaskDef, A.MainDef, A.IfStmt, A.WhileStmt, A.UntilStmt, A.RepeatStmt)
-
-
 def deepest(items):
     """(node, blocks, expression levels) of the most deeply nested node of ``items``
     (see :data:`MAX_NESTING`), walking without recursion; None for no items."""
@@ -489,10 +501,9 @@ def deepest(items):
         node, blocks, exprs = stack.pop()
         if best is None or blocks + exprs > best[1] + best[2]:
             best = (node, blocks, exprs)
-        owner = isinstance(node, _BLOCK_OWNERS)
         for child in reversed(A.children(node)):  # popped in source order
-            if isinstance(child, A.STATEMENTS):  # a statement in this node's block
-                stack.append((child, blocks + 1 if owner else blocks, 0))
+            if isinstance(child, A.STATEMENTS):  # a statement in a block of this node's
+                stack.append((child, blocks + 1, 0))
             else:  # an expression (a binding ``icp = value`` is not a level of its own)
                 stack.append((child, blocks, exprs + (0 if isinstance(child, A.Binding) else 1)))
     return best
