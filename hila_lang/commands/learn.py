@@ -19,6 +19,8 @@ Sources (one of):
                               eye cameras, then learn it by perception (about a minute)
   --frames REC                a recording folder (left/, right/, calibration/, cameras.yaml)
   --left L --right R          left and right frames: image folders or video files
+The last three learn in the world --world names (default tictactoe): the world declares how its
+demonstration is recorded and how its scene's ICPs are read (WorldInfo.recorder, .icp_reader).
 
 DEMO.csv: a header line, then one row per waypoint.  Header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z'
 (t in seconds, strictly increasing; x, y, z in metres).  Blank lines and lines starting with '#'
@@ -54,6 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     seen.add_argument("--calibration-right", metavar="F", help="right calibration YAML or chessboard image folder")
     seen.add_argument("--cameras", metavar="cameras.yaml", help="camera poses and image size")
     seen.add_argument("--stereo", metavar="DIR", help="chessboard pairs seen by both eyes (left/, right/)")
+    seen.add_argument("--world", default="tictactoe", metavar="NAME",
+                      help="the world whose demonstration is recorded (--from-sim) or whose scene ICPs are read "
+                           "in the frames (default tictactoe, the only one shipped that has them)")
     seen.add_argument("--max-gap", type=int, default=3, help="longest marker loss bridged, frames (default 3)")
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
@@ -123,15 +128,17 @@ def _source(args: argparse.Namespace) -> str:
 def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
     """The template learned through the eye cameras (imports OpenCV and PyBullet)."""
     from ..perception.learn import template_from_frames
-    from ..worlds.tictactoe.recording import learn_from_sim
-    from ..worlds.tictactoe.vision import demonstration_icps
+    from ..plugins import registry
 
+    info = registry.world(args.world)
     if source == "--from-sim":
+        learn_from_sim = info.capability("recorder", "demonstration to record", "--from-sim")
         print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
         template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name, method=args.method,
                                   recording_dir=args.keep_recording)
     else:
         left, right = (args.frames, None) if source == "--frames" else (args.left, args.right)
+        demonstration_icps = info.capability("icp_reader", "reader of a demonstration's ICPs", source)
         template = template_from_frames(
             left, right, read_icps=demonstration_icps, calibration_left=args.calibration_left, calibration_right=args.calibration_right,
             cameras=args.cameras, stereo=args.stereo, k=k, tags=tags, contact=contact, name=name,

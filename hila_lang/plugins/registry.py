@@ -114,6 +114,14 @@ class WorldInfo:
     declare : str or None
         ``"module:callable"``; ``callable(settings: dict) -> Declared``, for a world whose names
         follow from its settings (the scripted world's script); None: the fields above say it all.
+    recorder : str or None
+        ``"module:callable"``: records the world's seeded demonstration in simulation through the
+        robot's eyes and learns it (``hila learn --from-sim --world NAME``);
+        ``callable(seed, *, k, tags, contact, name, method, recording_dir) -> Template``.
+    icp_reader : str or None
+        ``"module:callable"``: reads a demonstration scene's ICPs from recorded frames
+        (``hila learn --frames/--left/--right --world NAME``), the ``read_icps`` of
+        :func:`hila_lang.perception.learn.template_from_frames`.
     """
 
     name: str
@@ -127,6 +135,8 @@ class WorldInfo:
     drawing_surface: bool = False
     declare: str | None = None
     points: Mapping[str, str] = field(default_factory=dict)
+    recorder: str | None = None
+    icp_reader: str | None = None
 
     def __post_init__(self) -> None:
         from .names import Names
@@ -147,6 +157,16 @@ class WorldInfo:
         return Declared(dict(self.questions), dict(self.events), None, self.drawing_surface,
                         f"the {self.name} world",
                         arities={**self.questions.arities(), **self.events.arities()})
+
+    def capability(self, attr: str, what: str, flag: str):
+        """The callable the world declares as ``attr`` (``recorder``, ``icp_reader``); an
+        InputError naming the worlds that have one when this world has none."""
+        target = getattr(self, attr)
+        if target is None:
+            having = [n for n in names("world") if getattr(world(n), attr) is not None]
+            raise InputError(f"world '{self.name}' has no {what}, so {flag} cannot learn in it",
+                             hint=f"worlds that have one: {', '.join(having)}" if having else None)
+        return _import(target)
 
     def build(self, options, settings: dict[str, Any]):
         """The world for a run (``settings`` as :meth:`parse` returns them), checked to be a World."""

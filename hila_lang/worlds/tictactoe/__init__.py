@@ -22,6 +22,8 @@ from ...plugins.settings import Setting, boolean, choice, number
 WORLD = WorldInfo(
     name="tictactoe",
     factory="hila_lang.worlds.tictactoe.world:make_world",
+    recorder="hila_lang.worlds.tictactoe.recording:learn_from_sim",
+    icp_reader="hila_lang.worlds.tictactoe.vision:demonstration_icps",
     doc="the paper's Experiment B: the iCub plays O on a rotated grid against an opponent",
     settings=(
         Setting("opponent", "who plays X", choice("random", "minimax", "human"), default="minimax",
