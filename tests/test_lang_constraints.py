@@ -148,6 +148,18 @@ def test_the_trace_says_how_each_constraint_was_met():
                                   f"{(clearance(trace[4].path, LAMP) - 0.015) * 1000:.1f} mm")
 
 
+def test_the_trace_measures_where_the_hand_went_not_the_plan():
+    class Shaky(DryBackend):  # the arm ends every move 3 mm off the plan along x
+        def move(self, path, **kw):
+            return super().move(path, **kw) + np.array([0.003, 0.0, 0.0])
+
+    _, trace = run(PROGRAM, backend=Shaky())
+    reach = trace[0]
+    went = nearest(reach.executed, VIA) * 1000
+    assert abs(went - nearest(reach.path, VIA) * 1000) > 0.5  # the two differ here
+    assert reach.text.endswith(f"met at {went:.1f} mm")
+
+
 def test_on_the_pybullet_back_end_the_executed_route_meets_them_too():
     from hila_lang.robot.backend import PyBulletBackend
 

@@ -76,10 +76,11 @@ def fmt_value(v) -> str:
     return repr(v)
 
 
-def met_text(step) -> str:
-    """How a run's route met its constraints, for the trace: ``; via w at 5:9 met at 0.4 mm``."""
+def met_text(step, executed=None) -> str:
+    """How a run met its constraints, for the trace: ``; via w at 5:9 met at 0.4 mm``, measured
+    on the path the hand took (``executed``) when the back end reports it, else on the plan."""
     parts = []
-    for c, value in step.met():
+    for c, value in step.met(executed):
         if c.radius is None:
             parts.append(f"{c.name} met at {value * 1000:.1f} mm")
         else:

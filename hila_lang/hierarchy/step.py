@@ -123,9 +123,11 @@ class Step:
     options: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
-    def met(self) -> list[tuple[Constraint, float]]:
-        """Each named constraint with :meth:`Constraint.achieved` on the path."""
-        return [(c, c.achieved(self.path)) for c in self.constraints]
+    def met(self, path=None) -> list[tuple[Constraint, float]]:
+        """Each named constraint with :meth:`Constraint.achieved` on ``path`` (default: the
+        planned path; a run passes where the hand went)."""
+        path = self.path if path is None else path
+        return [(c, c.achieved(path)) for c in self.constraints]
 
 
 def _fmt(p) -> str:
