@@ -37,7 +37,11 @@ def installed(tmp_path_factory):
     assert install.returncode == 0, install.stderr[-3000:]
     elsewhere = tmp / "elsewhere"
     elsewhere.mkdir()
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), sysconfig.get_paths()["purelib"]])}
+    # the dependencies: every site-packages folder this Python sees (a venv made with
+    # --system-site-packages has them in the base Python's); their .pth files are not read under -S,
+    # so an editable install of the checkout stays out of the way
+    deps = [sysconfig.get_paths()["purelib"], *(p for p in sys.path if Path(p).name in ("site-packages", "dist-packages"))]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), *dict.fromkeys(deps)])}
     env.pop("HILA_PATH", None)
 
     def hila(*args: str) -> subprocess.CompletedProcess:
