@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import re
+from dataclasses import replace
 
 from lark import Token, Transformer, Tree, v_args
 from lark.exceptions import VisitError
@@ -58,9 +59,6 @@ class ToAst(Transformer):
     def none(self, meta, ch):
         return A.NoneLit(_pos(meta))
 
-    def paren(self, meta, ch):  # ( expr ): the expression keeps its own position
-        return ch[0]
-
     def dotted(self, meta, ch):
         return A.Name(tuple(str(t) for t in ch), _pos(meta))
 
@@ -70,32 +68,13 @@ class ToAst(Transformer):
     def vector(self, meta, ch):
         return A.Vector(tuple(c for c in ch if c is not None), _pos(meta))
 
-    def not_op(self, meta, ch):
-        return A.Unary("not", ch[0], _pos(meta))
+    def paren(self, meta, ch):  # ( expr ): the expression, spanning its brackets
+        e = ch[0]
+        pos = _pos(meta)
+        return replace(e, pos=pos) if pos.line else e
 
-    def neg(self, meta, ch):
-        if isinstance(ch[0], A.Number):  # fold -2.5 into a literal
-            return A.Number(-ch[0].value, _pos(meta))
-        return A.Unary("-", ch[0], _pos(meta))
-
-    def _chain(self, meta, ch, op=None):
-        result = ch[0]
-        i = 1
-        while i < len(ch):
-            if isinstance(ch[i], Token):
-                operator, right, i = str(ch[i]), ch[i + 1], i + 2
-            else:
-                operator, right, i = op, ch[i], i + 1
-            result = A.Binary(operator, result, right, _pos(meta))
-        return result
-
-    def or_expr(self, meta, ch):
-        return self._chain(meta, ch, "or")
-
-    def and_expr(self, meta, ch):
-        return self._chain(meta, ch, "and")
-
-    compare = sum = product = _chain
+    def expr(self, meta, ch):
+        return _precedence(ch)
 
     def args(self, meta, ch):
         return tuple(c for c in ch if c is not None)
@@ -203,6 +182,86 @@ class ToAst(Transformer):
 
     def start(self, meta, ch):
         return _items(ch)
+
+
+# --------------------------------------------------------------------------- expressions by precedence
+#
+# The grammar reads an expression flat (``_operand (_binop _operand)*``, each operand with its
+# 'not' and '-' prefixes); :func:`_precedence` builds the tree, level by level, loosest first.  A
+# node spans what its grammar level would have spanned: every operator of a chain at one level
+# spans the whole chain (``a + b + c``: both '+'), a prefix from its token to the end of what it
+# applies to.  Nothing recurses with the length of the expression.
+
+_LOOSE = ("OR", "AND")  # 'not' may follow these
+
+
+def _start(e) -> tuple[int, int]:
+    return e.pos.line, e.pos.column
+
+
+def _precedence(ch):
+    operands, ops, i = [], [], 0  # operands: [nots, value]; ops: the tokens between them
+    while i < len(ch):
+        nots, negs = [], []
+        while isinstance(ch[i], Token) and ch[i].type == "NOT":
+            nots.append(ch[i])
+            i += 1
+        while isinstance(ch[i], Token) and ch[i].type == "NEG":
+            negs.append(ch[i])
+            i += 1
+        value = ch[i]
+        for tok in reversed(negs):  # innermost first; -2.5 folds into a literal
+            pos = A.Pos(tok.line, tok.column, value.pos.end_line, value.pos.end_column)
+            value = A.Number(-value.value, pos) if isinstance(value, A.Number) else A.Unary("-", value, pos)
+        if nots and ops and ops[-1].type not in _LOOSE:
+            raise HilaSyntaxError(f"'not' cannot follow '{ops[-1]}': it applies to a whole comparison; "
+                                  f"write '{ops[-1]} (not ...)'", line=nots[0].line, column=nots[0].column)
+        operands.append((nots, value))
+        i += 1
+        if i < len(ch):
+            ops.append(ch[i])
+            i += 1
+    return _level(operands, ops, 0, len(operands) - 1, 0)
+
+
+#: the binary levels, loosest first, with where 'not' stands among them
+_LEVELS = (("OR",), ("AND",), "not", ("COMPARE",), ("ADD_OP",), ("MUL_OP",))
+
+
+def _level(operands, ops, lo: int, hi: int, level: int):
+    """The expression of operands ``lo..hi`` (and the ``ops`` between them) from ``level`` down."""
+    while True:
+        if level == len(_LEVELS):
+            return operands[lo][1]
+        kind = _LEVELS[level]
+        if kind == "not":
+            nots = operands[lo][0]
+            if not nots:
+                level += 1
+                continue
+            inner = _level(operands, ops, lo, hi, level + 1)
+            end = operands[hi][1].pos
+            for tok in reversed(nots):
+                inner = A.Unary("not", inner, A.Pos(tok.line, tok.column, end.end_line, end.end_column))
+            return inner
+        cuts = [k for k in range(lo, hi) if ops[k].type in kind]
+        if not cuts:
+            level += 1
+            continue
+        if kind == ("COMPARE",) and len(cuts) > 1:
+            second = ops[cuts[1]]
+            raise HilaSyntaxError(f"comparisons do not chain: write 'a {ops[cuts[0]]} b and b {second} c'",
+                                  line=second.line, column=second.column)
+        first = operands[lo]
+        # a chain's span: from its first operand ('not's included above the comparison level) to its last
+        head = first[0][0] if first[0] and level < _LEVELS.index("not") else first[1].pos
+        end = operands[hi][1].pos
+        pos = A.Pos(head.line, head.column, end.end_line, end.end_column)
+        bounds = [lo, *(k + 1 for k in cuts), hi + 1]
+        result = _level(operands, ops, bounds[0], bounds[1] - 1, level + 1)
+        for k, a, b in zip(cuts, bounds[1:], bounds[2:]):
+            result = A.Binary(str(ops[k]), result, _level(operands, ops, a, b - 1, level + 1), pos)
+        return result
 
 
 def _generic(cls):
