@@ -214,8 +214,8 @@ def _precedence(ch):
             pos = A.Pos(tok.line, tok.column, value.pos.end_line, value.pos.end_column)
             value = A.Number(-value.value, pos) if isinstance(value, A.Number) else A.Unary("-", value, pos)
         if nots and ops and ops[-1].type not in _LOOSE:
-            raise HilaSyntaxError(f"'not' cannot follow '{ops[-1]}': it applies to a whole comparison; "
-                                  f"write '{ops[-1]} (not ...)'", line=nots[0].line, column=nots[0].column)
+            raise HilaSyntaxError(f"'not' cannot follow '{ops[-1]}' (it applies to a whole comparison): "
+                                  f"put it in brackets, '{ops[-1]} (not ...)'", line=nots[0].line, column=nots[0].column)
         operands.append((nots, value))
         i += 1
         if i < len(ch):
