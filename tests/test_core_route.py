@@ -187,3 +187,26 @@ def test_pruned_kernel_equals_full_scan(monkeypatch, dim, T, seed):
     scan = min_energy_route(centres, offsets, 0.0, blocked, pinned=pinned)
     np.testing.assert_array_equal(compiled[0], scan[0])
     assert compiled[1] == scan[1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_pruned_kernel_breaks_exact_ties_as_the_scan(monkeypatch, seed):
+    # integer offsets and centres: every cost is an exact integer, so equal costs abound; the
+    # pruned kernel returns the scan's first minimum at every stamp
+    from hila_lang.osila import route
+
+    if route._compiled_route() is None:
+        pytest.skip("numba is not available")
+    rng = np.random.default_rng(seed)
+    dim = 2 + seed % 2
+    offsets = np.vstack([np.zeros(dim), rng.integers(-2, 3, (12, dim))]).astype(float)
+    offsets = np.unique(offsets, axis=0)
+    centres = np.cumsum(rng.integers(-1, 2, (60, dim)), axis=0).astype(float)
+    blocked = rng.random((60, len(offsets))) < 0.2
+    distortion = float(seed % 2)
+    monkeypatch.setattr(route, "min_stamps", lambda: 0)  # the kernel for this short path too
+    compiled = min_energy_route(centres, offsets, distortion, blocked, pinned=[0])
+    monkeypatch.setattr(route, "_compiled_route", lambda: None)
+    scan = min_energy_route(centres, offsets, distortion, blocked, pinned=[0])
+    np.testing.assert_array_equal(compiled[0], scan[0])
+    assert compiled[1] == scan[1]

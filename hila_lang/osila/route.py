@@ -100,6 +100,7 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
         if M > 1:
             gap[j] = G[near[j, 1], j]
     more = np.empty(M, dtype=np.bool_)
+    oT = np.ascontiguousarray(offsets.T)
     step = np.empty(D)
     lin = np.empty(M)  # the linear terms of step t
     lin_next = np.empty(M)  # ... of step t + 1
@@ -115,10 +116,12 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
         u = base[j] + extra[0, j] if j == 0 or not pinned[0] else np.inf
         W[0, j] = u - lin[j] if T > 1 else u
     nxt = np.empty(M)
+    lows = np.empty(T)  # min_i W[t, i]
     for t in range(T - 1):
         low = W[t, 0]
         for i in range(1, M):
             low = W[t, i] if W[t, i] < low else low
+        lows[t] = low
         # min_i W[t, i] + G[i, j], visiting i by increasing G[i, j] (i = j first: W[t, j] + 0):
         # once low + G[i, j] >= the best so far, no later i can be smaller (W[t, i] >= low, G
         # grows, rounding is monotone), so the minimum is the number the full scan gives, with a
@@ -139,21 +142,25 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
                 v = W[t, i] + g
                 best = v if v < best else best
             nxt[j] = best
-        if t + 2 < T:
+        r = t + 1 if per_stamp else 0
+        if t + 2 < T:  # (loops over j innermost, without branches: vectorised)
             for d in range(D):
                 step[d] = centres[t + 2, d] - centres[t + 1, d]
             for j in range(M):
-                dot = step[0] * offsets[j, 0]
-                for d in range(1, D):
-                    dot = dot + step[d] * offsets[j, d]
-                lin_next[j] = 2.0 * dot
-        r = t + 1 if per_stamp else 0
-        for j in range(M):
-            u = base[j] + extra[r, j] if j == 0 or not pinned[t + 1] else np.inf
-            ct = lin[j] + u
-            if t + 2 < T:
-                ct = ct - lin_next[j]
-            W[t + 1, j] = nxt[j] + ct
+                lin_next[j] = step[0] * oT[0, j]
+            for d in range(1, D):
+                for j in range(M):
+                    lin_next[j] = lin_next[j] + step[d] * oT[d, j]
+            for j in range(M):
+                lin_next[j] = 2.0 * lin_next[j]
+            for j in range(M):
+                W[t + 1, j] = nxt[j] + ((lin[j] + (base[j] + extra[r, j])) - lin_next[j])
+        else:
+            for j in range(M):
+                W[t + 1, j] = nxt[j] + (lin[j] + (base[j] + extra[r, j]))
+        if pinned[t + 1]:  # only the centre: the others' unary cost is infinite
+            for j in range(1, M):
+                W[t + 1, j] = np.inf
         lin, lin_next = lin_next, lin
     last = 0
     for j in range(1, M):
@@ -161,12 +168,18 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
             last = j
     choice[T - 1] = last
     for t in range(T - 1, 0, -1):
+        # the first i minimising W[t - 1, i] + G[i, j], pruned as the forward pass (every i
+        # that ties the minimum has lows[t - 1] + G[i, j] <= it, so it is visited)
         j = choice[t]
-        arg = 0
-        best = W[t - 1, 0] + G[0, j]
-        for i in range(1, M):
-            v = W[t - 1, i] + G[i, j]
-            if v < best:
+        arg = j
+        best = W[t - 1, j] + G[j, j]
+        for k in range(1, M):
+            i = near[j, k]
+            g = G[i, j]
+            if lows[t - 1] + g > best:
+                break
+            v = W[t - 1, i] + g
+            if v < best or (v == best and i < arg):
                 best = v
                 arg = i
         choice[t - 1] = arg
