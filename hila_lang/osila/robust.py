@@ -50,6 +50,7 @@ Pins (the hand, a bound goal) and plan-adjustment pairs are never screened.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -169,8 +170,7 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int, fast: bool = False) -> n
     (Umeyama on each, batched; D points in D-D fix a proper similarity).  ``fast``: the 3-D sets by
     the compiled :func:`_trials_kernel` (a long path, as the warp's kernels)."""
     K, D = src.shape
-    rng = np.random.default_rng(seed)
-    picks = np.argsort(rng.random((TRIALS[D], K)), axis=1)[:, :D]  # D distinct pairs per trial
+    picks = _picks(seed, K, D)
     tiny = 1e-24 * max(float(np.ptp(src, axis=0).max()) ** 2, 1e-300)
     if D == 2:  # as complex numbers the similarity is z -> c z, c = Σ b conj(a) / Σ |a|²
         a, b = src[picks], dst[picks]  # (N, D, D): trial, pair, coordinate
@@ -190,7 +190,7 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int, fast: bool = False) -> n
             ok = var > tiny
         else:
             r, flag = np.empty((len(picks), K)), np.empty(len(picks), np.int8)
-            kernel(src, dst, np.ascontiguousarray(picks), tiny, r, flag)
+            kernel(src, dst, picks, tiny, r, flag)
             ok = flag != 1
             flat = np.flatnonzero(flag == 2)
             if len(flat):
@@ -200,6 +200,16 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int, fast: bool = False) -> n
         return np.ones(K, bool)
     best = r[int(np.argmin(med))]
     return best <= CUT * _sigma(best)
+
+
+@lru_cache(maxsize=64)
+def _picks(seed: int, K: int, D: int) -> np.ndarray:
+    """LMedS's minimal sets (TRIALS[D], D): D distinct pairs of K per trial, from ``seed``
+    (remembered: a seeded generator costs ~10 µs to start, a third of the screen's fixed cost)."""
+    rng = np.random.default_rng(seed)
+    picks = np.ascontiguousarray(np.argsort(rng.random((TRIALS[D], K)), axis=1)[:, :D])
+    picks.flags.writeable = False
+    return picks
 
 
 #: a 3-D minimal set whose triangle is flatter than this (|a₀ × a₁| / the longest centred point²)
@@ -324,8 +334,9 @@ def _trials_compiled():
     from ..core.jit import compiled
 
     src = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-    return compiled(_trials_kernel, src, src + 0.1, np.array([[0, 1, 2], [1, 2, 3]]), 1e-24, np.empty((2, 4)),
-                    np.empty(2, np.int8))
+    picks = np.array([[0, 1, 2], [1, 2, 3]], dtype=np.intp)
+    picks.flags.writeable = False  # as :func:`_picks` gives them
+    return compiled(_trials_kernel, src, src + 0.1, picks, 1e-24, np.empty((2, 4)), np.empty(2, np.int8))
 
 
 #: λ tried by ``smoothing="auto"`` (unit-free: the template points are normalised to unit extent)

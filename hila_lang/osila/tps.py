@@ -250,9 +250,13 @@ def merge_pairs(
     ``(src, dst, exact)`` of the kept pairs (``exact`` all False when not given).
     """
     exact = np.zeros(len(src), bool) if exact is None else np.asarray(exact, bool)
+    key = (src.tobytes(), src.shape, src.dtype.str, tol)
+    if _DISTINCT[0] == key:  # the same template points as the last call, found distinct
+        return src, dst, exact
     extent = float(np.ptp(src, axis=0).max()) if len(src) > 1 else 0.0
     close = _dist(src, src) <= tol * extent
     if close.sum() == len(src):  # only each point with itself: nothing to merge
+        _DISTINCT[0] = key
         return src, dst, exact
     close = close.tolist()
     groups: list[list[int]] = []
@@ -269,10 +273,27 @@ def merge_pairs(
     return src[keep], dst[keep], exact[keep]
 
 
+#: the last template points :func:`merge_pairs` found distinct, and the last :func:`affine_rank`
+#: (the outlier screen, re-timing and the warp ask about the same points in turn; one reference
+#: each, safe across threads)
+_DISTINCT: list = [None]
+_RANK: list = [None]
+
+
 def affine_rank(src: np.ndarray, tol: float = DEGENERATE_TOL) -> int:
     """Number of dimensions the centred points span (singular values above ``tol ×`` the largest)."""
     if len(src) < 2:
         return 0
+    key = (src.tobytes(), src.shape, src.dtype.str, tol)
+    last = _RANK[0]
+    if last is not None and last[0] == key:
+        return last[1]
+    rank = _affine_rank(src, tol)
+    _RANK[0] = (key, rank)
+    return rank
+
+
+def _affine_rank(src: np.ndarray, tol: float) -> int:
     a = src - src.sum(0) / len(src)
     cov = a.T @ a  # singular values of the centred points = square roots of its eigenvalues
     if cov.shape == (2, 2):
