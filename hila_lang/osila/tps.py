@@ -148,17 +148,27 @@ def _dist_numpy(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
-    """:func:`_dist_numpy` as loops into ``out`` (N, M): the same sums in the same order."""
+    """:func:`_dist_numpy` as loops into ``out`` (N, M): the same sums in the same order, a row of
+    ``out`` per coordinate (the loops over M vectorise: 1.6-2.6x faster than a loop over the
+    coordinates inside, at T x K = 1000 x 10 to 10000 x 1000 here)."""
     N, D = a.shape
     M = b.shape[0]
+    bT = np.ascontiguousarray(b.T)
     for i in range(N):
+        row = out[i]
+        ai = a[i, 0]
+        bk = bT[0]
         for j in range(M):
-            d = a[i, 0] - b[j, 0]
-            s = d * d
-            for k in range(1, D):
-                d = a[i, k] - b[j, k]
-                s += d * d
-            out[i, j] = np.sqrt(s)
+            d = ai - bk[j]
+            row[j] = d * d
+        for k in range(1, D):
+            ai = a[i, k]
+            bk = bT[k]
+            for j in range(M):
+                d = ai - bk[j]
+                row[j] = row[j] + d * d
+        for j in range(M):
+            row[j] = np.sqrt(row[j])
 
 
 def _dist_compiled():
