@@ -70,6 +70,26 @@ def scene(dim: int, T: int, K: int, kind: str, seed: int = 0):
     return path, src, dst
 
 
+def adjustment_scene(dim: int, T: int, K: int, seed: int = 0):
+    """(path, template ICPs, task ICPs, threshold, obstacles) for plan adjustment over several rounds.
+
+    The bending scene of :func:`scene` with its ICPs kept off the path (none within 5 % of the
+    mapped path's size: an obstacle over an ICP the path passes would be a contradiction), and
+    spheres of radius 6 % of that size centred on the mapped path every 150 stamps, which the
+    route must leave: each round's repair pairs bend the warp, and the next round checks again.
+    """
+    from hila_lang.osila.tps import _dist_numpy, fit_warp
+
+    path, src, dst = scene(dim, T, 3 * K, "tps", seed)
+    size = float(np.linalg.norm(np.ptp(path, axis=0)))
+    keep = _dist_numpy(src, path).min(1) > 0.05 * size
+    src, dst = src[keep][:K], dst[keep][:K]
+    mapped = fit_warp(src, dst)(path)
+    size = float(np.linalg.norm(np.ptp(mapped, axis=0)))
+    obstacles = np.array([np.append(mapped[t], 0.06 * size) for t in range(T // 10, T - T // 10, (15 * T) // 100)])
+    return path, src, dst, 0.01 * size, obstacles
+
+
 def floor_fn(path: np.ndarray, src: np.ndarray, dst: np.ndarray):
     """The cheapest exact TPS fit + evaluation in numpy (one symmetric solve, one T x K kernel)."""
     from scipy.linalg import solve
@@ -137,6 +157,56 @@ def scaling(sizes, stamps, repeat: int) -> None:
                           f"{ro / fl:>11.2f}  <= {goal:g} {flag}{extra}", flush=True)
 
 
+def adjustment(sizes, repeat: int) -> None:
+    """Plan adjustment over several rounds (:func:`adjustment_scene`), with the bordered update of
+    the warp's inverses (:mod:`hila_lang.osila.bordered`) and refactorising every round, interleaved."""
+    import importlib
+
+    from hila_lang.osila import bordered, imitate_detailed
+
+    adjust_module = importlib.import_module("hila_lang.osila.adjust")
+    spent: list[float] = []
+
+    class Timed(bordered.Refits):  # the time spent obtaining the inverses, per run
+        def factored(self, src):
+            a = time.perf_counter()
+            try:
+                return super().factored(src)
+            finally:
+                spent[-1] += time.perf_counter() - a
+
+    print("plan adjustment: the warp's inverses bordered while the pairs grow vs refactorised every round "
+          "(T = 1000, obstacles on the path)")
+    print(f"  {'D':>2} {'K':>5} {'rounds':>6}  {'run, bordered':>13} {'run, refactorised':>17} {'ratio':>6}  "
+          f"{'inverses, bordered':>18} {'refactorised':>12} {'ratio':>6}")
+    real = adjust_module.Refits
+    adjust_module.Refits = Timed
+    try:
+        for dim in (2, 3):
+            for K in sizes:
+                path, src, dst, threshold, obstacles = adjustment_scene(dim, 1000, K)
+                runs = {True: [], False: []}
+                inv = {True: [], False: []}
+                rounds = None
+                for _ in range(repeat):
+                    for reuse in (True, False):
+                        bordered.REUSE = reuse
+                        spent.append(0.0)
+                        a = time.perf_counter()
+                        got = imitate_detailed(path, src, dst, threshold=threshold, obstacles=obstacles, rounds=20)
+                        runs[reuse].append(time.perf_counter() - a)
+                        inv[reuse].append(spent[-1])
+                        rounds = got.rounds
+                run = {k: float(np.median(v)) * 1e3 for k, v in runs.items()}
+                fac = {k: float(np.median(v)) * 1e3 for k, v in inv.items()}
+                print(f"  {dim:>2} {K:>5} {rounds:>6}  {run[True]:>10.1f} ms {run[False]:>14.1f} ms "
+                      f"{run[True] / run[False]:>6.2f}  {fac[True]:>15.1f} ms {fac[False]:>9.1f} ms "
+                      f"{fac[True] / fac[False]:>6.2f}", flush=True)
+    finally:
+        adjust_module.Refits = real
+        bordered.REUSE = True
+
+
 def small(repeat: int, label: str) -> None:
     from scipy.interpolate import RBFInterpolator
 
@@ -173,6 +243,8 @@ def main() -> None:
     ap.add_argument("--small-repeat", type=int, default=200, help="repeats of the small case (median)")
     ap.add_argument("--sizes", default="10,50,200,1000", help="K values of the scaling table")
     ap.add_argument("--stamps", default="1000,10000", help="T values of the scaling table")
+    ap.add_argument("--adjust-sizes", default="200,1000",
+                    help="K values of the plan-adjustment comparison (bordered vs refactorised; '' skips it)")
     ap.add_argument("--numpy", action="store_true", help="also measure the small case with numpy only (HILA_JIT=0)")
     ap.add_argument("--threads", type=int, default=1,
                     help="BLAS threads for both sides (default 1: on a shared machine a threaded BLAS spins "
@@ -180,12 +252,14 @@ def main() -> None:
     args = ap.parse_args()
     from contextlib import nullcontext
 
+    import scipy.linalg  # noqa: F401 -- scipy's own BLAS, loaded before the limit so that it applies to it too
     from threadpoolctl import threadpool_limits
 
     print(f"machine: {os.cpu_count()} cores (shared); load average {os.getloadavg()[0]:.2f} at start; "
           f"BLAS threads: {args.threads or 'default'}")
     with threadpool_limits(args.threads) if args.threads else nullcontext():
         scaling([int(k) for k in args.sizes.split(",")], [int(t) for t in args.stamps.split(",")], args.repeat)
+        adjustment([int(k) for k in args.adjust_sizes.split(",") if k], args.repeat)
         small(args.small_repeat, "imitate")
     if args.numpy:
         from hila_lang.core import jit
