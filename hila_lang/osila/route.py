@@ -95,10 +95,13 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
     # near[j]: the candidates i by increasing G[i, j] (j itself first), for the pruned minimum
     near = np.empty((M, M), dtype=np.intp)
     gap = np.full(M, np.inf)  # G to the nearest other candidate
+    gs = np.empty((M, M))  # gs[j, k] = G[near[j, k], j]: the visit's distances, in order
     for j in range(M):
         near[j] = np.argsort(G[:, j], kind="mergesort")
+        for k in range(M):
+            gs[j, k] = G[near[j, k], j]
         if M > 1:
-            gap[j] = G[near[j, 1], j]
+            gap[j] = gs[j, 1]
     more = np.empty(M, dtype=np.bool_)
     oT = np.ascontiguousarray(offsets.T)
     step = np.empty(D)
@@ -135,11 +138,10 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
                 continue
             best = nxt[j]
             for k in range(1, M):
-                i = near[j, k]
-                g = G[i, j]
+                g = gs[j, k]
                 if low + g >= best:
                     break
-                v = W[t, i] + g
+                v = W[t, near[j, k]] + g
                 best = v if v < best else best
             nxt[j] = best
         r = t + 1 if per_stamp else 0
@@ -175,7 +177,7 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
         best = W[t - 1, j] + G[j, j]
         for k in range(1, M):
             i = near[j, k]
-            g = G[i, j]
+            g = gs[j, k]
             if lows[t - 1] + g > best:
                 break
             v = W[t - 1, i] + g
