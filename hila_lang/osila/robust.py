@@ -54,6 +54,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..core.jit import compiled
+
 #: rejection cut in robust standard deviations of the leave-one-out (or LMedS) residuals: 3.5 σ
 #: rejects about 1 in 2000 good pairs of Gaussian noise (a pair's error vector is 2- or 3-D, so
 #: its length is Rayleigh/Maxwell-distributed; 3.5 × the median-based σ is past its 99.9 %).
@@ -131,6 +133,11 @@ def loo_errors(src: np.ndarray, dst: np.ndarray, compiled_kernel: bool = False) 
     return np.sqrt(best)
 
 
+def _nonzero(mask: np.ndarray) -> np.ndarray:
+    """``np.flatnonzero`` of a 1-D mask (without its wrappers' few µs a call)."""
+    return mask.nonzero()[0]
+
+
 def _median(x: np.ndarray) -> np.ndarray:
     """``np.median(x, axis=-1)`` of finite values, bit for bit (the middle order statistic, or
     (a + b) / 2 of the two middle ones, as np.median's mean of them), without its fixed cost
@@ -151,7 +158,7 @@ def _loo_rounds(errors, keep: np.ndarray, floor: float) -> np.ndarray:
     """Drop pairs beyond :data:`CUT` robust σ of the leave-one-out errors until none is
     (``errors(idx)``: :func:`loo_errors` of the pairs ``idx``)."""
     for _ in range(MAX_ROUNDS):
-        idx = np.flatnonzero(keep)
+        idx = _nonzero(keep)
         if len(idx) < MIN_PAIRS:
             break
         e = errors(idx)
@@ -192,7 +199,7 @@ def _lmeds(src: np.ndarray, dst: np.ndarray, seed: int, fast: bool = False) -> n
             r, flag = np.empty((len(picks), K)), np.empty(len(picks), np.int8)
             kernel(src, dst, picks, tiny, r, flag)
             ok = flag != 1
-            flat = np.flatnonzero(flag == 2)
+            flat = _nonzero(flag == 2)
             if len(flat):
                 r[flat] = _trials_svd(src, dst, picks[flat])[0]
     med = np.where(ok, _median(r), np.inf)
@@ -329,14 +336,19 @@ def _trials_kernel(src, dst, picks, tiny, r, flag):  # pragma: no cover - compil
         flag[t] = 0
 
 
-def _trials_compiled():
-    """The compiled :func:`_trials_kernel`, or None."""
-    from ..core.jit import compiled
-
+def _warm_trials() -> tuple:
     src = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     picks = np.array([[0, 1, 2], [1, 2, 3]], dtype=np.intp)
     picks.flags.writeable = False  # as :func:`_picks` gives them
-    return compiled(_trials_kernel, src, src + 0.1, picks, 1e-24, np.empty((2, 4)), np.empty(2, np.int8))
+    return src, src + 0.1, picks, 1e-24, np.empty((2, 4)), np.empty(2, np.int8)
+
+
+_WARM_TRIALS = _warm_trials()  # the kernel's example arguments, made once (a call asks for it)
+
+
+def _trials_compiled():
+    """The compiled :func:`_trials_kernel`, or None."""
+    return compiled(_trials_kernel, *_WARM_TRIALS)
 
 
 #: λ tried by ``smoothing="auto"`` (unit-free: the template points are normalised to unit extent)
@@ -422,16 +434,16 @@ def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0
         if keep.sum() < MIN_PAIRS:
             keep = np.ones(K, bool)
     keep = _loo_rounds(errors, keep, floor)
-    idx = np.flatnonzero(keep)
+    idx = _nonzero(keep)
     e = errors(idx)
     if method == "lmeds" and e is not None and not keep.all():
         # a dropped pair the kept pairs' map predicts within the cut comes back
         from .tps import fit_warp
 
         warp = fit_warp(src[idx], dst[idx])
-        back = np.flatnonzero(~keep)
+        back = _nonzero(~keep)
         miss = np.sqrt(((warp(src[back]) - dst[back]) ** 2).sum(1))
         keep[back[miss <= max(CUT * _sigma(e), floor)]] = True
-        idx = np.flatnonzero(keep)
+        idx = _nonzero(keep)
         e = errors(idx)
-    return Pairs(K, idx, np.flatnonzero(~keep), None if e is None else float(np.sqrt((e**2).mean())), method)
+    return Pairs(K, idx, _nonzero(~keep), None if e is None else float(np.sqrt((e**2).mean())), method)

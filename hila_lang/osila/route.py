@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.jit import min_stamps
+from ..core.jit import compiled, min_stamps
 
 
 def _route_numpy(centres, offsets, base, extra, pinned, choice) -> float:
@@ -188,11 +188,13 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
     return W[T - 1, last]
 
 
-def _compiled_route():
-    from ..core.jit import compiled
+#: example arguments the kernel is compiled and tried on (made once: a call asks for the kernel)
+_WARM = (np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros((1, 2)), np.zeros(3, dtype=np.bool_),
+         np.zeros(3, dtype=np.intp), np.zeros((3, 2)))
 
-    return compiled(_route_kernel, np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros((1, 2)),
-                    np.zeros(3, dtype=np.bool_), np.zeros(3, dtype=np.intp), np.zeros((3, 2)))
+
+def _compiled_route():
+    return compiled(_route_kernel, *_WARM)
 
 
 def min_energy_route(

@@ -92,7 +92,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.jit import min_stamps
+from ..core.jit import compiled, min_stamps
 from .fallback import fit_similarity
 
 MERGE_TOL = 1e-6
@@ -173,9 +173,7 @@ def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.
 
 def _dist_compiled():
     """The compiled :func:`_dist_kernel`, or None."""
-    from ..core.jit import compiled
-
-    return compiled(_dist_kernel, _WARM[0], _WARM[1], np.zeros((4, 4)))
+    return compiled(_dist_kernel, *_WARM_DIST)
 
 
 def _at_stamps(r: np.ndarray, tol: float) -> dict[int, int]:
@@ -723,10 +721,7 @@ def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.n
 
 def _kernel():
     """The compiled :func:`_choice_kernel`, or None."""
-    from ..core.jit import compiled
-
-    return compiled(_choice_kernel, _WARM[0], _WARM[1], np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)),
-                    np.zeros((4, 2)), np.zeros(4))
+    return compiled(_choice_kernel, *_WARM_CHOICE)
 
 
 def _choice_uncached(src, dst, ridge, use_kernel: bool):
@@ -745,6 +740,9 @@ def _choice_uncached(src, dst, ridge, use_kernel: bool):
 
 _WARM = (np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.2]]),
          np.array([[0.1, 0.0], [1.0, 0.2], [0.0, 1.1], [1.3, 1.0]]))
+# the kernels' example arguments, made once (a call asks for its kernel)
+_WARM_CHOICE = (*_WARM, np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)), np.zeros((4, 2)), np.zeros(4))
+_WARM_DIST = (*_WARM, np.zeros((4, 4)))
 
 
 def similarity_loo(src: np.ndarray, dst: np.ndarray) -> float:
