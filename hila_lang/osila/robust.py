@@ -54,7 +54,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..core.jit import compiled
+from ..core import jit
 
 #: rejection cut in robust standard deviations of the leave-one-out (or LMedS) residuals: 3.5 σ
 #: rejects about 1 in 2000 good pairs of Gaussian noise (a pair's error vector is 2- or 3-D, so
@@ -348,7 +348,7 @@ _WARM_TRIALS = _warm_trials()  # the kernel's example arguments, made once (a ca
 
 def _trials_compiled():
     """The compiled :func:`_trials_kernel`, or None."""
-    return compiled(_trials_kernel, *_WARM_TRIALS)
+    return jit.compiled(_trials_kernel, *_WARM_TRIALS)
 
 
 #: λ tried by ``smoothing="auto"`` (unit-free: the template points are normalised to unit extent)

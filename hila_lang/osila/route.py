@@ -34,7 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from ..core.jit import compiled, min_stamps
+from ..core import jit
+from ..core.jit import min_stamps
 
 
 def _route_numpy(centres, offsets, base, extra, pinned, choice) -> float:
@@ -194,7 +195,7 @@ _WARM = (np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros((1, 2)), np.z
 
 
 def _compiled_route():
-    return compiled(_route_kernel, *_WARM)
+    return jit.compiled(_route_kernel, *_WARM)
 
 
 def min_energy_route(

@@ -92,7 +92,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.jit import compiled, min_stamps
+from ..core import jit
+from ..core.jit import min_stamps
 from .fallback import fit_similarity
 
 MERGE_TOL = 1e-6
@@ -173,7 +174,7 @@ def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.
 
 def _dist_compiled():
     """The compiled :func:`_dist_kernel`, or None."""
-    return compiled(_dist_kernel, *_WARM_DIST)
+    return jit.compiled(_dist_kernel, *_WARM_DIST)
 
 
 def _at_stamps(r: np.ndarray, tol: float) -> dict[int, int]:
@@ -721,7 +722,7 @@ def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.n
 
 def _kernel():
     """The compiled :func:`_choice_kernel`, or None."""
-    return compiled(_choice_kernel, *_WARM_CHOICE)
+    return jit.compiled(_choice_kernel, *_WARM_CHOICE)
 
 
 def _choice_uncached(src, dst, ridge, use_kernel: bool):
