@@ -29,6 +29,9 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
   candidate ball is outside) and :data:`CLEARANCE` × the mapped path's size (so the warp, bent by
   the new pair, carries the neighbouring segments out too, even when the ball is tiny).
 
+Between rounds the pairs only grow, so the warp's inverses are the last round's bordered with
+the new pairs (:mod:`.bordered`), not taken afresh.
+
 A repaired stamp is pinned from then on (its waypoint is the pair's point), and template points
 already used by a pair (or pinned) are not reused, so a repair pair never merges with an
 existing one.  After ``rounds`` rounds without conforming, :class:`ConstraintError` names
