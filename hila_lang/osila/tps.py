@@ -720,6 +720,14 @@ def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.n
     return None if got is None else (got[0], got[4])
 
 
+def forget() -> None:
+    """Forget the last choice, merge and rank remembered (the next fit computes them afresh: what a
+    first call with new pairs costs, which ``bench/osila.py`` measures beside repeated calls)."""
+    _LAST[0] = None
+    _DISTINCT[0] = None
+    _RANK[0] = None
+
+
 def _kernel():
     """The compiled :func:`_choice_kernel`, or None."""
     return jit.compiled(_choice_kernel, *_WARM_CHOICE)
