@@ -171,3 +171,46 @@ def test_screen_asks_each_pair_set_once(monkeypatch):
     monkeypatch.setattr(robust, "loo_errors", counted)
     pairs = screen(src, dst, "lmeds", 0, 0.0)
     assert 3 in pairs.rejected and len(calls) == len(set(calls))
+
+
+def _trial_sets(seed: int, K: int):
+    rng = np.random.default_rng(seed)
+    src = rng.normal(size=(K, 3))
+    rot = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    dst = 1.3 * src @ rot.T + rng.normal(0, 0.05, (K, 3))
+    bad = rng.random(K) < 0.3
+    dst[bad] = rng.normal(size=(int(bad.sum()), 3))  # outliers: sets of every kind
+    picks = np.argsort(rng.random((104, K)), axis=1)[:, :3]
+    return src, dst, picks
+
+
+@pytest.mark.parametrize("seed,K", [(0, 200), (1, 400), (2, 12)])
+def test_lmeds_closed_form_kernel_equals_the_svd(seed, K):
+    """The compiled 3-D minimal-set similarity (plane onto plane, then the 2-D Procrustes turn)
+    gives the residuals of numpy's batched SVD Umeyama to rounding, for every set; a flat set
+    (three nearly collinear template points) is handed back to the SVD."""
+    from hila_lang.osila import robust
+
+    kernel = robust._trials_compiled()
+    if kernel is None:
+        pytest.skip("numba is not available")
+    src, dst, picks = _trial_sets(seed, K)
+    src[picks[0, 2]] = 0.5 * (src[picks[0, 0]] + src[picks[0, 1]]) + 1e-9  # set 0: flat
+    ref, var = robust._trials_svd(src, dst, picks)
+    r, flag = np.empty((len(picks), K)), np.empty(len(picks), np.int8)
+    kernel(src, dst, picks, 1e-24, r, flag)
+    assert flag[0] == 2 and (flag[1:] == 0).all() and (var > 0).all()
+    np.testing.assert_allclose(r[1:], ref[1:], rtol=1e-9, atol=1e-10 * float(np.abs(dst).max()))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_lmeds_keeps_the_same_pairs_compiled_or_not(seed):
+    from hila_lang.osila import robust
+
+    if robust._trials_compiled() is None:
+        pytest.skip("numba is not available")
+    path, src, dst, truth, bad = noisy_scene(3, 0.3, seed, K=60)
+    slow, fast = robust._lmeds(src, dst, seed), robust._lmeds(src, dst, seed, fast=True)
+    np.testing.assert_array_equal(slow, fast)
+    assert not fast[bad].all()  # it did reject something
+    np.testing.assert_array_equal(screen(src, dst, seed=seed).kept, screen(src, dst, seed=seed, fast=True).kept)

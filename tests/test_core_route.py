@@ -163,3 +163,50 @@ def test_short_paths_never_start_numba(monkeypatch):
     with jit.batch():  # batch work: every length
         min_energy_route(centres, ball_offsets(2, 0.3))
     assert calls == [1] and jit.min_stamps() == jit.MIN_STAMPS
+
+
+@pytest.mark.parametrize("dim,T,seed", [(2, 300, 0), (3, 300, 1), (3, 2000, 2), (2, 2000, 3)])
+def test_pruned_kernel_equals_full_scan(monkeypatch, dim, T, seed):
+    # the kernel's minimum skips candidates that cannot win (route.py); on smooth paths of coarse
+    # and fine steps, with blocked candidates and pins, it returns the numpy scan's route and
+    # energy bit for bit (the scan visits every candidate)
+    from hila_lang.osila import route
+
+    if route._compiled_route() is None:
+        pytest.skip("numba is not available")
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 2 * np.pi, T)
+    centres = np.column_stack([np.cos(t) * (1 + 0.3 * np.sin(3 * t)), np.sin(t), 0.2 * np.sin(2 * t)][:dim])
+    centres += rng.normal(0, 0.002, centres.shape)  # a noisy recording: the route irons it out
+    offsets = ball_offsets(dim, 0.03)
+    blocked = rng.random((T, len(offsets))) < 0.05
+    pinned = [0, T // 3, T - 1]
+    compiled = min_energy_route(centres, offsets, 0.0, blocked, pinned=pinned)
+    assert len(np.unique(compiled[0])) > 3  # the route does use the ball
+    monkeypatch.setattr(route, "_compiled_route", lambda: None)
+    scan = min_energy_route(centres, offsets, 0.0, blocked, pinned=pinned)
+    np.testing.assert_array_equal(compiled[0], scan[0])
+    assert compiled[1] == scan[1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_pruned_kernel_breaks_exact_ties_as_the_scan(monkeypatch, seed):
+    # integer offsets and centres: every cost is an exact integer, so equal costs abound; the
+    # pruned kernel returns the scan's first minimum at every stamp
+    from hila_lang.osila import route
+
+    if route._compiled_route() is None:
+        pytest.skip("numba is not available")
+    rng = np.random.default_rng(seed)
+    dim = 2 + seed % 2
+    offsets = np.vstack([np.zeros(dim), rng.integers(-2, 3, (12, dim))]).astype(float)
+    offsets = np.unique(offsets, axis=0)
+    centres = np.cumsum(rng.integers(-1, 2, (60, dim)), axis=0).astype(float)
+    blocked = rng.random((60, len(offsets))) < 0.2
+    distortion = float(seed % 2)
+    monkeypatch.setattr(route, "min_stamps", lambda: 0)  # the kernel for this short path too
+    compiled = min_energy_route(centres, offsets, distortion, blocked, pinned=[0])
+    monkeypatch.setattr(route, "_compiled_route", lambda: None)
+    scan = min_energy_route(centres, offsets, distortion, blocked, pinned=[0])
+    np.testing.assert_array_equal(compiled[0], scan[0])
+    assert compiled[1] == scan[1]

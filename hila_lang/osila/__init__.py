@@ -23,6 +23,7 @@ One line each:
 - ``candidates``    a ball of candidate waypoints around every mapped point
 - ``route``         the minimum-energy route through the candidates
 - ``adjust``        plan adjustment until forced waypoints and obstacles hold
+- ``bordered``      the warp's inverses grown from round to round while the pairs only grow
 """
 
 from __future__ import annotations

@@ -29,6 +29,9 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
   candidate ball is outside) and :data:`CLEARANCE` × the mapped path's size (so the warp, bent by
   the new pair, carries the neighbouring segments out too, even when the ball is tiny).
 
+Between rounds the pairs only grow, so the warp's inverses are the last round's bordered with
+the new pairs (:mod:`.bordered`), not taken afresh.
+
 A repaired stamp is pinned from then on (its waypoint is the pair's point), and template points
 already used by a pair (or pinned) are not reused, so a repair pair never merges with an
 existing one.  After ``rounds`` rounds without conforming, :class:`ConstraintError` names
@@ -45,6 +48,7 @@ import numpy as np
 
 from ..core.errors import ConstraintError
 from ..core.jit import min_stamps
+from .bordered import Refits
 from .candidates import ball_offsets
 from .noise import default_threshold
 from .robust import Pairs, choose_smoothing, screen
@@ -290,8 +294,10 @@ def adjust(
     pin_src = path[[t for t, _ in exact_pins]].reshape(-1, D)
     pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
     # which part of the template passes an on-path ICP: re-timed before the warp (pins never move)
-    moved = (retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given))
-             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given)))
+    refits = Refits()  # the warp's inverses, bordered from round to round while the pairs grow
+    moved = (retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given),
+                    refits=refits)
+             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given), refits=refits))
     path, src = moved.path, moved.src[: len(src)]
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []
@@ -307,7 +313,7 @@ def adjust(
         if rnd == 1 and moved.warp is not None and not smoothing:
             warp = moved.warp  # the exact warp re-timing fitted on these very pairs (nothing moved)
         else:
-            warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path)
+            warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path, refits=refits)
         mapped = warp.mapped
         if rnd == 1:
             # an ICP whose template point IS a waypoint (a boundary, a sub-template's start or end)

@@ -120,7 +120,7 @@ def _bending(S: np.ndarray, Y: np.ndarray, mu: np.ndarray, sc: float) -> np.ndar
 
 
 def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
-           fixed: tuple[int, ...] = ()) -> Retimed:
+           fixed: tuple[int, ...] = (), refits=None) -> Retimed:
     """Re-estimate the template stamps of on-path pairs (module docstring) and re-time the template.
 
     Parameters
@@ -133,6 +133,8 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
         σ_t, a fraction of the duration; 0 moves nothing.
     fixed : tuple of int
         Stamps that never move (pinned stamps); the first and last stamps never move either.
+    refits : :class:`.bordered.Refits`, optional
+        Where the warp fitted to decide keeps its factorisation for plan adjustment's rounds.
 
     Returns
     -------
@@ -142,7 +144,7 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
     T, D = path.shape
     if timing <= 0 or T < 3:
         return Retimed(path, src, {})
-    warp = fit_warp(src, dst, on=path)
+    warp = fit_warp(src, dst, on=path, refits=refits)
     unchanged = Retimed(path, src, {}, warp)
     # pairs (rows of warp.src, after merging) whose template point is the path's point at one stamp
     count = Counter(warp.at.values())
