@@ -94,7 +94,9 @@ import numpy as np
 
 from ..core import jit
 from ..core.jit import min_stamps
+from . import saddle
 from .fallback import fit_similarity
+from .saddle import Dense
 
 MERGE_TOL = 1e-6
 DEGENERATE_TOL = 1e-3
@@ -362,14 +364,14 @@ def _tps(src: np.ndarray, dst: np.ndarray, ridge: np.ndarray) -> Warp:
 def _similarity_parts(src, dst, ridge, rank, inverse=None) -> tuple[np.ndarray, np.ndarray]:
     """(lin (D + 1, D) = [shift; (scale R)ᵀ], w (K, D)): least-squares similarity plus the exact
     φ(r) = r interpolation of its residuals (φ on distances divided by the points' extent);
-    ``inverse``: the system's inverse when already computed (no ridge)."""
+    ``inverse``: the system's inverse when already computed (no ridge; :mod:`.saddle` interface)."""
     K, D = src.shape
     scale, R, shift = fit_similarity(src, dst, rank)
     lin = np.vstack([shift, scale * R.T])
     resid = dst - (lin[0] + src @ lin[1:])
     w = np.zeros_like(src)
     if inverse is not None:
-        sol = inverse[:, :K] @ resid
+        sol = inverse.solve(resid)
         w = sol[:K]
         lin[0] += sol[K]
     elif np.abs(resid).max() > 1e-12 * max(float(np.abs(dst).max()), 1.0):
@@ -552,7 +554,7 @@ def _similarity_loo(src: np.ndarray, dst: np.ndarray, G: np.ndarray) -> np.ndarr
     [[φ, 1], [1ᵀ, 0]] on ALL pairs (one factorisation for every k).  Since G 1 = 0 the
     similarity's constant drops out: (G r_k)_k = (G b)_k - sR_k (G a)_k for the centred points a,
     b, and S_k's scale·rotation sR_k comes from the totals of the normal equations minus pair k's
-    share.  ``G``: (K, K).
+    share.  ``G``: the system's inverse (:mod:`.saddle` interface: ``gram``, ``diagonal``).
     """
     K, D = src.shape
     a, b = src - src.sum(0) / K, dst - dst.sum(0) / K
@@ -571,8 +573,9 @@ def _similarity_loo(src: np.ndarray, dst: np.ndarray, G: np.ndarray) -> np.ndarr
         U[flip, :, -1] *= -1.0
         S[flip, -1] *= -1.0
         sR = (S.sum(1) / var)[:, None, None] * np.matmul(U, Vt)
-    Ga, Gb = G @ a, G @ b
-    e = (Gb - np.einsum("kdc,kc->kd", sR, Ga)) / np.diagonal(G)[:, None]
+    Gab = G.gram(np.hstack([a, b]))
+    Ga, Gb = Gab[:, :D], Gab[:, D:]
+    e = (Gb - np.einsum("kdc,kc->kd", sR, Ga)) / G.diagonal()[:, None]
     return (e * e).sum(1)
 
 
@@ -667,33 +670,48 @@ def _complete(cols: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return out
 
 
-def _choice_factored(src, dst, factored) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_choice_numpy` from a :class:`.bordered.Factored` of these template points (exact fit)."""
+def _choice_factored(src, dst, factored) -> tuple[Dense, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_choice_parts` from a :class:`.bordered.Factored` of these template points (exact fit)."""
     K, D = src.shape
-    card = factored.tps[:, :K]
-    G = factored.sim[:, :K]
+    G = Dense(factored.sim[:, :K])
     lin, w = _similarity_parts(src, dst, np.zeros(K), D, inverse=G)
-    return card, lin, w, _similarity_loo(src, dst, G[:K])
+    return Dense(factored.tps[:, :K]), lin, w, _similarity_loo(src, dst, G)
+
+
+def _choice_systems(src, dst, ridge) -> tuple:
+    """:func:`_choice_kernel` in numpy: (the TPS system's inverse, lin, w, similarity leave-one-out
+    errors (K,), the fallback system's inverse), the inverses as :mod:`.saddle` factors (exact
+    fits: diagonals and products without the whole inverse) or :class:`.saddle.Dense` columns
+    (smoothed fits, or a factorisation that failed)."""
+    K, D = src.shape
+    _, sc, A = _tps_system(src, ridge)
+    sign = 1.0 if D == 2 else -1.0
+    got = None
+    if not ridge.any():  # 3-D: one factor for both systems (the same kernel matrix; saddle docstring)
+        got = saddle.factored(A[:K, :K], A[:K, K + 1:], _dist(src, src) / sc if D == 2 else None, sign)
+    if got is None:
+        got = (Dense(_inverse(A[:K, :K], A[:K, K:], sign)),
+               Dense(_inverse(_dist(src, src) / sc, np.ones((K, 1)), -1.0)))  # the fallback's [[φ, 1], [1ᵀ, 0]]
+    card, G = got
+    lin, w = _similarity_parts(src, dst, ridge, D, inverse=None if ridge.any() else G)
+    return card, lin, w, _similarity_loo(src, dst, G), G
 
 
 def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_choice_kernel` in numpy: (card, lin, w, similarity leave-one-out errors (K,)), and
-    the fallback's inverse columns G (K + 1, K) (kept for :func:`_choice_inverses`)."""
-    K, D = src.shape
-    _, sc, A = _tps_system(src, ridge)
-    card = _inverse(A[:K, :K], A[:K, K:], 1.0 if D == 2 else -1.0)
-    G = _inverse(_dist(src, src) / sc, np.ones((K, 1)), -1.0)  # the fallback's [[φ, 1], [1ᵀ, 0]]
-    lin, w = _similarity_parts(src, dst, ridge, D, inverse=None if ridge.any() else G)
-    return card, lin, w, _similarity_loo(src, dst, G[:K]), G
+    """:func:`_choice_kernel` in numpy, whole: (card, lin, w, similarity leave-one-out errors (K,),
+    the fallback's inverse columns G (K + 1, K))."""
+    card, lin, w, loo, G = _choice_systems(src, dst, ridge)
+    return card.full(), lin, w, loo, G.full()
 
 
 _LAST: list = [None]  # the last _choice: (key, result), one reference (safe across threads)
 
 
-def _choice(src, dst, ridge, compiled_kernel: bool = True):
-    """(card, lin, w, similarity LOO per pair (K,)) by the compiled kernel (if asked and
-    available), else numpy; None if a system is singular.  The last result is remembered (the
-    outlier screen of :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn)."""
+def _choice_parts(src, dst, ridge, compiled_kernel: bool = True):
+    """(the TPS system's inverse (:mod:`.saddle` interface: ``diagonal``, ``solve``, ``full``), lin,
+    w, similarity LOO per pair (K,)) by the compiled kernel (if asked and available), else numpy;
+    None if a system is singular.  The last result is remembered (the outlier screen of
+    :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn); read only."""
     use_kernel = bool(compiled_kernel and len(src) <= KERNEL_MAX_PAIRS and _kernel() is not None)
     key = (src.tobytes(), dst.tobytes(), np.asarray(ridge, float).tobytes(), src.shape, use_kernel)
     last = _LAST[0]
@@ -702,7 +720,14 @@ def _choice(src, dst, ridge, compiled_kernel: bool = True):
     else:
         got = _choice_uncached(src, dst, ridge, use_kernel)
         _LAST[0] = (key, got)
-    return None if got is None else tuple(a.copy() for a in got[:4])
+    return None if got is None else got[:4]
+
+
+def _choice(src, dst, ridge, compiled_kernel: bool = True):
+    """:func:`_choice_parts` with the TPS inverse's columns whole: (card (K + D + 1, K), lin, w,
+    similarity LOO per pair (K,)), copies."""
+    got = _choice_parts(src, dst, ridge, compiled_kernel)
+    return None if got is None else (got[0].full().copy(), *(a.copy() for a in got[1:]))
 
 
 def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -717,7 +742,7 @@ def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.n
     else:
         got = _choice_uncached(src, dst, np.zeros(K), False)
         _LAST[0] = (key, got)
-    return None if got is None else (got[0], got[4])
+    return None if got is None else (got[0].full(), got[4].full())
 
 
 def forget() -> None:
@@ -738,11 +763,11 @@ def _choice_uncached(src, dst, ridge, use_kernel: bool):
     K, D = src.shape
     try:
         if not use_kernel:
-            return _choice_numpy(src, dst, ridge)
+            return _choice_systems(src, dst, ridge)
         card, lin, w, loo = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D)), np.empty(K)
         _kernel()(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
                   card, lin, w, loo)
-        return card, lin, w, loo, None
+        return Dense(card), lin, w, loo, None
     except (np.linalg.LinAlgError, ZeroDivisionError):
         return None
 
@@ -820,15 +845,15 @@ def fit_warp(
                 # a round of plan adjustment: the last round's inverses bordered (:mod:`.bordered`),
                 # None in the first round or when the pairs did not only grow
                 factored = refits.factored(src, dst)
-            got = (_choice(src, dst, ridge, len(on) >= min_stamps()) if factored is None
+            got = (_choice_parts(src, dst, ridge, len(on) >= min_stamps()) if factored is None
                    else _choice_factored(src, dst, factored))
         else:
             got = None
         amplification = None
         if got is not None:
             card, lin, w, sim_each = got
-            sol = card @ dst
-            diag = np.diagonal(card[:K])
+            sol = card.solve(dst)
+            diag = card.diagonal()
             # the pairs a TPS can be fitted without (docstring, 2.): Rippa's error of pair k is
             # c_k / (A⁻¹)_kk, and (A⁻¹)_kk vanishes when the system without pair k is singular
             judged = np.abs(diag) > SINGULAR_TOL
@@ -849,7 +874,7 @@ def fit_warp(
                 else:  # the normalisation the inverses were made in (the same map)
                     mu, sc = factored.mu, factored.sc
                 limit = MAX_AMPLIFICATION[D] if max_amplification is None else max_amplification
-                amplification, mapped, at = _lebesgue((on - mu) / sc, (src - mu) / sc, card, dst, limit,
+                amplification, mapped, at = _lebesgue((on - mu) / sc, (src - mu) / sc, card.full(), dst, limit,
                                                       _tol(on, src) / sc)
                 if mapped is not None:
                     return _tps_warp(src, dst, mu, sc, sol, amplification=amplification, loo=tps_loo,
