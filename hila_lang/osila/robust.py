@@ -119,7 +119,7 @@ def loo_errors(src: np.ndarray, dst: np.ndarray, compiled_kernel: bool = False) 
     from .tps import SINGULAR_TOL, _choice_parts, affine_rank, merge_pairs
 
     K, D = src.shape
-    if K < D + 2 or len(merge_pairs(src, dst)[0]) < K or affine_rank(src) < D:
+    if K < D + 2 or len(merge_pairs(src, dst, fast=compiled_kernel)[0]) < K or affine_rank(src, fast=compiled_kernel) < D:
         return None
     got = _choice_parts(src, dst, np.zeros(K), compiled_kernel)
     if got is None:

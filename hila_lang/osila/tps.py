@@ -88,6 +88,7 @@ loop too (:func:`_dist_kernel`: one pass instead of 3D + 1 array passes), bit fo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,6 +111,12 @@ MAX_AMPLIFICATION = {2: 6.0, 3: 8.0}
 #: LAPACK: Cholesky of the projected systems) above: both are equal at K = 64 on this machine
 #: (2-D, 0.2 ms), the kernel is ~10x faster at K = 8 (no call overhead), numpy 3x faster at K = 300
 KERNEL_MAX_PAIRS = 64
+#: the compiled choice's 3-D similarity refits take their rotation by Newton's polar iteration where
+#: det covk > POLAR_TOL |covk|_F³ (smallest singular value well above rounding: the polar factor
+#: is Umeyama's rotation, no reflection to fix), else by the SVD; at most POLAR_STEPS steps
+#: (scaled Newton converges in under 10 for condition numbers up to 1e16), else the SVD
+POLAR_TOL = 1e-9
+POLAR_STEPS = 30
 #: stamps per block of the amplification check (T_block x K cardinal values at a time, <= 32 MB)
 BLOCK_VALUES = 4_000_000
 
@@ -177,6 +184,39 @@ def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.
 def _dist_compiled():
     """The compiled :func:`_dist_kernel`, or None."""
     return jit.compiled(_dist_kernel, *_WARM_DIST)
+
+
+def _close_kernel(src, tol):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
+    """How many ordered pairs (i, j) of ``src`` (K, D), i = j included, lie within ``tol ×`` the
+    extent (K >= 2): :func:`merge_pairs`'s ``_dist(src, src) <= tol * extent`` counted, with the
+    extent (largest max - min of a coordinate) and the distances (:func:`_dist_numpy`'s sums in
+    its order) bit for bit numpy's, without the ~20 us of numpy calls at K = 10."""
+    K, D = src.shape
+    extent = 0.0
+    for d in range(D):
+        lo = src[0, d]
+        hi = src[0, d]
+        for i in range(1, K):
+            lo = min(lo, src[i, d])
+            hi = max(hi, src[i, d])
+        extent = max(extent, hi - lo)
+    lim = tol * extent
+    n = 0
+    for i in range(K):
+        for j in range(K):
+            d = src[i, 0] - src[j, 0]
+            s = d * d
+            for k in range(1, D):
+                d = src[i, k] - src[j, k]
+                s = s + d * d
+            if np.sqrt(s) <= lim:
+                n += 1
+    return n
+
+
+def _close_compiled():
+    """The compiled :func:`_close_kernel`, or None."""
+    return jit.compiled(_close_kernel, _WARM[0], MERGE_TOL)
 
 
 def _at_stamps(r: np.ndarray, tol: float) -> dict[int, int]:
@@ -252,18 +292,25 @@ class Warp:
 
 
 def merge_pairs(
-    src: np.ndarray, dst: np.ndarray, tol: float = MERGE_TOL, exact: np.ndarray | None = None
+    src: np.ndarray, dst: np.ndarray, tol: float = MERGE_TOL, exact: np.ndarray | None = None, fast: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Drop pairs whose template point coincides (within ``tol ×`` extent) with a later pair's.
 
     Groups are formed greedily in input order (each pair joins the first earlier group whose
     first template point is within the tolerance); each group keeps its last pair.  Returns
-    ``(src, dst, exact)`` of the kept pairs (``exact`` all False when not given).
+    ``(src, dst, exact)`` of the kept pairs (``exact`` all False when not given).  ``fast``: the
+    usual case (no two points close) is recognised by the compiled :func:`_close_kernel` (a long
+    path, as the warp's kernels): the same extent, distances and comparisons bit for bit.
     """
     exact = np.zeros(len(src), bool) if exact is None else np.asarray(exact, bool)
     key = (src.tobytes(), src.shape, src.dtype.str, tol)
     if _DISTINCT[0] == key:  # the same template points as the last call, found distinct
         return src, dst, exact
+    if fast and len(src) > 1 and src.dtype == np.float64:
+        kernel_ = _close_compiled()
+        if kernel_ is not None and kernel_(np.ascontiguousarray(src), tol) == len(src):
+            _DISTINCT[0] = key
+            return src, dst, exact
     extent = float(np.ptp(src, axis=0).max()) if len(src) > 1 else 0.0
     close = _dist(src, src) <= tol * extent
     if close.sum() == len(src):  # only each point with itself: nothing to merge
@@ -291,17 +338,88 @@ _DISTINCT: list = [None]
 _RANK: list = [None]
 
 
-def affine_rank(src: np.ndarray, tol: float = DEGENERATE_TOL) -> int:
-    """Number of dimensions the centred points span (singular values above ``tol ×`` the largest)."""
+def affine_rank(src: np.ndarray, tol: float = DEGENERATE_TOL, fast: bool = False) -> int:
+    """Number of dimensions the centred points span (singular values above ``tol ×`` the largest).
+
+    ``fast`` (a long path, as the warp's kernels): in 3-D the eigenvalues of the points'
+    covariance come from the compiled :func:`_rank_kernel` (Jacobi rotations) instead of LAPACK
+    (numpy's ``eigvalsh`` cost ~30 us of a first call at K = 10, its code cold): both are
+    accurate to rounding of the largest, so the count differs only for a singular value within
+    ~1e-10 of the ``tol`` bound (tested on degenerate and random sets)."""
     if len(src) < 2:
         return 0
-    key = (src.tobytes(), src.shape, src.dtype.str, tol)
+    key = (src.tobytes(), src.shape, src.dtype.str, tol, fast)
     last = _RANK[0]
     if last is not None and last[0] == key:
         return last[1]
-    rank = _affine_rank(src, tol)
+    kernel_ = _rank_compiled() if fast and src.shape[1] == 3 and src.dtype == np.float64 else None
+    rank = _affine_rank(src, tol) if kernel_ is None else int(kernel_(np.ascontiguousarray(src), tol))
     _RANK[0] = (key, rank)
     return rank
+
+
+def _rank_kernel(src, tol):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
+    """:func:`_affine_rank` as loops: the covariance of the centred points, its eigenvalues by
+    cyclic Jacobi rotations to rounding (off-diagonal below 1e-17 of the largest diagonal
+    entry), the count of square roots above ``tol ×`` the largest."""
+    K, D = src.shape
+    mu = np.zeros(D)
+    for i in range(K):
+        for d in range(D):
+            mu[d] += src[i, d]
+    C = np.zeros((D, D))
+    for i in range(K):
+        for r in range(D):
+            ar = src[i, r] - mu[r] / K
+            for c in range(D):
+                C[r, c] += ar * (src[i, c] - mu[c] / K)
+    scale = 0.0
+    for r in range(D):
+        scale = max(scale, abs(C[r, r]))
+    if scale <= 0.0:
+        return 0
+    for _ in range(60):
+        off = 0.0
+        for p in range(D - 1):
+            for q in range(p + 1, D):
+                off = max(off, abs(C[p, q]))
+        if off <= 1e-17 * scale:
+            break
+        for p in range(D - 1):
+            for q in range(p + 1, D):
+                if C[p, q] == 0.0:
+                    continue
+                theta = (C[q, q] - C[p, p]) / (2.0 * C[p, q])
+                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(D):  # C <- C J, then Jᵀ C (J: the rotation in the (p, q) plane)
+                    ckp, ckq = C[k, p], C[k, q]
+                    C[k, p] = c * ckp - s * ckq
+                    C[k, q] = s * ckp + c * ckq
+                for k in range(D):
+                    cpk, cqk = C[p, k], C[q, k]
+                    C[p, k] = c * cpk - s * cqk
+                    C[q, k] = s * cpk + c * cqk
+                C[p, q] = 0.0
+                C[q, p] = 0.0
+    top = 0.0
+    for r in range(D):
+        top = max(top, np.sqrt(max(C[r, r], 0.0)))
+    if top <= 0.0:
+        return 0
+    n = 0
+    for r in range(D):
+        if np.sqrt(max(C[r, r], 0.0)) > tol * top:
+            n += 1
+    return n
+
+
+def _rank_compiled():
+    """The compiled :func:`_rank_kernel`, or None."""
+    return jit.compiled(_rank_kernel, _WARM_3D, DEGENERATE_TOL)
 
 
 def _affine_rank(src: np.ndarray, tol: float) -> int:
@@ -312,10 +430,13 @@ def _affine_rank(src: np.ndarray, tol: float) -> int:
         eig = np.array([half + gap, half - gap])
     else:
         eig = np.linalg.eigvalsh(cov)[::-1]
-    s = np.sqrt(np.maximum(eig, 0.0))
+    # in Python floats (a few values: numpy's per-call cost is most of the time); sqrt and max
+    # are correctly rounded in both, so the same values and counts
+    s = [math.sqrt(max(e, 0.0)) for e in eig.tolist()]
     if s[0] <= 0:
         return 0
-    return int((s > tol * s[0]).sum())
+    lim = tol * s[0]
+    return sum(1 for v in s if v > lim)
 
 
 def _solve(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -433,10 +554,6 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
         for d in range(D):
             A[i, K + 1 + d] = (src[i, d] - mu[d]) / sc
             A[K + 1 + d, i] = A[i, K + 1 + d]
-    Ainv = np.linalg.inv(A)
-    for i in range(n):
-        for j in range(K):
-            card[i, j] = Ainv[i, j]
     # --- the fallback's interpolation system [[φ(|s_i - s_j| / sc), 1], [1, 0]], without ridge
     B = np.zeros((K + 1, K + 1))
     for i in range(K):
@@ -448,7 +565,46 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
             B[i, j] = np.sqrt(r2) / sc
         B[i, K] = 1.0
         B[K, i] = 1.0
-    Binv = np.linalg.inv(B)
+    # --- both inverses by Gauss-Jordan elimination with partial pivoting, in loops (LAPACK's LU
+    # inverse through numba cost ~15 us of the first call at K = 10, its code and buffers cold;
+    # the same inverse to rounding, tested against the numpy twin's Cholesky); singular: raise
+    Ainv = np.eye(n)
+    Binv = np.eye(K + 1)
+    for which in range(2):
+        M = A.copy() if which == 0 else B.copy()
+        Inv = Ainv if which == 0 else Binv
+        m = M.shape[0]
+        for col in range(m):
+            p = col
+            best = abs(M[col, col])
+            for r in range(col + 1, m):
+                if abs(M[r, col]) > best:
+                    best = abs(M[r, col])
+                    p = r
+            if best == 0.0:
+                raise ZeroDivisionError("singular system")
+            if p != col:
+                for c in range(m):
+                    t = M[col, c]
+                    M[col, c] = M[p, c]
+                    M[p, c] = t
+                    t = Inv[col, c]
+                    Inv[col, c] = Inv[p, c]
+                    Inv[p, c] = t
+            piv = M[col, col]
+            for c in range(m):
+                M[col, c] /= piv
+                Inv[col, c] /= piv
+            for r in range(m):
+                f = M[r, col]
+                if r != col and f != 0.0:
+                    for c in range(col, m):
+                        M[r, c] -= f * M[col, c]
+                    for c in range(m):
+                        Inv[r, c] -= f * Inv[col, c]
+    for i in range(n):
+        for j in range(K):
+            card[i, j] = Ainv[i, j]
     # centred pairs (the similarity is fitted on centred points; G 1 = 0 drops the constants)
     ms = np.zeros(D)
     md = np.zeros(D)
@@ -499,11 +655,60 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
             im = (covk[1, 0] - covk[0, 1]) / var_k
             sR[0, 0], sR[0, 1], sR[1, 0], sR[1, 1] = re, -im, im, re
         else:
-            U, S, Vt = np.linalg.svd(covk)
-            if np.linalg.det(U @ Vt) < 0:
-                U[:, D - 1] *= -1.0
-                S[D - 1] *= -1.0
-            sR = (S.sum() / var_k) * (U @ Vt)
+            # Umeyama's rotation U diag(1, 1, sign det) Vᵀ is the polar factor of covk when
+            # det covk > 0 (then S.sum() = trace(Rᵀ covk)): Higham's scaled Newton iteration
+            # X <- (g X + X⁻ᵀ / g) / 2 on 3 x 3 cofactors, to rounding in 5-9 steps, instead of
+            # a LAPACK SVD and determinant (~3 us each left-out pair); a reflection or a nearly
+            # singular covk (det <= POLAR_TOL |covk|³) keeps the SVD
+            nrm = 0.0
+            for r in range(3):
+                for c in range(3):
+                    nrm += covk[r, c] * covk[r, c]
+            nrm = np.sqrt(nrm)
+            det = (covk[0, 0] * (covk[1, 1] * covk[2, 2] - covk[1, 2] * covk[2, 1])
+                   - covk[0, 1] * (covk[1, 0] * covk[2, 2] - covk[1, 2] * covk[2, 0])
+                   + covk[0, 2] * (covk[1, 0] * covk[2, 1] - covk[1, 1] * covk[2, 0]))
+            done = False
+            if det > POLAR_TOL * nrm * nrm * nrm:
+                X = covk / nrm
+                cof = np.empty((3, 3))
+                for _ in range(POLAR_STEPS):
+                    for r in range(3):
+                        r1, r2 = (r + 1) % 3, (r + 2) % 3
+                        for c in range(3):
+                            c1, c2 = (c + 1) % 3, (c + 2) % 3
+                            cof[r, c] = X[r1, c1] * X[r2, c2] - X[r1, c2] * X[r2, c1]
+                    dx = X[0, 0] * cof[0, 0] + X[0, 1] * cof[0, 1] + X[0, 2] * cof[0, 2]
+                    nx = 0.0
+                    nc = 0.0
+                    for r in range(3):
+                        for c in range(3):
+                            nx += X[r, c] * X[r, c]
+                            nc += cof[r, c] * cof[r, c]
+                    g = np.sqrt(np.sqrt(nc) / abs(dx) / np.sqrt(nx))  # |X⁻¹| / |X|, X⁻ᵀ = cof / det
+                    step = 0.0
+                    for r in range(3):
+                        for c in range(3):
+                            new = 0.5 * (g * X[r, c] + cof[r, c] / (g * dx))
+                            step = max(step, abs(new - X[r, c]))
+                            X[r, c] = new
+                    if step <= 1e-15:
+                        done = True
+                        break
+            if done:
+                tr = 0.0
+                for r in range(3):
+                    for c in range(3):
+                        tr += X[r, c] * covk[r, c]
+                for r in range(3):
+                    for c in range(3):
+                        sR[r, c] = (tr / var_k) * X[r, c]
+            else:
+                U, S, Vt = np.linalg.svd(covk)
+                if np.linalg.det(U @ Vt) < 0:
+                    U[:, D - 1] *= -1.0
+                    S[D - 1] *= -1.0
+                sR = (S.sum() / var_k) * (U @ Vt)
         if k >= 0:
             loo[k] = 0.0
             for d in range(D):
@@ -530,7 +735,12 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
                 Br[i, i] += ridge[i]
             sol = np.linalg.solve(Br, R)
         else:
-            sol = Binv @ R
+            sol = np.zeros((K + 1, D))
+            for i in range(K + 1):
+                for j in range(K + 1):
+                    g = Binv[i, j]
+                    for d in range(D):
+                        sol[i, d] += g * R[j, d]
         for d in range(D):
             shift = md[d] + sol[K, d]
             for c in range(D):
@@ -777,6 +987,7 @@ _WARM = (np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.2]]),
 # the kernels' example arguments, made once (a call asks for its kernel)
 _WARM_CHOICE = (*_WARM, np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)), np.zeros((4, 2)), np.zeros(4))
 _WARM_DIST = (*_WARM, np.zeros((4, 4)))
+_WARM_3D = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.2], [0.0, 1.0, 0.1], [1.0, 1.2, 1.0]])
 
 
 def similarity_loo(src: np.ndarray, dst: np.ndarray) -> float:
@@ -829,9 +1040,9 @@ def fit_warp(
     -------
     Warp
     """
-    src, dst, exact = merge_pairs(src, dst, exact=exact)
+    src, dst, exact = merge_pairs(src, dst, exact=exact, fast=on is not None and len(on) >= min_stamps())
     K, D = src.shape
-    rank = affine_rank(src)
+    rank = affine_rank(src, fast=on is not None and len(on) >= min_stamps())
     ridge = np.zeros(K) if exact is None or not smoothing else np.where(exact, 0.0, float(smoothing))
     if K == 1 or rank == 0:
         affine = np.vstack([dst.sum(0) / K - src.sum(0) / K, np.eye(D)])
