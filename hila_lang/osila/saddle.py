@@ -134,7 +134,8 @@ class Saddle:
             K = len(G)
             out = np.empty((K + self.q, K))
             out[:K] = G
-            out[K:] = self._poly_rows(np.eye(K) - self.phi @ G)
+            Q1t = self.house.apply(np.eye(K, self.q)).T  # Q₁ᵀ (q, K)
+            out[K:] = np.linalg.solve(self.house.R[:self.q, :self.q], Q1t - (Q1t @ self.phi) @ G)
             self._full = out
         return self._full
 

@@ -59,12 +59,14 @@ the TPS's median error passes the fallback's at Λ = 6 in 2-D and Λ = 8 in 3-D 
 
 Cost
 ----
-The choice costs two inverses (the TPS system and the fallback's) and O(K²) more: every
-leave-one-out error comes from Rippa's closed form e_k = (A⁻¹f)_k / (A⁻¹)_kk on the inverse of
-the system on all pairs — for the fallback with f = the residuals of the similarity refitted
+Every leave-one-out error comes from Rippa's closed form e_k = (A⁻¹f)_k / (A⁻¹)_kk on the
+system on all pairs — for the fallback with f = the residuals of the similarity refitted
 without pair k, whose K fits come from the totals of its normal equations (:func:`_similarity_loo`).
-The inverses are taken by Cholesky factorisations of the kernel matrices projected onto the
-polynomial part's null space (:func:`_saddle_inverse`, about K³ flops each).  The amplification
+So the choice needs of each system's inverse only its diagonal and a few products: both come
+from a Cholesky factor of the kernel matrix projected onto the polynomial part's null space and
+its triangular inverse (:mod:`.saddle`: 2K³/3 flops a system; in 3-D ONE factor serves both
+systems), the whole inverse only when the TPS passes the leave-one-out test (the amplification
+check needs its cardinal functions) or plan adjustment borders it.  The amplification
 check forms the cardinal values a block of stamps at a time and stops at the first block above
 the limit (:func:`_lebesgue`): O(T·K²) only when the TPS is kept, memory O(K² + block·K).
 ``bench/osila.py`` prints the cost against the cheapest exact TPS fit.
@@ -107,9 +109,10 @@ SINGULAR_TOL = 1e-12
 #: largest Lebesgue constant of a TPS on the mapped path before the similarity fallback is used,
 #: per dimension D (see the module docstring; measured by ``bench/warp.py``)
 MAX_AMPLIFICATION = {2: 6.0, 3: 8.0}
-#: the compiled choice kernel (loops; LU inverses) is used up to this many pairs, numpy (blocked
-#: LAPACK: Cholesky of the projected systems) above: both are equal at K = 64 on this machine
-#: (2-D, 0.2 ms), the kernel is ~10x faster at K = 8 (no call overhead), numpy 3x faster at K = 300
+#: the compiled choice kernel (loops; Gauss-Jordan inverses) is used up to this many pairs, numpy
+#: (blocked LAPACK: Cholesky of the projected systems) above: both were equal at K = 64 on this
+#: machine (2-D, 0.2 ms, measured with LU inverses in the kernel and whole inverses in numpy), the
+#: kernel ~10x faster at K = 8 (no call overhead), numpy 3x faster at K = 300
 KERNEL_MAX_PAIRS = 64
 #: the compiled choice's 3-D similarity refits take their rotation by Newton's polar iteration where
 #: det covk > POLAR_TOL |covk|_F³ (smallest singular value well above rounding: the polar factor
@@ -522,7 +525,8 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
     Fills ``card`` (K + D + 1, K) with A⁻¹[:, :K] of the TPS system on the normalised template
     points, ``lin`` (D + 1, D) and ``w`` (K, D) with the similarity fallback on all pairs, and
     ``loo`` (K,) with the fallback's leave-one-out squared error per pair, by Rippa's closed form
-    on one inverse of the fallback's interpolation system (:func:`_similarity_loo`).  Needs
+    on one inverse of the fallback's interpolation system (:func:`_similarity_loo`); the inverses
+    by Gauss-Jordan elimination, the 3-D refits' rotations by Newton's polar iteration.  Needs
     K >= D + 2 points spanning D dimensions.
     """
     K, D = src.shape
