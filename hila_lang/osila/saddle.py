@@ -73,6 +73,7 @@ class Saddle:
     def __init__(self, phi, house: Householder, q: int, blocks, Linv: np.ndarray, sign: float):
         self.phi, self.house, self.q, self.blocks, self.Linv, self.sign = phi, house, q, blocks, Linv, sign
         self._F = self._diag = self._full = None
+        self._last = (None, None)  # (key of f, A⁻¹[:, :K] f): the screen and the warp ask in turn
 
     def _embed(self, X: np.ndarray, cols: bool) -> np.ndarray:
         """Rows (and with ``cols`` columns) of factor order ``X`` placed at Q's columns ``blocks``."""
@@ -109,9 +110,12 @@ class Saddle:
         return self.sign * (self.F @ (self.F.T @ f))
 
     def solve(self, f: np.ndarray) -> np.ndarray:
-        """A⁻¹[:, :K] f, shape (K + q, D), for f (K, D)."""
-        Gf = self.gram(f)
-        return np.vstack([Gf, self._poly_rows(f - self.phi @ Gf)])
+        """A⁻¹[:, :K] f, shape (K + q, D), for f (K, D); the last one remembered (a copy returned)."""
+        key = (f.tobytes(), f.shape)
+        if self._last[0] != key:
+            Gf = self.gram(f)
+            self._last = (key, np.vstack([Gf, self._poly_rows(f - self.phi @ Gf)]))
+        return self._last[1].copy()
 
     def _poly_rows(self, X: np.ndarray) -> np.ndarray:
         """R⁻¹ Q₁ᵀ X: the polynomial rows of A⁻¹ applied (X = (I - phi G) f)."""
