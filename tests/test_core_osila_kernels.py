@@ -1,4 +1,4 @@
-"""The small-K kernels of the warp's first call (osila/tps.py): the distinct check, the rank, and
+"""The small-K kernels of the warp's first call (osila/tps.py): the merge check, the rank, and
 the compiled choice's polar rotations and Gauss-Jordan inverses, against numpy (issue 24)."""
 
 from __future__ import annotations
@@ -21,29 +21,27 @@ def _compiled():
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_close_kernel_counts_what_numpy_counts(dim):
-    """The compiled count of close pairs equals numpy's, also with pairs exactly at the tolerance
-    (the same extent and distances bit for bit), and merge_pairs merges the same pairs."""
-    kernel = tps._close_compiled()
+def test_merge_with_compiled_distances_merges_what_numpy_merges(dim):
+    """merge_pairs with the compiled distances (``fast``) keeps the same pairs as with numpy's,
+    also with duplicates and a point at the tolerance along an axis."""
     rng = np.random.default_rng(dim)
+    merged = 0
     for trial in range(200):
         K = int(rng.integers(2, 30))
         src = rng.normal(size=(K, dim)) * 10 ** rng.uniform(-3, 3)
-        if trial % 3 == 0:  # duplicates, and a point at exactly the tolerance along an axis
+        if trial % 3 == 0:  # duplicates, and a point near the tolerance along an axis
             src[rng.integers(K)] = src[0]
-            extent = float(np.ptp(src, axis=0).max())
             src[-1] = src[1]
-            src[-1, 0] += 1e-6 * extent
-        extent = float(np.ptp(src, axis=0).max())
-        want = int((tps._dist_numpy(src, src) <= 1e-6 * extent).sum())
-        assert kernel(src, 1e-6) == want
+            src[-1, 0] += 1e-6 * float(np.ptp(src, axis=0).max())
         dst = rng.normal(size=src.shape)
         slow = tps.merge_pairs(src, dst)
         tps.forget()
         fast = tps.merge_pairs(src, dst, fast=True)
         tps.forget()
+        merged += len(slow[0]) < K
         for a, b in zip(slow, fast):
             np.testing.assert_array_equal(a, b)
+    assert merged >= 50
 
 
 def test_rank_kernel_equals_numpy_on_degenerate_sets():

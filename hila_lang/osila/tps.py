@@ -133,14 +133,15 @@ def kernel(r: np.ndarray, dim: int) -> np.ndarray:
     return r
 
 
-def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _dist(a: np.ndarray, b: np.ndarray, fast: bool = False) -> np.ndarray:
     """Pairwise Euclidean distances, (N, D) x (M, D) -> (N, M), from coordinate differences (exact at 0).
 
     From :data:`hila_lang.core.jit.MIN_STAMPS` rows on, by the compiled :func:`_dist_kernel` (one pass,
     no temporaries: 1.5-3x faster than :func:`_dist_numpy` at T x K = 1000 x 200 to 10000 x 1000);
-    the same operations in the same order, so bit for bit the same distances (tested).
+    the same operations in the same order, so bit for bit the same distances (tested).  ``fast``:
+    by the kernel whatever the rows (the caller maps a long path).
     """
-    if len(a) >= min_stamps() and a.shape[1] == b.shape[1]:
+    if (fast or len(a) >= min_stamps()) and a.shape[1] == b.shape[1]:
         kernel_ = _dist_compiled()
         if kernel_ is not None:
             out = np.empty((len(a), len(b)))
@@ -187,39 +188,6 @@ def _dist_kernel(a, b, out):  # pragma: no cover - compiled by numba (hila_lang.
 def _dist_compiled():
     """The compiled :func:`_dist_kernel`, or None."""
     return jit.compiled(_dist_kernel, *_WARM_DIST)
-
-
-def _close_kernel(src, tol):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
-    """How many ordered pairs (i, j) of ``src`` (K, D), i = j included, lie within ``tol ×`` the
-    extent (K >= 2): :func:`merge_pairs`'s ``_dist(src, src) <= tol * extent`` counted, with the
-    extent (largest max - min of a coordinate) and the distances (:func:`_dist_numpy`'s sums in
-    its order) bit for bit numpy's, without the ~20 us of numpy calls at K = 10."""
-    K, D = src.shape
-    extent = 0.0
-    for d in range(D):
-        lo = src[0, d]
-        hi = src[0, d]
-        for i in range(1, K):
-            lo = min(lo, src[i, d])
-            hi = max(hi, src[i, d])
-        extent = max(extent, hi - lo)
-    lim = tol * extent
-    n = 0
-    for i in range(K):
-        for j in range(K):
-            d = src[i, 0] - src[j, 0]
-            s = d * d
-            for k in range(1, D):
-                d = src[i, k] - src[j, k]
-                s = s + d * d
-            if np.sqrt(s) <= lim:
-                n += 1
-    return n
-
-
-def _close_compiled():
-    """The compiled :func:`_close_kernel`, or None."""
-    return jit.compiled(_close_kernel, _WARM[0], MERGE_TOL)
 
 
 def _at_stamps(r: np.ndarray, tol: float) -> dict[int, int]:
@@ -302,20 +270,15 @@ def merge_pairs(
     Groups are formed greedily in input order (each pair joins the first earlier group whose
     first template point is within the tolerance); each group keeps its last pair.  Returns
     ``(src, dst, exact)`` of the kept pairs (``exact`` all False when not given).  ``fast``: the
-    usual case (no two points close) is recognised by the compiled :func:`_close_kernel` (a long
-    path, as the warp's kernels): the same extent, distances and comparisons bit for bit.
+    distances by the compiled :func:`_dist_kernel` whatever K (a long path, as the warp's
+    kernels): bit for bit numpy's, ~5 us less at K = 10.
     """
     exact = np.zeros(len(src), bool) if exact is None else np.asarray(exact, bool)
     key = (src.tobytes(), src.shape, src.dtype.str, tol)
     if _DISTINCT[0] == key:  # the same template points as the last call, found distinct
         return src, dst, exact
-    if fast and len(src) > 1 and src.dtype == np.float64:
-        kernel_ = _close_compiled()
-        if kernel_ is not None and kernel_(np.ascontiguousarray(src), tol) == len(src):
-            _DISTINCT[0] = key
-            return src, dst, exact
     extent = float(np.ptp(src, axis=0).max()) if len(src) > 1 else 0.0
-    close = _dist(src, src) <= tol * extent
+    close = _dist(src, src, fast) <= tol * extent
     if close.sum() == len(src):  # only each point with itself: nothing to merge
         _DISTINCT[0] = key
         return src, dst, exact
