@@ -443,7 +443,7 @@ def _compiled_choice(src, dst, ridge):
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_choice_kernel_equals_numpy(dim):
-    """The compiled kernel (loops, LU inverses) and its numpy twin (Cholesky of the projected
+    """The compiled kernel (loops, Gauss-Jordan inverses) and its numpy twin (Cholesky factors of the projected
     systems) agree to rounding, on small systems and at K = 200 and 260."""
     from hila_lang.core import jit
     from hila_lang.osila import tps

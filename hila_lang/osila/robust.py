@@ -116,19 +116,19 @@ class Pairs:
 def loo_errors(src: np.ndarray, dst: np.ndarray, compiled_kernel: bool = False) -> np.ndarray | None:
     """Leave-one-out error length per pair (K,) of the better map (by median), or None when the
     pairs cannot be checked (fewer than D + 2, not spanning D dimensions, a singular system)."""
-    from .tps import SINGULAR_TOL, _choice, affine_rank, merge_pairs
+    from .tps import SINGULAR_TOL, _choice_parts, affine_rank, merge_pairs
 
     K, D = src.shape
-    if K < D + 2 or len(merge_pairs(src, dst)[0]) < K or affine_rank(src) < D:
+    if K < D + 2 or len(merge_pairs(src, dst, fast=compiled_kernel)[0]) < K or affine_rank(src, fast=compiled_kernel) < D:
         return None
-    got = _choice(src, dst, np.zeros(K), compiled_kernel)
+    got = _choice_parts(src, dst, np.zeros(K), compiled_kernel)
     if got is None:
         return None
     card, _, _, sim_each = got
-    diag = np.diagonal(card[:K])
+    diag = card.diagonal()
     if (np.abs(diag) <= SINGULAR_TOL).any():
         return np.sqrt(sim_each)
-    tps_each = (((card @ dst)[:K] / diag[:, None]) ** 2).sum(1)
+    tps_each = ((card.solve(dst)[:K] / diag[:, None]) ** 2).sum(1)
     best = tps_each if _median(tps_each) <= _median(sim_each) else sim_each
     return np.sqrt(best)
 

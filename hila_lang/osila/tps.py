@@ -59,12 +59,14 @@ the TPS's median error passes the fallback's at Λ = 6 in 2-D and Λ = 8 in 3-D 
 
 Cost
 ----
-The choice costs two inverses (the TPS system and the fallback's) and O(K²) more: every
-leave-one-out error comes from Rippa's closed form e_k = (A⁻¹f)_k / (A⁻¹)_kk on the inverse of
-the system on all pairs — for the fallback with f = the residuals of the similarity refitted
+Every leave-one-out error comes from Rippa's closed form e_k = (A⁻¹f)_k / (A⁻¹)_kk on the
+system on all pairs — for the fallback with f = the residuals of the similarity refitted
 without pair k, whose K fits come from the totals of its normal equations (:func:`_similarity_loo`).
-The inverses are taken by Cholesky factorisations of the kernel matrices projected onto the
-polynomial part's null space (:func:`_saddle_inverse`, about K³ flops each).  The amplification
+So the choice needs of each system's inverse only its diagonal and a few products: both come
+from a Cholesky factor of the kernel matrix projected onto the polynomial part's null space and
+its triangular inverse (:mod:`.saddle`: 2K³/3 flops a system; in 3-D ONE factor serves both
+systems), the whole inverse only when the TPS passes the leave-one-out test (the amplification
+check needs its cardinal functions) or plan adjustment borders it.  The amplification
 check forms the cardinal values a block of stamps at a time and stops at the first block above
 the limit (:func:`_lebesgue`): O(T·K²) only when the TPS is kept, memory O(K² + block·K).
 ``bench/osila.py`` prints the cost against the cheapest exact TPS fit.
@@ -88,13 +90,16 @@ loop too (:func:`_dist_kernel`: one pass instead of 3D + 1 array passes), bit fo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core import jit
 from ..core.jit import min_stamps
+from . import saddle
 from .fallback import fit_similarity
+from .saddle import Dense
 
 MERGE_TOL = 1e-6
 DEGENERATE_TOL = 1e-3
@@ -104,10 +109,17 @@ SINGULAR_TOL = 1e-12
 #: largest Lebesgue constant of a TPS on the mapped path before the similarity fallback is used,
 #: per dimension D (see the module docstring; measured by ``bench/warp.py``)
 MAX_AMPLIFICATION = {2: 6.0, 3: 8.0}
-#: the compiled choice kernel (loops; LU inverses) is used up to this many pairs, numpy (blocked
-#: LAPACK: Cholesky of the projected systems) above: both are equal at K = 64 on this machine
-#: (2-D, 0.2 ms), the kernel is ~10x faster at K = 8 (no call overhead), numpy 3x faster at K = 300
+#: the compiled choice kernel (loops; Gauss-Jordan inverses) is used up to this many pairs, numpy
+#: (blocked LAPACK: Cholesky of the projected systems) above: both were equal at K = 64 on this
+#: machine (2-D, 0.2 ms, measured with LU inverses in the kernel and whole inverses in numpy), the
+#: kernel ~10x faster at K = 8 (no call overhead), numpy 3x faster at K = 300
 KERNEL_MAX_PAIRS = 64
+#: the compiled choice's 3-D similarity refits take their rotation by Newton's polar iteration where
+#: det covk > POLAR_TOL |covk|_F³ (smallest singular value well above rounding: the polar factor
+#: is Umeyama's rotation, no reflection to fix), else by the SVD; at most POLAR_STEPS steps
+#: (scaled Newton converges in under 10 for condition numbers up to 1e16), else the SVD
+POLAR_TOL = 1e-9
+POLAR_STEPS = 30
 #: stamps per block of the amplification check (T_block x K cardinal values at a time, <= 32 MB)
 BLOCK_VALUES = 4_000_000
 
@@ -121,14 +133,15 @@ def kernel(r: np.ndarray, dim: int) -> np.ndarray:
     return r
 
 
-def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _dist(a: np.ndarray, b: np.ndarray, fast: bool = False) -> np.ndarray:
     """Pairwise Euclidean distances, (N, D) x (M, D) -> (N, M), from coordinate differences (exact at 0).
 
     From :data:`hila_lang.core.jit.MIN_STAMPS` rows on, by the compiled :func:`_dist_kernel` (one pass,
     no temporaries: 1.5-3x faster than :func:`_dist_numpy` at T x K = 1000 x 200 to 10000 x 1000);
-    the same operations in the same order, so bit for bit the same distances (tested).
+    the same operations in the same order, so bit for bit the same distances (tested).  ``fast``:
+    by the kernel whatever the rows (the caller maps a long path).
     """
-    if len(a) >= min_stamps() and a.shape[1] == b.shape[1]:
+    if (fast or len(a) >= min_stamps()) and a.shape[1] == b.shape[1]:
         kernel_ = _dist_compiled()
         if kernel_ is not None:
             out = np.empty((len(a), len(b)))
@@ -250,20 +263,22 @@ class Warp:
 
 
 def merge_pairs(
-    src: np.ndarray, dst: np.ndarray, tol: float = MERGE_TOL, exact: np.ndarray | None = None
+    src: np.ndarray, dst: np.ndarray, tol: float = MERGE_TOL, exact: np.ndarray | None = None, fast: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Drop pairs whose template point coincides (within ``tol ×`` extent) with a later pair's.
 
     Groups are formed greedily in input order (each pair joins the first earlier group whose
     first template point is within the tolerance); each group keeps its last pair.  Returns
-    ``(src, dst, exact)`` of the kept pairs (``exact`` all False when not given).
+    ``(src, dst, exact)`` of the kept pairs (``exact`` all False when not given).  ``fast``: the
+    distances by the compiled :func:`_dist_kernel` whatever K (a long path, as the warp's
+    kernels): bit for bit numpy's, ~5 us less at K = 10.
     """
     exact = np.zeros(len(src), bool) if exact is None else np.asarray(exact, bool)
     key = (src.tobytes(), src.shape, src.dtype.str, tol)
     if _DISTINCT[0] == key:  # the same template points as the last call, found distinct
         return src, dst, exact
     extent = float(np.ptp(src, axis=0).max()) if len(src) > 1 else 0.0
-    close = _dist(src, src) <= tol * extent
+    close = _dist(src, src, fast) <= tol * extent
     if close.sum() == len(src):  # only each point with itself: nothing to merge
         _DISTINCT[0] = key
         return src, dst, exact
@@ -289,17 +304,88 @@ _DISTINCT: list = [None]
 _RANK: list = [None]
 
 
-def affine_rank(src: np.ndarray, tol: float = DEGENERATE_TOL) -> int:
-    """Number of dimensions the centred points span (singular values above ``tol ×`` the largest)."""
+def affine_rank(src: np.ndarray, tol: float = DEGENERATE_TOL, fast: bool = False) -> int:
+    """Number of dimensions the centred points span (singular values above ``tol ×`` the largest).
+
+    ``fast`` (a long path, as the warp's kernels): in 3-D the eigenvalues of the points'
+    covariance come from the compiled :func:`_rank_kernel` (Jacobi rotations) instead of LAPACK
+    (numpy's ``eigvalsh`` cost ~30 us of a first call at K = 10, its code cold): both are
+    accurate to rounding of the largest, so the count differs only for a singular value within
+    ~1e-10 of the ``tol`` bound (tested on degenerate and random sets)."""
     if len(src) < 2:
         return 0
-    key = (src.tobytes(), src.shape, src.dtype.str, tol)
+    key = (src.tobytes(), src.shape, src.dtype.str, tol, fast)
     last = _RANK[0]
     if last is not None and last[0] == key:
         return last[1]
-    rank = _affine_rank(src, tol)
+    kernel_ = _rank_compiled() if fast and src.shape[1] == 3 and src.dtype == np.float64 else None
+    rank = _affine_rank(src, tol) if kernel_ is None else int(kernel_(np.ascontiguousarray(src), tol))
     _RANK[0] = (key, rank)
     return rank
+
+
+def _rank_kernel(src, tol):  # pragma: no cover - compiled by numba (hila_lang.core.jit)
+    """:func:`_affine_rank` as loops: the covariance of the centred points, its eigenvalues by
+    cyclic Jacobi rotations to rounding (off-diagonal below 1e-17 of the largest diagonal
+    entry), the count of square roots above ``tol ×`` the largest."""
+    K, D = src.shape
+    mu = np.zeros(D)
+    for i in range(K):
+        for d in range(D):
+            mu[d] += src[i, d]
+    C = np.zeros((D, D))
+    for i in range(K):
+        for r in range(D):
+            ar = src[i, r] - mu[r] / K
+            for c in range(D):
+                C[r, c] += ar * (src[i, c] - mu[c] / K)
+    scale = 0.0
+    for r in range(D):
+        scale = max(scale, abs(C[r, r]))
+    if scale <= 0.0:
+        return 0
+    for _ in range(60):
+        off = 0.0
+        for p in range(D - 1):
+            for q in range(p + 1, D):
+                off = max(off, abs(C[p, q]))
+        if off <= 1e-17 * scale:
+            break
+        for p in range(D - 1):
+            for q in range(p + 1, D):
+                if C[p, q] == 0.0:
+                    continue
+                theta = (C[q, q] - C[p, p]) / (2.0 * C[p, q])
+                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(D):  # C <- C J, then Jᵀ C (J: the rotation in the (p, q) plane)
+                    ckp, ckq = C[k, p], C[k, q]
+                    C[k, p] = c * ckp - s * ckq
+                    C[k, q] = s * ckp + c * ckq
+                for k in range(D):
+                    cpk, cqk = C[p, k], C[q, k]
+                    C[p, k] = c * cpk - s * cqk
+                    C[q, k] = s * cpk + c * cqk
+                C[p, q] = 0.0
+                C[q, p] = 0.0
+    top = 0.0
+    for r in range(D):
+        top = max(top, np.sqrt(max(C[r, r], 0.0)))
+    if top <= 0.0:
+        return 0
+    n = 0
+    for r in range(D):
+        if np.sqrt(max(C[r, r], 0.0)) > tol * top:
+            n += 1
+    return n
+
+
+def _rank_compiled():
+    """The compiled :func:`_rank_kernel`, or None."""
+    return jit.compiled(_rank_kernel, _WARM_3D, DEGENERATE_TOL)
 
 
 def _affine_rank(src: np.ndarray, tol: float) -> int:
@@ -310,10 +396,13 @@ def _affine_rank(src: np.ndarray, tol: float) -> int:
         eig = np.array([half + gap, half - gap])
     else:
         eig = np.linalg.eigvalsh(cov)[::-1]
-    s = np.sqrt(np.maximum(eig, 0.0))
+    # in Python floats (a few values: numpy's per-call cost is most of the time); sqrt and max
+    # are correctly rounded in both, so the same values and counts
+    s = [math.sqrt(max(e, 0.0)) for e in eig.tolist()]
     if s[0] <= 0:
         return 0
-    return int((s > tol * s[0]).sum())
+    lim = tol * s[0]
+    return sum(1 for v in s if v > lim)
 
 
 def _solve(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -362,14 +451,14 @@ def _tps(src: np.ndarray, dst: np.ndarray, ridge: np.ndarray) -> Warp:
 def _similarity_parts(src, dst, ridge, rank, inverse=None) -> tuple[np.ndarray, np.ndarray]:
     """(lin (D + 1, D) = [shift; (scale R)ᵀ], w (K, D)): least-squares similarity plus the exact
     φ(r) = r interpolation of its residuals (φ on distances divided by the points' extent);
-    ``inverse``: the system's inverse when already computed (no ridge)."""
+    ``inverse``: the system's inverse when already computed (no ridge; :mod:`.saddle` interface)."""
     K, D = src.shape
     scale, R, shift = fit_similarity(src, dst, rank)
     lin = np.vstack([shift, scale * R.T])
     resid = dst - (lin[0] + src @ lin[1:])
     w = np.zeros_like(src)
     if inverse is not None:
-        sol = inverse[:, :K] @ resid
+        sol = inverse.solve(resid)
         w = sol[:K]
         lin[0] += sol[K]
     elif np.abs(resid).max() > 1e-12 * max(float(np.abs(dst).max()), 1.0):
@@ -399,7 +488,8 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
     Fills ``card`` (K + D + 1, K) with A⁻¹[:, :K] of the TPS system on the normalised template
     points, ``lin`` (D + 1, D) and ``w`` (K, D) with the similarity fallback on all pairs, and
     ``loo`` (K,) with the fallback's leave-one-out squared error per pair, by Rippa's closed form
-    on one inverse of the fallback's interpolation system (:func:`_similarity_loo`).  Needs
+    on one inverse of the fallback's interpolation system (:func:`_similarity_loo`); the inverses
+    by Gauss-Jordan elimination, the 3-D refits' rotations by Newton's polar iteration.  Needs
     K >= D + 2 points spanning D dimensions.
     """
     K, D = src.shape
@@ -431,10 +521,6 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
         for d in range(D):
             A[i, K + 1 + d] = (src[i, d] - mu[d]) / sc
             A[K + 1 + d, i] = A[i, K + 1 + d]
-    Ainv = np.linalg.inv(A)
-    for i in range(n):
-        for j in range(K):
-            card[i, j] = Ainv[i, j]
     # --- the fallback's interpolation system [[φ(|s_i - s_j| / sc), 1], [1, 0]], without ridge
     B = np.zeros((K + 1, K + 1))
     for i in range(K):
@@ -446,7 +532,46 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
             B[i, j] = np.sqrt(r2) / sc
         B[i, K] = 1.0
         B[K, i] = 1.0
-    Binv = np.linalg.inv(B)
+    # --- both inverses by Gauss-Jordan elimination with partial pivoting, in loops (LAPACK's LU
+    # inverse through numba cost ~15 us of the first call at K = 10, its code and buffers cold;
+    # the same inverse to rounding, tested against the numpy twin's Cholesky); singular: raise
+    Ainv = np.eye(n)
+    Binv = np.eye(K + 1)
+    for which in range(2):
+        M = A.copy() if which == 0 else B.copy()
+        Inv = Ainv if which == 0 else Binv
+        m = M.shape[0]
+        for col in range(m):
+            p = col
+            best = abs(M[col, col])
+            for r in range(col + 1, m):
+                if abs(M[r, col]) > best:
+                    best = abs(M[r, col])
+                    p = r
+            if best == 0.0:
+                raise ZeroDivisionError("singular system")
+            if p != col:
+                for c in range(m):
+                    t = M[col, c]
+                    M[col, c] = M[p, c]
+                    M[p, c] = t
+                    t = Inv[col, c]
+                    Inv[col, c] = Inv[p, c]
+                    Inv[p, c] = t
+            piv = M[col, col]
+            for c in range(m):
+                M[col, c] /= piv
+                Inv[col, c] /= piv
+            for r in range(m):
+                f = M[r, col]
+                if r != col and f != 0.0:
+                    for c in range(col, m):
+                        M[r, c] -= f * M[col, c]
+                    for c in range(m):
+                        Inv[r, c] -= f * Inv[col, c]
+    for i in range(n):
+        for j in range(K):
+            card[i, j] = Ainv[i, j]
     # centred pairs (the similarity is fitted on centred points; G 1 = 0 drops the constants)
     ms = np.zeros(D)
     md = np.zeros(D)
@@ -497,11 +622,60 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
             im = (covk[1, 0] - covk[0, 1]) / var_k
             sR[0, 0], sR[0, 1], sR[1, 0], sR[1, 1] = re, -im, im, re
         else:
-            U, S, Vt = np.linalg.svd(covk)
-            if np.linalg.det(U @ Vt) < 0:
-                U[:, D - 1] *= -1.0
-                S[D - 1] *= -1.0
-            sR = (S.sum() / var_k) * (U @ Vt)
+            # Umeyama's rotation U diag(1, 1, sign det) Vᵀ is the polar factor of covk when
+            # det covk > 0 (then S.sum() = trace(Rᵀ covk)): Higham's scaled Newton iteration
+            # X <- (g X + X⁻ᵀ / g) / 2 on 3 x 3 cofactors, to rounding in 5-9 steps, instead of
+            # a LAPACK SVD and determinant (~3 us each left-out pair); a reflection or a nearly
+            # singular covk (det <= POLAR_TOL |covk|³) keeps the SVD
+            nrm = 0.0
+            for r in range(3):
+                for c in range(3):
+                    nrm += covk[r, c] * covk[r, c]
+            nrm = np.sqrt(nrm)
+            det = (covk[0, 0] * (covk[1, 1] * covk[2, 2] - covk[1, 2] * covk[2, 1])
+                   - covk[0, 1] * (covk[1, 0] * covk[2, 2] - covk[1, 2] * covk[2, 0])
+                   + covk[0, 2] * (covk[1, 0] * covk[2, 1] - covk[1, 1] * covk[2, 0]))
+            done = False
+            if det > POLAR_TOL * nrm * nrm * nrm:
+                X = covk / nrm
+                cof = np.empty((3, 3))
+                for _ in range(POLAR_STEPS):
+                    for r in range(3):
+                        r1, r2 = (r + 1) % 3, (r + 2) % 3
+                        for c in range(3):
+                            c1, c2 = (c + 1) % 3, (c + 2) % 3
+                            cof[r, c] = X[r1, c1] * X[r2, c2] - X[r1, c2] * X[r2, c1]
+                    dx = X[0, 0] * cof[0, 0] + X[0, 1] * cof[0, 1] + X[0, 2] * cof[0, 2]
+                    nx = 0.0
+                    nc = 0.0
+                    for r in range(3):
+                        for c in range(3):
+                            nx += X[r, c] * X[r, c]
+                            nc += cof[r, c] * cof[r, c]
+                    g = np.sqrt(np.sqrt(nc) / abs(dx) / np.sqrt(nx))  # |X⁻¹| / |X|, X⁻ᵀ = cof / det
+                    step = 0.0
+                    for r in range(3):
+                        for c in range(3):
+                            new = 0.5 * (g * X[r, c] + cof[r, c] / (g * dx))
+                            step = max(step, abs(new - X[r, c]))
+                            X[r, c] = new
+                    if step <= 1e-15:
+                        done = True
+                        break
+            if done:
+                tr = 0.0
+                for r in range(3):
+                    for c in range(3):
+                        tr += X[r, c] * covk[r, c]
+                for r in range(3):
+                    for c in range(3):
+                        sR[r, c] = (tr / var_k) * X[r, c]
+            else:
+                U, S, Vt = np.linalg.svd(covk)
+                if np.linalg.det(U @ Vt) < 0:
+                    U[:, D - 1] *= -1.0
+                    S[D - 1] *= -1.0
+                sR = (S.sum() / var_k) * (U @ Vt)
         if k >= 0:
             loo[k] = 0.0
             for d in range(D):
@@ -528,7 +702,12 @@ def _choice_kernel(src, dst, ridge, card, lin, w, loo):  # pragma: no cover - co
                 Br[i, i] += ridge[i]
             sol = np.linalg.solve(Br, R)
         else:
-            sol = Binv @ R
+            sol = np.zeros((K + 1, D))
+            for i in range(K + 1):
+                for j in range(K + 1):
+                    g = Binv[i, j]
+                    for d in range(D):
+                        sol[i, d] += g * R[j, d]
         for d in range(D):
             shift = md[d] + sol[K, d]
             for c in range(D):
@@ -552,7 +731,7 @@ def _similarity_loo(src: np.ndarray, dst: np.ndarray, G: np.ndarray) -> np.ndarr
     [[φ, 1], [1ᵀ, 0]] on ALL pairs (one factorisation for every k).  Since G 1 = 0 the
     similarity's constant drops out: (G r_k)_k = (G b)_k - sR_k (G a)_k for the centred points a,
     b, and S_k's scale·rotation sR_k comes from the totals of the normal equations minus pair k's
-    share.  ``G``: (K, K).
+    share.  ``G``: the system's inverse (:mod:`.saddle` interface: ``gram``, ``diagonal``).
     """
     K, D = src.shape
     a, b = src - src.sum(0) / K, dst - dst.sum(0) / K
@@ -571,8 +750,9 @@ def _similarity_loo(src: np.ndarray, dst: np.ndarray, G: np.ndarray) -> np.ndarr
         U[flip, :, -1] *= -1.0
         S[flip, -1] *= -1.0
         sR = (S.sum(1) / var)[:, None, None] * np.matmul(U, Vt)
-    Ga, Gb = G @ a, G @ b
-    e = (Gb - np.einsum("kdc,kc->kd", sR, Ga)) / np.diagonal(G)[:, None]
+    Gab = G.gram(np.hstack([a, b]))
+    Ga, Gb = Gab[:, :D], Gab[:, D:]
+    e = (Gb - np.einsum("kdc,kc->kd", sR, Ga)) / G.diagonal()[:, None]
     return (e * e).sum(1)
 
 
@@ -667,33 +847,48 @@ def _complete(cols: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return out
 
 
-def _choice_factored(src, dst, factored) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_choice_numpy` from a :class:`.bordered.Factored` of these template points (exact fit)."""
+def _choice_factored(src, dst, factored) -> tuple[Dense, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_choice_parts` from a :class:`.bordered.Factored` of these template points (exact fit)."""
     K, D = src.shape
-    card = factored.tps[:, :K]
-    G = factored.sim[:, :K]
+    G = Dense(factored.sim[:, :K])
     lin, w = _similarity_parts(src, dst, np.zeros(K), D, inverse=G)
-    return card, lin, w, _similarity_loo(src, dst, G[:K])
+    return Dense(factored.tps[:, :K]), lin, w, _similarity_loo(src, dst, G)
+
+
+def _choice_systems(src, dst, ridge) -> tuple:
+    """:func:`_choice_kernel` in numpy: (the TPS system's inverse, lin, w, similarity leave-one-out
+    errors (K,), the fallback system's inverse), the inverses as :mod:`.saddle` factors (exact
+    fits: diagonals and products without the whole inverse) or :class:`.saddle.Dense` columns
+    (smoothed fits, or a factorisation that failed)."""
+    K, D = src.shape
+    _, sc, A = _tps_system(src, ridge)
+    sign = 1.0 if D == 2 else -1.0
+    got = None
+    if not ridge.any():  # 3-D: one factor for both systems (the same kernel matrix; saddle docstring)
+        got = saddle.factored(A[:K, :K], A[:K, K + 1:], _dist(src, src) / sc if D == 2 else None, sign)
+    if got is None:
+        got = (Dense(_inverse(A[:K, :K], A[:K, K:], sign)),
+               Dense(_inverse(_dist(src, src) / sc, np.ones((K, 1)), -1.0)))  # the fallback's [[φ, 1], [1ᵀ, 0]]
+    card, G = got
+    lin, w = _similarity_parts(src, dst, ridge, D, inverse=None if ridge.any() else G)
+    return card, lin, w, _similarity_loo(src, dst, G), G
 
 
 def _choice_numpy(src, dst, ridge) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_choice_kernel` in numpy: (card, lin, w, similarity leave-one-out errors (K,)), and
-    the fallback's inverse columns G (K + 1, K) (kept for :func:`_choice_inverses`)."""
-    K, D = src.shape
-    _, sc, A = _tps_system(src, ridge)
-    card = _inverse(A[:K, :K], A[:K, K:], 1.0 if D == 2 else -1.0)
-    G = _inverse(_dist(src, src) / sc, np.ones((K, 1)), -1.0)  # the fallback's [[φ, 1], [1ᵀ, 0]]
-    lin, w = _similarity_parts(src, dst, ridge, D, inverse=None if ridge.any() else G)
-    return card, lin, w, _similarity_loo(src, dst, G[:K]), G
+    """:func:`_choice_kernel` in numpy, whole: (card, lin, w, similarity leave-one-out errors (K,),
+    the fallback's inverse columns G (K + 1, K))."""
+    card, lin, w, loo, G = _choice_systems(src, dst, ridge)
+    return card.full(), lin, w, loo, G.full()
 
 
 _LAST: list = [None]  # the last _choice: (key, result), one reference (safe across threads)
 
 
-def _choice(src, dst, ridge, compiled_kernel: bool = True):
-    """(card, lin, w, similarity LOO per pair (K,)) by the compiled kernel (if asked and
-    available), else numpy; None if a system is singular.  The last result is remembered (the
-    outlier screen of :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn)."""
+def _choice_parts(src, dst, ridge, compiled_kernel: bool = True):
+    """(the TPS system's inverse (:mod:`.saddle` interface: ``diagonal``, ``solve``, ``full``), lin,
+    w, similarity LOO per pair (K,)) by the compiled kernel (if asked and available), else numpy;
+    None if a system is singular.  The last result is remembered (the outlier screen of
+    :mod:`.robust` and :func:`fit_warp` ask for the same pairs in turn); read only."""
     use_kernel = bool(compiled_kernel and len(src) <= KERNEL_MAX_PAIRS and _kernel() is not None)
     key = (src.tobytes(), dst.tobytes(), np.asarray(ridge, float).tobytes(), src.shape, use_kernel)
     last = _LAST[0]
@@ -702,7 +897,14 @@ def _choice(src, dst, ridge, compiled_kernel: bool = True):
     else:
         got = _choice_uncached(src, dst, ridge, use_kernel)
         _LAST[0] = (key, got)
-    return None if got is None else tuple(a.copy() for a in got[:4])
+    return None if got is None else got[:4]
+
+
+def _choice(src, dst, ridge, compiled_kernel: bool = True):
+    """:func:`_choice_parts` with the TPS inverse's columns whole: (card (K + D + 1, K), lin, w,
+    similarity LOO per pair (K,)), copies."""
+    got = _choice_parts(src, dst, ridge, compiled_kernel)
+    return None if got is None else (got[0].full().copy(), *(a.copy() for a in got[1:]))
 
 
 def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -717,7 +919,7 @@ def _choice_inverses(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.n
     else:
         got = _choice_uncached(src, dst, np.zeros(K), False)
         _LAST[0] = (key, got)
-    return None if got is None else (got[0], got[4])
+    return None if got is None else (got[0].full(), got[4].full())
 
 
 def forget() -> None:
@@ -738,11 +940,11 @@ def _choice_uncached(src, dst, ridge, use_kernel: bool):
     K, D = src.shape
     try:
         if not use_kernel:
-            return _choice_numpy(src, dst, ridge)
+            return _choice_systems(src, dst, ridge)
         card, lin, w, loo = np.empty((K + D + 1, K)), np.empty((D + 1, D)), np.zeros((K, D)), np.empty(K)
         _kernel()(np.ascontiguousarray(src), np.ascontiguousarray(dst), np.ascontiguousarray(ridge, dtype=float),
                   card, lin, w, loo)
-        return card, lin, w, loo, None
+        return Dense(card), lin, w, loo, None
     except (np.linalg.LinAlgError, ZeroDivisionError):
         return None
 
@@ -752,6 +954,7 @@ _WARM = (np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.2]]),
 # the kernels' example arguments, made once (a call asks for its kernel)
 _WARM_CHOICE = (*_WARM, np.zeros(4), np.zeros((7, 4)), np.zeros((3, 2)), np.zeros((4, 2)), np.zeros(4))
 _WARM_DIST = (*_WARM, np.zeros((4, 4)))
+_WARM_3D = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.2], [0.0, 1.0, 0.1], [1.0, 1.2, 1.0]])
 
 
 def similarity_loo(src: np.ndarray, dst: np.ndarray) -> float:
@@ -804,9 +1007,9 @@ def fit_warp(
     -------
     Warp
     """
-    src, dst, exact = merge_pairs(src, dst, exact=exact)
+    src, dst, exact = merge_pairs(src, dst, exact=exact, fast=on is not None and len(on) >= min_stamps())
     K, D = src.shape
-    rank = affine_rank(src)
+    rank = affine_rank(src, fast=on is not None and len(on) >= min_stamps())
     ridge = np.zeros(K) if exact is None or not smoothing else np.where(exact, 0.0, float(smoothing))
     if K == 1 or rank == 0:
         affine = np.vstack([dst.sum(0) / K - src.sum(0) / K, np.eye(D)])
@@ -820,15 +1023,15 @@ def fit_warp(
                 # a round of plan adjustment: the last round's inverses bordered (:mod:`.bordered`),
                 # None in the first round or when the pairs did not only grow
                 factored = refits.factored(src, dst)
-            got = (_choice(src, dst, ridge, len(on) >= min_stamps()) if factored is None
+            got = (_choice_parts(src, dst, ridge, len(on) >= min_stamps()) if factored is None
                    else _choice_factored(src, dst, factored))
         else:
             got = None
         amplification = None
         if got is not None:
             card, lin, w, sim_each = got
-            sol = card @ dst
-            diag = np.diagonal(card[:K])
+            sol = card.solve(dst)
+            diag = card.diagonal()
             # the pairs a TPS can be fitted without (docstring, 2.): Rippa's error of pair k is
             # c_k / (A⁻¹)_kk, and (A⁻¹)_kk vanishes when the system without pair k is singular
             judged = np.abs(diag) > SINGULAR_TOL
@@ -849,7 +1052,7 @@ def fit_warp(
                 else:  # the normalisation the inverses were made in (the same map)
                     mu, sc = factored.mu, factored.sc
                 limit = MAX_AMPLIFICATION[D] if max_amplification is None else max_amplification
-                amplification, mapped, at = _lebesgue((on - mu) / sc, (src - mu) / sc, card, dst, limit,
+                amplification, mapped, at = _lebesgue((on - mu) / sc, (src - mu) / sc, card.full(), dst, limit,
                                                       _tol(on, src) / sc)
                 if mapped is not None:
                     return _tps_warp(src, dst, mu, sc, sol, amplification=amplification, loo=tps_loo,
