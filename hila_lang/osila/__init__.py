@@ -19,6 +19,7 @@ One line each:
 - ``robust``        many noisy ICP pairs: outliers rejected before the warp
 - ``tps``           the thin plate spline warp fitted on paired ICPs
 - ``fallback``      similarity and translation warps when TPS cannot be trusted
+- ``saddle``        the warp's two systems kept as Cholesky factors: Rippa's leave-one-out errors, solves
 - ``noise``         the template's measurement noise, the candidates' radius
 - ``candidates``    a ball of candidate waypoints around every mapped point
 - ``route``         the minimum-energy route through the candidates
