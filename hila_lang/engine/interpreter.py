@@ -120,8 +120,11 @@ class Interpreter(History):
         return self.scene.hand()
 
     def executor_for(self, state: State) -> Executor:
-        """The object that runs ``state`` in this run: one per executor class, made when first needed."""
-        cls = executor(state)
+        """The object that runs ``state`` in this run (its class's :func:`executor`)."""
+        return self._executor(executor(state))
+
+    def _executor(self, cls: type[Executor]) -> Executor:
+        """This run's one object of executor class ``cls``, made when first needed."""
         if cls not in self._executors:
             self._executors[cls] = cls(self.context)
         return self._executors[cls]
@@ -129,7 +132,7 @@ class Interpreter(History):
     @property
     def runs(self) -> RunExecutor:
         """The executor of ``run`` states (bindings, constraints, explain)."""
-        return self.executor_for(RunState(""))
+        return self._executor(RunExecutor)
 
     def bind(self, st: RunState) -> dict[str, np.ndarray]:
         """The task ICPs run state ``st`` binds now (the REPL's ``icps``; a replay answers it too)."""
