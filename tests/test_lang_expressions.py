@@ -76,3 +76,13 @@ def test_a_long_chain_builds_without_recursion():
     while isinstance(e, A.Binary):
         e, depth = e.left, depth + 1
     assert depth == 4999
+
+
+def test_hila_check_locates_them_in_the_file(tmp_path, capsys):
+    from hila_lang.cli import main
+
+    p = tmp_path / "p.hila"
+    p.write_text("main {\n  let a = 1\n  if a + not a { let b = 2 }\n}\n")
+    assert main(["check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert f"{p}:3:10: error: 'not' cannot follow '+'" in err and "Traceback" not in err

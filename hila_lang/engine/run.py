@@ -128,7 +128,7 @@ class RunExecutor(Executor):
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step, executed))
-        text += "".join(f"; note: {n}" for n in step.notes)
+        text += "".join(f"; note: {note}" for note in step.notes)
         return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
                           icps=icps, pen_down=bool(st.pen_down), step_result=step)
 

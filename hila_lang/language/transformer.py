@@ -195,10 +195,6 @@ class ToAst(Transformer):
 _LOOSE = ("OR", "AND")  # 'not' may follow these
 
 
-def _start(e) -> tuple[int, int]:
-    return e.pos.line, e.pos.column
-
-
 def _precedence(ch):
     operands, ops, i = [], [], 0  # operands: [nots, value]; ops: the tokens between them
     while i < len(ch):
@@ -273,10 +269,15 @@ def _generic(cls):
     return build
 
 
-for _rule, _cls in A.RULES.items():
-    if not hasattr(ToAst, _rule):
-        setattr(ToAst, _rule, _generic(_cls))
-ToAst = v_args(meta=True)(ToAst)
+def _with_statement_rules(cls):
+    """``cls`` with a :func:`_generic` method for every registered statement rule it has no method for."""
+    for rule, statement in A.RULES.items():
+        if not hasattr(cls, rule):
+            setattr(cls, rule, _generic(statement))
+    return cls
+
+
+ToAst = v_args(meta=True)(_with_statement_rules(ToAst))
 
 
 _EXPR_TYPES = (A.Number, A.String, A.Bool, A.NoneLit, A.Name, A.Vector, A.Unary, A.Binary, A.Ask)
