@@ -62,7 +62,10 @@ def write(tmp_path, name, text):
         ("t,x,y\n0,0,0\n1,1\n", r"demo\.csv:3: error: expected 3 columns \(t,x,y\), got 2"),
         ("t,x,y\n0,0,0\n1,1,abc\n", r"demo\.csv:3: error: expected a finite number in column 'y', got 'abc'"),
         ("t,x,y\n0,0,0\n0,1,1\n", r"demo\.csv:3: error: expected increasing times in column 't', got 0.0 after 0.0"),
-        ("a,b,c\n0,0,0\n", r"demo\.csv:1: error: expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z', got 'a,b,c'"),
+        ("a,b,c\n0,0,0\n", r"demo\.csv:1: error: expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z' \(each "
+                            r"optionally with a last column 'pen'\), got 'a,b,c'"),
+        ("t,x,y,pen\n0,0,0,1\n1,1,1,0.5\n", r"demo\.csv:3: error: expected 1 \(pen down, touching\) or 0 \(pen up\) "
+                                          r"in column 'pen', got '0.5'"),
         ("t,x,y\n", r"demo\.csv: error: demonstration CSV has a header but no data rows"),
         ("", r"demo\.csv: error: demonstration CSV is empty"),
     ],
@@ -147,3 +150,79 @@ def test_learn_source_errors(tmp_path, capsys, args, message):
     assert main(["learn", *args, "-o", str(out)]) == 2
     assert re.search(message, capsys.readouterr().err)
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------- the pen's contact (issue 30 item 3)
+
+
+def drawn_demonstration(tmp_path, mark="triangle", style="careful", seed=0):
+    """A person's drawing of ``mark`` on the tic-tac-toe sheet, pen down/up recorded (the seeded
+    pointer model), written as hila learn reads it: (demo.csv, icps.yaml, the drawing)."""
+    from hila_lang.worlds.tictactoe.drawing import draw_mark, write_demonstration
+
+    drawing = draw_mark(mark, style, seed=seed)
+    demo, icps = write_demonstration(tmp_path, mark, drawing)
+    return str(demo), str(icps), drawing
+
+
+def test_a_demonstration_that_records_the_pen_is_cut_where_the_pen_touches_and_leaves(tmp_path, capsys):
+    """The issue's case: speed dips put the draw segment where the pen was up; the recorded pen
+    puts the cuts exactly at the first touch and the last lift, by default."""
+    demo, icps, drawing = drawn_demonstration(tmp_path, "triangle", "careful")
+    touch, lift = np.flatnonzero(drawing.pen)[[0, -1]]
+    rc = main(["learn", demo, "--icps", icps, "-k", "3", "--tags", "reach,draw,retract", "--contact", "draw",
+               "-o", str(tmp_path / "tri.yaml")])
+    assert rc == 0
+    t = load_template(tmp_path / "tri.yaml")
+    assert [(s.start, s.stop) for s in t.segments] == [(0, touch), (touch, lift + 1), (lift + 1, len(drawing.path))]
+    assert "where the pen touches and leaves the paper, as recorded" in t.description
+    # the careful person pauses at the triangle's corners: the deepest speed dips are there
+    rc = main(["learn", demo, "--icps", icps, "-k", "3", "--tags", "reach,draw,retract", "--contact", "draw",
+               "--method", "speed", "-o", str(tmp_path / "speed.yaml")])
+    speed = load_template(tmp_path / "speed.yaml").segment("draw")
+    assert rc == 0 and (speed.start, speed.stop) != (touch, lift + 1)
+
+
+def test_a_letter_of_two_strokes_keeps_the_pen_up_move_between_them_in_the_draw(tmp_path):
+    demo, icps, drawing = drawn_demonstration(tmp_path, "A", "quick")
+    strokes = np.flatnonzero(np.diff(drawing.pen.astype(int)) == 1)
+    assert len(strokes) == 2  # the letter A: two strokes, the pen up between them
+    rc = main(["learn", demo, "--icps", icps, "--tags", "reach,draw,retract", "-o", str(tmp_path / "a.yaml")])
+    t = load_template(tmp_path / "a.yaml")
+    draw = t.segment("draw")
+    assert rc == 0 and draw.start == strokes[0] + 1 and draw.stop == np.flatnonzero(drawing.pen)[-1] + 1
+    # without --contact the tags whose samples are mostly pen-down touch
+    assert [s.contact for s in t.segments] == [False, True, False]
+
+
+def test_cuts_moved_by_hand_are_remade_by_one_command(tmp_path, capsys):
+    demo, icps, drawing = drawn_demonstration(tmp_path, "tick", "quick")
+    out = tmp_path / "tick.yaml"
+    rc = main(["learn", demo, "--icps", icps, "--tags", "reach,draw,retract", "--contact", "draw", "--cuts", "9,30",
+               "-o", str(out)])
+    t = load_template(out)
+    assert rc == 0 and [(s.start, s.stop, s.contact) for s in t.segments] == [
+        (0, 9, False), (9, 30, True), (30, len(drawing.path), False)]
+    assert "Cut by hand at samples 9, 30 (--cuts; k = 3)." in t.description
+    capsys.readouterr()
+    for cuts, message in [("9", r"--cuts 9: expected 2 cut\(s\) for k = 3 segments, got 1"),
+                          ("9,10", r"expected increasing cuts that leave every tag 2 samples or more of the \d+, got a "
+                                   r"tag \[9, 10\)"),
+                          ("9,x", r"--cuts 9,x: expected sample indices separated by commas")]:
+        rc = main(["learn", demo, "--icps", icps, "--tags", "reach,draw,retract", "--cuts", cuts, "-o", str(out)])
+        assert rc == 2 and re.search(message, capsys.readouterr().err)
+    rc = main(["learn", demo, "--icps", icps, "--tags", "a,b,c", "--cuts", "9,30", "--method", "speed", "-o", str(out)])
+    assert rc == 2 and "--cuts and --method both say where to cut: give one" in capsys.readouterr().err
+
+
+def test_contact_cuts_need_a_recorded_pen_that_changes(tmp_path, capsys):
+    demo = write(tmp_path, "d.csv", "t,x,y\n" + "".join(f"{i / 20},{i / 100},0\n" for i in range(20)))
+    icps = write(tmp_path, "i.yaml", "a: [0, 0]\n")
+    rc = main(["learn", demo, "--icps", icps, "--tags", "a,b,c", "--method", "contact", "-o", str(tmp_path / "x.yaml")])
+    assert rc == 2 and "d.csv: error: segmentation method 'contact' needs the pen's contact at every sample" in \
+        capsys.readouterr().err
+    down = write(tmp_path, "p.csv", "t,x,y,pen\n" + "".join(f"{i / 20},{i / 100},0,1\n" for i in range(20)))
+    rc = main(["learn", down, "--icps", icps, "--tags", "a,b,c", "-o", str(tmp_path / "x.yaml")])
+    assert rc == 2 and "cannot cut by the pen's contact: the pen touches the surface throughout" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "x.yaml").exists()

@@ -170,3 +170,27 @@ def test_changepoint_segments():
     ranges = changepoint_segments(path, 3, times=times)
     assert len(ranges) == 3 and ranges[0][0] == 0 and ranges[-1][1] == len(path)
     assert all(b - a >= 2 for a, b in ranges)
+
+
+def test_contact_cuts_agree_with_the_recorded_pen_at_the_most_samples():
+    from hila_lang.osila.segmentation import contact_segments
+
+    pen = np.array([0] * 10 + [1] * 20 + [0] * 3 + [1] * 10 + [0] * 15, bool)
+    # reach, draw, retract: the pen-up hop between the two strokes stays in the draw
+    assert contact_segments(pen, 3, [False, True, False]) == [(0, 10), (10, 43), (43, 58)]
+    # as many segments as runs of the pen: a cut at every change; without flags they alternate
+    assert contact_segments(pen, 5) == [(0, 10), (10, 30), (30, 33), (33, 43), (43, 58)]
+    assert contact_segments(pen, 3) == [(0, 10), (10, 43), (43, 58)]
+    # the cost it minimises, checked against every admissible pair of cuts
+    changes = [10, 30, 33, 43]
+    flags = [True, False, True]
+
+    def wrong(cuts):  # a pen-down sample out of the touching segments outweighs all pen-up ones in them
+        b = [0, *cuts, len(pen)]
+        return sum(int((pen[x:y] != f).sum()) * (1 if f else len(pen) + 1) for x, y, f in zip(b, b[1:], flags))
+
+    best = min(wrong((a, c)) for a in changes for c in changes if c - a >= 2)
+    got = contact_segments(pen, 3, flags)
+    assert wrong([got[1][0], got[2][0]]) == best
+    with pytest.raises(InputError, match=r"the pen changes only 4 time\(s\) \(at samples 10, 30, 33, 43\)"):
+        contact_segments(pen, 7)

@@ -76,16 +76,6 @@ def load_task(path, dim: int) -> dict:
     return {"icps": icps, "forced": doc.get("forced"), "obstacles": doc.get("obstacles"), "options": dict(options)}
 
 
-def _csv(path, times) -> str:
-    axes = "xyz"[: path.shape[1]]
-    head = ("t," if times is not None else "") + ",".join(axes)
-    rows = [head]
-    for i, p in enumerate(path):
-        cells = ([repr(float(times[i]))] if times is not None else []) + [repr(float(v)) for v in p]
-        rows.append(",".join(cells))
-    return "\n".join(rows) + "\n"
-
-
 def run(args: argparse.Namespace) -> int:
     import difflib
     import sys
@@ -142,7 +132,9 @@ def run(args: argparse.Namespace) -> int:
         raise
     piece = gen.pieces[0]
     path = gen.path
-    text = _csv(path, gen.times)
+    from ..osila.demofile import demo_csv
+
+    text = demo_csv(path, gen.times)
     out = sys.stdout
     if args.output:
         atomic_write_text(args.output, text)

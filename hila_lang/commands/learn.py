@@ -23,14 +23,22 @@ The last three learn in the world --world names (default tictactoe): the world d
 demonstration is recorded and how its scene's ICPs are read (WorldInfo.recorder, .icp_reader).
 
 DEMO.csv: a header line, then one row per waypoint.  Header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z'
-(t in seconds, strictly increasing; x, y, z in metres).  Blank lines and lines starting with '#'
-are skipped.
+(t in seconds, strictly increasing; x, y, z in metres), optionally with a last column 'pen': 1
+where the pen touches the surface, 0 where it is up (a drawing's pointer down/up; what hila
+studio and a camera demonstration record).  Blank lines and lines starting with '#' are skipped.
 ICPS: the demonstration scene's invariant control points, a YAML mapping 'name: [x, y, z]'
 (or a task YAML with an 'icps:' mapping).
 The path is split into k contiguous segments, tagged in time order with --tags; --contact names
-the tags that touch the surface (drawing).  By default the cuts are the k-1 deepest dips in
-the hand's speed (where one stroke ends and the next begins, e.g. where the pen touches and
-leaves the paper; bench/segmentation.py measures it); --method kmeans is the paper's k-means.
+the tags that touch the surface (drawing).  Where the cuts go (--method):
+  contact   where the recorded pen touches and leaves the paper: the default for a demonstration
+            with a 'pen' column (the k-1 pen changes that make each tag's contact flag agree with
+            the pen at the most samples; without --contact the tags alternate, and those mostly
+            pen-down touch)
+  speed     the k-1 deepest dips in the hand's speed (where one stroke ends and the next begins;
+            bench/segmentation.py measures it): the default without a pen column
+  kmeans    the paper's k-means; changepoint (needs ruptures); equal (equal lengths)
+--cuts A,B,... puts the k-1 cuts at those samples (as printed, or as moved by hand in hila
+studio), so a template cut by hand is remade by one command.
 Example: hila learn demo.csv --icps scene.yaml -k 3 --tags reach,draw,retract --contact draw \\
 -o primitives/circle.yaml
 
@@ -63,10 +71,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
     parser.add_argument("--contact", default="", help="comma-separated tags that touch the surface")
-    parser.add_argument("--method", choices=("speed", "kmeans", "changepoint", "equal"), default="speed",
-                        help="segmentation: speed (default: cut at the deepest dips in speed, where the hand "
-                             "slows between strokes), kmeans (the paper's: k-means on position and time), "
-                             "changepoint (ruptures on the velocity; needs ruptures), equal (equal lengths)")
+    parser.add_argument("--method", choices=("contact", "speed", "kmeans", "changepoint", "equal"), default=None,
+                        help="segmentation: contact (where the recorded pen touches and leaves the paper; the "
+                             "default when DEMO.csv has a 'pen' column), speed (the deepest dips in speed, where "
+                             "the hand slows between strokes; the default otherwise), kmeans (the paper's: "
+                             "k-means on position and time), changepoint (ruptures on the velocity; needs "
+                             "ruptures), equal (equal lengths)")
+    parser.add_argument("--cuts", default=None, metavar="A,B,...",
+                        help="the k-1 cuts as sample indices (each the first sample of the next tag), instead of "
+                             "a --method: a template cut by hand, remade by one command")
     parser.add_argument("--seed", type=int, default=0, help="k-means seed (default 0)")
     parser.add_argument("--name", default=None, help="template name (default: the output file's stem)")
     parser.add_argument("--description", default=None, help="provenance text stored in the template")
@@ -217,12 +230,59 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
     return out
 
 
+def _cuts(text: str | None, k: int, T: int) -> list[int] | None:
+    """``--cuts A,B,...``: k - 1 increasing sample indices, each leaving two samples or more per tag."""
+    from ..core.errors import InputError
+
+    if text is None:
+        return None
+    try:
+        cuts = [int(c) for c in text.split(",")]
+    except ValueError:
+        raise InputError(f"--cuts {text}: expected sample indices separated by commas, e.g. --cuts 25,57") from None
+    if len(cuts) != k - 1:
+        raise InputError(f"--cuts {text}: expected {k - 1} cut(s) for k = {k} segments, got {len(cuts)}")
+    bounds = [0, *cuts, T]
+    for a, b in zip(bounds, bounds[1:]):
+        if b - a < 2:
+            raise InputError(f"--cuts {text}: expected increasing cuts that leave every tag 2 samples or more of "
+                             f"the {T}, got a tag [{a}, {b})")
+    return cuts
+
+
+def _segmented(template, k: int, tags: list[str], contact: list[str], args, pen):
+    """``template`` cut by ``--cuts`` or by the method (``contact`` by default when the pen is
+    recorded); with the pen recorded and no ``--contact``, the tags mostly pen-down touch."""
+    import numpy as np
+
+    from ..core.errors import InputError
+    from ..osila.segmentation import describe, segment_template
+    from ..osila.template import Segment
+
+    cuts = _cuts(args.cuts, k, len(template.path))
+    if cuts is None:
+        method = args.method or ("contact" if pen is not None else "speed")
+        try:
+            out = segment_template(template, k, tags, method=method, seed=args.seed, contact=contact, pen=pen)
+        except InputError as exc:
+            exc.file = exc.file or str(args.demo)
+            raise
+        out.description += f" {describe(method, k)}"
+        return out
+    if args.method is not None:
+        raise InputError("--cuts and --method both say where to cut: give one")
+    bounds = [0, *cuts, len(template.path)]
+    if not contact and pen is not None:
+        contact = [tag for tag, a, b in zip(tags, bounds, bounds[1:]) if 2 * np.sum(pen[a:b]) > b - a]
+    template.segments = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
+    template.description += f" Cut by hand at samples {', '.join(map(str, cuts))} (--cuts; k = {k})."
+    return template
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..osila.demofile import load_icps, read_demo_csv
+    from ..osila.demofile import load_icps, read_demo
     from ..core.errors import InputError
     from ..core.fileio import ensure_writable
-    from ..osila.segmentation import segment_template
-    from ..osila.segmentation import describe
     from ..osila.template import Template, save_template
 
     source = _source(args)
@@ -239,22 +299,29 @@ def run(args: argparse.Namespace) -> int:
     name = args.name or out.stem
     if library is not None:
         (tags_new, tags), (contact_new, contact), k = (tags, []), (contact, []), 1
+        if args.cuts is not None:
+            raise InputError("--cuts does not go with --library: the parts are what the library recognises")
     if source != "DEMO.csv":
+        if args.cuts is not None:
+            raise InputError(f"--cuts goes with DEMO.csv; {source} is cut by --method")
+        args.method = args.method or "speed"
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:
-        demo, times = read_demo_csv(args.demo)
-        icps = load_icps(args.icps, demo.shape[1])
-        description = args.description or (f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}."
-                                           + (f" {describe(args.method, k)}" if tags else ""))
+        demo = read_demo(args.demo)
+        icps = load_icps(args.icps, demo.path.shape[1])
         try:
-            template = Template(name, demo, icps, times=times, description=description)
+            template = Template(name, demo.path, icps, times=demo.times,
+                                description=f"learned from {args.demo} ({len(demo.path)} points) with ICPs from "
+                                            f"{args.icps}.")
         except InputError as exc:
             exc.file = exc.file or str(args.demo)
             raise
         if tags:
-            template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
-        elif contact:
-            raise InputError("--contact needs segments: give --tags (and -k)")
+            template = _segmented(template, k, tags, contact, args, demo.pen)
+        elif contact or args.cuts is not None:
+            raise InputError(f"{'--contact' if contact else '--cuts'} needs segments: give --tags (and -k)")
+        if args.description:
+            template.description = args.description
     if library is not None:
         template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)

@@ -105,9 +105,8 @@ def template_text(template, path=None) -> str:
     units = {"m": "metres"}.get(t.units, t.units)
     where = f" ({_relative(path)})" if path is not None else ""
     lines = [f"template {t.name}{where}: {t.dim}-D, {n} points{duration}, {units}"]
-    if t.description:
-        first = t.description.split(". ")[0].rstrip(".") + "."
-        lines += textwrap.wrap(first, WRAP, initial_indent="  ", subsequent_indent="  ")
+    if t.description:  # whole: how it was made, cut, and moved by hand is what a reader needs
+        lines += textwrap.wrap(t.description, WRAP, initial_indent="  ", subsequent_indent="  ")
     lines.append("")
     if t.segments:
         lines.append(f"tags (sub-templates: run {t.name}.TAG(ICP = point, ...)):")

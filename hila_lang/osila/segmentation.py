@@ -6,7 +6,11 @@ Methods (:data:`METHODS`; :func:`segments` dispatches):
   ends and the next begins (:func:`speed_segments`).
 - ``kmeans`` (the paper's): k-means on spatio-temporal features (:func:`kmeans_segments`).
 - ``changepoint``: change points of the velocity (``ruptures``, optional; :func:`changepoint_segments`).
-- ``equal``: equal lengths (the controlled variant of the paper's Experiment A).
+- ``equal``: equal lengths (the controlled variant of the paper's Experiment A);
+- ``contact``: where the pen touches and leaves the surface, as recorded (a demonstration CSV's
+  ``pen`` column: a drawing's pointer events, a camera's pen tracking;
+  :func:`contact_segments`).  ``hila learn`` uses it by default when the demonstration records
+  the pen: the cuts then come from what happened, not from a guess at it.
 
 Why ``speed`` is the default: ``bench/segmentation.py`` measures every method against known
 phase boundaries of the project's seeded motion models — chains of minimum-jerk legs with random
@@ -39,7 +43,7 @@ from ..core.errors import InputError
 from .template import Segment, Template
 from ..core.validation import check_int, check_path
 
-METHODS = ("speed", "kmeans", "changepoint", "equal")
+METHODS = ("speed", "kmeans", "changepoint", "equal", "contact")
 #: the default segmenter, chosen by ``bench/segmentation.py`` (see the module docstring)
 DEFAULT_METHOD = "speed"
 
@@ -48,7 +52,9 @@ def describe(method: str, k: int) -> str:
     """How a template was segmented, one sentence for its description."""
     how = {"speed": "at the deepest dips in speed (hila_lang.osila.segmentation.speed_segments)",
            "kmeans": "by k-means", "changepoint": "by change points of the velocity (ruptures)",
-           "equal": "into equal lengths"}[method]
+           "equal": "into equal lengths",
+           "contact": "where the pen touches and leaves the paper, as recorded "
+                      "(hila_lang.osila.segmentation.contact_segments)"}[method]
     return f"Segmented {how} (k = {k})."
 
 
@@ -222,8 +228,91 @@ def changepoint_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[
     return _ranges(ruptures.Dynp(model="l2", min_size=2, jump=1).fit(v).predict(n_bkps=k - 1)[:-1], T)
 
 
-def segments(path: Any, k: int, method: str = DEFAULT_METHOD, *, times: Any = None, seed: int = 0) -> list[tuple[int, int]]:
-    """``k`` contiguous ``[start, stop)`` segments of ``path`` by ``method`` (one of :data:`METHODS`)."""
+def contact_segments(pen: Any, k: int, touching: Sequence[bool] | None = None) -> list[tuple[int, int]]:
+    """Split a demonstration into ``k`` segments where the pen touches and leaves the surface.
+
+    The cuts are chosen among the samples where the recorded pen changes (down after up, or up
+    after down): the ``k - 1`` of them that put every pen-down sample in a segment whose contact
+    flag (``touching``) is set, as far as they can -- ink outside a touching segment would never
+    be drawn -- and then the fewest pen-up samples in touching segments (an exact dynamic
+    programme over the changes; segments of at least two samples).  So ``reach, draw,
+    retract`` with ``draw`` touching cuts at the first touch and the last lift, and the pen-up
+    moves between the strokes of a mark stay in ``draw``; with as many changes as cuts it cuts
+    at every change.
+    Without ``touching`` the segments alternate, starting with the pen as it is at the first
+    sample.
+
+    Parameters
+    ----------
+    pen : array_like of bool, shape (T,)
+        True where the pen touches the surface.
+    k : int
+        Number of segments.
+    touching : sequence of k bool, optional
+        Which segments touch the surface.
+
+    Raises
+    ------
+    InputError
+        The pen never changes, changes fewer than ``k - 1`` times where segments of two samples
+        or more can start, or ``touching`` has the wrong length.
+    """
+    pen = np.asarray(pen, dtype=bool).ravel()
+    T = len(pen)
+    k = check_int(k, "k", minimum=1)
+    if touching is None:
+        touching = [bool(pen[0]) != bool(i % 2) for i in range(k)]
+    touching = [bool(f) for f in touching]
+    if len(touching) != k:
+        raise InputError(f"expected {k} contact flags for k = {k} segments, got {len(touching)}")
+    if k == 1:
+        return [(0, T)]
+    changes = [int(c) for c in np.flatnonzero(pen[1:] != pen[:-1]) + 1 if 2 <= c <= T - 2]
+    if not changes:
+        state = "touches the surface throughout" if pen.all() else "never touches the surface"
+        raise InputError(f"cannot cut by the pen's contact: the pen {state} in the demonstration",
+                         hint="record the pen (a drawing's pen down/up), or use --method speed")
+    # mismatches of a segment [a, b) flagged f (prefix sums of the pen being down): a pen-down
+    # sample left out of the touching segments outweighs every pen-up sample put in them
+    down = np.concatenate([[0], np.cumsum(pen)])
+
+    def cost(a: int, b: int, f: bool) -> int:
+        inked = int(down[b] - down[a])
+        return (b - a) - inked if f else inked * (T + 1)
+
+    bounds = [0, *changes, T]
+    n = len(bounds)
+    best = np.full((k, n), np.inf)   # best[j, i]: segments 0..j with segment j ending at bounds[i]
+    back = np.zeros((k, n), dtype=int)
+    for i in range(1, n):
+        if bounds[i] >= 2:
+            best[0, i] = cost(0, bounds[i], touching[0])
+    for j in range(1, k):
+        for i in range(1, n):
+            for h in range(1, i):
+                if bounds[i] - bounds[h] >= 2 and best[j - 1, h] + cost(bounds[h], bounds[i], touching[j]) < best[j, i]:
+                    best[j, i] = best[j - 1, h] + cost(bounds[h], bounds[i], touching[j])
+                    back[j, i] = h
+    if not np.isfinite(best[k - 1, n - 1]):
+        raise InputError(f"cannot cut by the pen's contact into {k} segments: the pen changes only "
+                         f"{len(changes)} time(s) (at samples {', '.join(map(str, changes))})",
+                         hint="fewer tags, or --method speed")
+    cuts, i = [], n - 1
+    for j in range(k - 1, 0, -1):
+        i = back[j, i]
+        cuts.append(bounds[i])
+    return _ranges(sorted(cuts), T)
+
+
+def segments(path: Any, k: int, method: str = DEFAULT_METHOD, *, times: Any = None, seed: int = 0,
+             pen: Any = None, touching: Sequence[bool] | None = None) -> list[tuple[int, int]]:
+    """``k`` contiguous ``[start, stop)`` segments of ``path`` by ``method`` (one of :data:`METHODS`);
+    ``contact`` needs ``pen`` (T,) and takes ``touching`` (:func:`contact_segments`)."""
+    if method == "contact":
+        if pen is None:
+            raise InputError("segmentation method 'contact' needs the pen's contact at every sample "
+                             "(a demonstration CSV with a 'pen' column)", hint="use --method speed")
+        return contact_segments(pen, k, touching)
     if method == "speed":
         return speed_segments(path, k, times=times)
     if method == "kmeans":
@@ -242,6 +331,7 @@ def segment_template(
     method: str = DEFAULT_METHOD,
     seed: int = 0,
     contact: Iterable[str] = (),
+    pen: Any = None,
 ) -> Template:
     """A copy of ``template`` with ``k`` tagged segments.
 
@@ -252,12 +342,15 @@ def segment_template(
         Number of segments.
     tags : sequence of str
         One tag per segment, in time order, unique.
-    method : {"speed", "kmeans", "changepoint", "equal"}
+    method : {"speed", "kmeans", "changepoint", "equal", "contact"}
         :data:`DEFAULT_METHOD` unless given.
     seed : int
         k-means seed.
     contact : iterable of str
-        Tags whose segments touch the surface (``Segment.contact``).
+        Tags whose segments touch the surface (``Segment.contact``).  With ``method="contact"``
+        and none given, the segments where the recorded pen is down at most samples touch.
+    pen : array_like of bool, shape (T,), optional
+        The recorded pen (``method="contact"``).
 
     Raises
     ------
@@ -271,7 +364,11 @@ def segment_template(
     unknown = sorted(contact - set(tags))
     if unknown:
         raise InputError(f"contact tag {unknown[0]!r} is not one of the tags {', '.join(tags)}")
-    ranges = segments(template.path, k, method, times=template.times, seed=seed)
+    touching = [tag in contact for tag in tags] if contact else None
+    ranges = segments(template.path, k, method, times=template.times, seed=seed, pen=pen, touching=touching)
+    if method == "contact" and not contact:
+        down = np.asarray(pen, dtype=bool)
+        contact = {tag for tag, (a, b) in zip(tags, ranges) if 2 * down[a:b].sum() > b - a}
     parts = [Segment(tag, a, b, tag in contact) for tag, (a, b) in zip(tags, ranges)]
     return Template(
         name=template.name,

@@ -116,34 +116,11 @@ def scene_image(name: str) -> bytes:
 
 
 def lift(xy: np.ndarray, down: np.ndarray, z: float, lift_max: float = LIFT_MAX) -> np.ndarray:
-    """3-D points of a drawing on the plane at height ``z``: pen-down samples on it, pen-up
-    samples above it by min(lift_max, arc length in the plane since the pen left the paper,
-    arc length until it next touches) -- 45 degrees up and down.  Before the first touch and
-    after the last lift only the one distance counts; a drawing with no touch is all at lift_max.
+    """:func:`hila_lang.osila.demofile.lift` (the rule is shared with the pointer model of
+    :mod:`hila_lang.worlds.tictactoe.drawing`), at most :data:`LIFT_MAX` by default."""
+    from ..osila.demofile import lift as lifted
 
-    xy : (T, 2) metres; down : (T,) bool.  Returns (T, 3).
-    """
-    xy = np.asarray(xy, float)
-    down = np.asarray(down, bool)
-    T = len(xy)
-    step = np.r_[0.0, np.linalg.norm(np.diff(xy, axis=0), axis=1)]
-    s = np.cumsum(step)
-    since = np.full(T, np.inf)
-    until = np.full(T, np.inf)
-    last = None
-    for i in range(T):
-        if down[i]:
-            last = s[i]
-        elif last is not None:
-            since[i] = s[i] - last
-    nxt = None
-    for i in range(T - 1, -1, -1):
-        if down[i]:
-            nxt = s[i]
-        elif nxt is not None:
-            until[i] = nxt - s[i]
-    height = np.where(down, 0.0, np.minimum(lift_max, np.minimum(since, until)))
-    return np.column_stack([xy, z + height])
+    return lifted(xy, down, z, lift_max)
 
 
 def demonstration_path(samples: list, z: float | None) -> tuple[np.ndarray, np.ndarray]:
@@ -188,11 +165,10 @@ def proposal(path, times, k: int, method: str, seed: int = 0) -> dict:
 
 
 def _csv(path: np.ndarray, times: np.ndarray | None) -> str:
-    """The demonstration CSV ``hila learn`` reads (floats written exactly: repr round-trips)."""
-    header = ("" if times is None else "t,") + "x,y" + (",z" if path.shape[1] == 3 else "")
-    rows = [",".join(repr(float(v)) for v in ((() if times is None else (times[i],)) + tuple(p)))
-            for i, p in enumerate(path)]
-    return "\n".join([header, *rows]) + "\n"
+    """The demonstration CSV ``hila learn`` reads (:func:`hila_lang.osila.demofile.demo_csv`)."""
+    from ..osila.demofile import demo_csv
+
+    return demo_csv(path, times)
 
 
 def save(folder: Path, req: dict) -> dict:
