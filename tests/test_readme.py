@@ -60,3 +60,47 @@ def test_the_relative_links_of_the_readme_and_the_pages_resolve():
     for page in pages:
         for target in re.findall(r"\]\(([^)#:]+)(?:#[^)]*)?\)", page.read_text()):
             assert (page.parent / target).exists(), f"{page.name}: {target}"
+
+
+#: the folders of a clone a page may name a path in
+CLONE_FOLDERS = ("programs", "primitives", "hila_lang", "bench", "tests", "docs", "grammar")
+
+
+def _pages():
+    return [README, *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def test_every_path_the_pages_name_is_in_a_clone():
+    """A path in backticks (`programs/game.hila`, `hila_lang/worlds/tictactoe/`) is where a clone
+    has it; placeholders (NAME, <N>, *, {...}) and paths under a run's own folders are skipped."""
+    missing = []
+    for page in _pages():
+        for token in re.findall(r"`([^`\s]+)`", page.read_text()):
+            token = token.split(":")[0].split("#")[0].rstrip(".,;)")
+            if not token.startswith(tuple(f"{f}/" for f in CLONE_FOLDERS)):
+                continue
+            if re.search(r"[A-Z]{2,}|[<>*{}$]|\.\.\.", token):
+                continue
+            if not (ROOT / token).exists():
+                missing.append(f"{page.name}: {token}")
+    assert missing == []
+
+
+def test_every_install_command_installs_the_clone_with_an_extra_it_declares():
+    """``pip install`` in the pages installs ``.`` or ``'.[EXTRA]'`` (the README's form), with
+    extras ``pyproject.toml`` declares: not a package name a clone does not have."""
+    import tomllib
+
+    extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    wrong = []
+    for page in _pages():
+        for args in re.findall(r"pip install ([^\n`]+)", page.read_text()):
+            first = args.split()[0]
+            if first.startswith(("-", "'.", '".', ".")) or first in ("-e",):
+                named = re.findall(r"\.\[([\w,-]+)\]", first)
+                if all(e in extras for n in named for e in n.split(",")):
+                    continue
+            if page.name in ("robot.md", "studio.md", "README.md") and first in ("xvfb",):
+                continue
+            wrong.append(f"{page.name}: pip install {args.strip()}")
+    assert wrong == []
