@@ -29,11 +29,13 @@ def test_show_circle_prints_its_tags_spans_contact_and_icps(capsys, monkeypatch,
     assert out[icps + 1:icps + 6] == ["  A tl    (+0.353, -0.036, +0.371)", "  B tr    (+0.353, -0.103, +0.371)",
                                       "  C br    (+0.286, -0.103, +0.371)", "  D bl    (+0.286, -0.036, +0.371)",
                                       "  E hand  (+0.204, -0.174, +0.568)"]
-    frame = out.index("path from above, as the robot faces it (x forward = up, y left = left): digits = the tag's "
-                      "points, | = a cut, letters = ICPs, * = start")
+    frame = out.index("path from above, the paper as the robot sees it: farther up, its right to the right: digits = "
+                      "the tag's points, | = a cut, letters = ICPs, * = start")
     rows = out[frame + 1:]
-    assert len(rows) == 18 + 1 and rows[0] == "  +" + "-" * 56 + "+" and rows[-1] == "plot written to " + str(
+    # the whole path, then the circle again, fitted (it is small beside the hand's start), then the plot
+    assert len(rows) == 18 + 2 + 18 + 1 and rows[0] == "  +" + "-" * 56 + "+" and rows[-1] == "plot written to " + str(
         tmp_path / "c.png")
+    assert rows[19] == "the drawing (pen down), zoomed to fit:"
     body = "".join(r[3:-1] for r in rows[1:17])  # inside the frame
     assert all(ch in body for ch in "123|ABCD*")  # E, the hand, is where the path starts: drawn as *
     import cv2
@@ -89,3 +91,61 @@ def test_show_world_letters_and_scripted_and_the_list(capsys):
     assert code == 0 and out[0].startswith("worlds") and any(r.startswith("  tictactoe  ") for r in out)
     code, _, err = show(capsys, "world", "tictactoo")
     assert code == 2 and "did you mean 'tictactoe'?" in err
+
+
+# --------------------------------------------------------------------------- one orientation, the mark fitted (issue 30 item 8)
+
+
+def test_a_two_d_drawing_is_shown_the_way_up_it_was_drawn():
+    """A 2-D template is a drawing on a sheet (x right, y up), laid on the robot's paper that way
+    (its right, farther): an L drawn down then right is shown down then right -- before, 2-D
+    paths were turned a quarter (x up, y to the left)."""
+    down = np.column_stack([np.zeros(11), np.linspace(1, 0, 11)])
+    right = np.column_stack([np.linspace(0, 0.6, 7), np.zeros(7)])[1:]
+    t = Template("L", np.vstack([down, right]), {"a": np.array([0.0, 1.0])},
+                 segments=[Segment("down", 0, 11, True), Segment("right", 11, 17, True)])
+    rows = [r[1:-1] for r in picture(t, columns=21, rows=11)[1:-1]]
+    column = rows[0].index("*")  # the start (and the ICP under it), top left
+    assert all(r[column] in "1|" for r in rows[1:])  # the down stroke: one column, top to bottom
+    assert rows[-1][column:].split() == ["1", "|", "2", "2", "2", "2", "2"]  # the foot: to the right, along the bottom
+
+
+def test_a_small_mark_is_shown_again_fitted_and_the_description_whole(tmp_path, capsys):
+    """The hand's start 20 cm away set the picture's scale: the triangle was a few characters.
+    Now the pen-down part is shown again fitted, and the description's last sentence (how the
+    cuts were made: moved by hand) is printed too."""
+    from hila_lang.worlds.tictactoe.drawing import draw_mark, write_demonstration
+
+    demo, icps = write_demonstration(tmp_path, "tri", draw_mark("triangle", "small", seed=0))
+    out = tmp_path / "tri.yaml"
+    assert cli.main(["learn", str(demo), "--icps", str(icps), "--tags", "reach,draw,retract", "--cuts", "17,40",
+                     "-o", str(out)]) == 0
+    capsys.readouterr()
+    code, lines, err = show(capsys, str(out), "--plot", str(tmp_path / "tri.png"))
+    text = "\n".join(lines)
+    assert code == 0 and "Cut by hand at samples 17, 40 (--cuts; k = 3)." in " ".join(r.strip() for r in lines)
+    zoomed = lines[lines.index("the drawing (pen down), zoomed to fit:") + 1:]
+    drawn = [r for r in zoomed[1:17] if "2" in r]
+    assert len(drawn) >= 8  # the triangle fills the zoomed picture (half as many rows as columns: a character is tall)
+    whole = lines[lines.index(next(r for r in lines if r.startswith("path from above"))) + 1:][1:17]
+    assert sum("2" in r for r in whole) <= 4  # in the whole path's picture it was a few rows
+    import cv2
+
+    image = cv2.imread(str(tmp_path / "tri.png"))
+    assert image.shape[1] == 3 * 460  # top, the drawing zoomed, side
+    assert "tags (sub-templates" in text
+
+
+def test_labels_are_placed_apart():
+    """Four ICP labels at points a few pixels apart (a cell's corners when the hand sets the
+    scale) get boxes that do not overlap."""
+    from hila_lang.session.plot import _Labels
+
+    img = np.full((200, 200, 3), 255, np.uint8)
+    labels = _Labels()
+    for name, at in (("tl", (100, 100)), ("tr", (104, 100)), ("bl", (100, 104)), ("br", (104, 104)), ("hand", (102, 102))):
+        labels.put(img, name, at, (0, 0, 0), (0, 0, 200, 200))
+    boxes = labels.boxes
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            assert min(a[2], b[2]) <= max(a[0], b[0]) or min(a[3], b[3]) <= max(a[1], b[1]), (a, b)

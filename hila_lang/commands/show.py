@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import textwrap
 
+import numpy as np
+
 HELP = "show a template (tags, ICPs, a picture of its path) or a world (points, questions, events, settings)"
 DESCRIPTION = """\
 Show what a program can use.
@@ -126,32 +128,44 @@ def template_text(template, path=None) -> str:
         lines.append(f"  {_letter(k)} {name:<{width}}  {_point(p)}")
     if t.segments:
         lines.append("  every sub-template adds 'start' and 'end': its first and last points")
+    from ..session.plot import PAPER_VIEW
+
     lines.append("")
-    lines.append("path from above, as the robot faces it (x forward = up, y left = left): digits = the tag's "
-                 "points, | = a cut, letters = ICPs, * = start")
+    lines.append(f"path from above, {PAPER_VIEW}: digits = the tag's points, | = a cut, letters = ICPs, "
+                 "* = start")
     lines += ["  " + row for row in picture(t)]
+    drawn = pen_down(t)
+    if drawn is not None and len(drawn) >= 2:
+        whole = np.ptp(np.asarray(t.path, float), axis=0).max()
+        part = np.ptp(np.asarray(t.path, float)[drawn], axis=0).max()
+        if part < whole / 3:  # the mark is small beside the whole: show it again, fitted
+            lines.append("")
+            lines.append("the drawing (pen down), zoomed to fit:")
+            lines += ["  " + row for row in picture(t, only=drawn)]
     return "\n".join(lines)
+
+
+def pen_down(template):
+    """Indices of the template's pen-down (contact) samples, or None when no segment touches."""
+    idx = [np.arange(s.start, s.stop) for s in template.segments if s.contact]
+    return np.concatenate(idx) if idx else None
 
 
 def _letter(k: int) -> str:
     return chr(ord("A") + k) if k < 26 else "?"
 
 
-def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS) -> list[str]:
-    """The path from above, as the robot faces it (x forward up the page, y to the left), as ``rows``
-    strings of ``columns`` characters, framed: each point is the
+def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS, only=None) -> list[str]:
+    """The path from above, the paper as the robot sees it (:func:`hila_lang.session.plot.paper_view`),
+    as ``rows`` strings of ``columns`` characters, framed: each point is the
     number of the tag it belongs to, the first point of every tag after the first a ``|`` (a cut),
-    each ICP its letter, the start ``*``; later marks draw over earlier ones in that order."""
-    import numpy as np
+    each ICP its letter, the start ``*``; later marks draw over earlier ones in that order.
+    ``only`` (indices of the path): fitted to those points (what falls outside is left out)."""
+    from ..session.plot import paper_view
 
-    # seen from above and behind the robot: forward (+x) up the page, the robot's left (+y) to the left
-    def view(p):
-        p = np.asarray(p, dtype=float)
-        return np.array([-p[1], p[0]])
-
-    xy = np.array([view(p) for p in template.path])
-    icps = [view(p) for p in template.icps.values()]
-    everything = np.vstack([xy] + icps)
+    xy = paper_view(np.asarray(template.path, dtype=float))
+    icps = [paper_view(np.asarray(p, dtype=float), template.dim) for p in template.icps.values()]
+    everything = np.vstack([xy] + icps) if only is None else xy[only]
     lo, hi = everything.min(0), everything.max(0)
     span = max(float((hi - lo).max()), 1e-9)
     mid = (lo + hi) / 2
@@ -161,24 +175,28 @@ def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS) 
     def cell(p):
         c = int(round((p[0] - mid[0]) * scale + (columns - 1) / 2))
         r = int(round((rows - 1) / 2 - (p[1] - mid[1]) * scale / 2))
+        if only is not None and not (0 <= r < rows and 0 <= c < columns):
+            return None
         return min(max(r, 0), rows - 1), min(max(c, 0), columns - 1)
 
     grid = [[" "] * columns for _ in range(rows)]
+
+    def put(p, ch):
+        where = cell(p)
+        if where is not None:
+            grid[where[0]][where[1]] = ch
+
     segments = template.segments or []
     owner = np.zeros(len(xy), dtype=int)
     for k, s in enumerate(segments, 1):
         owner[s.start:s.stop] = k
     for i, p in enumerate(xy):
-        r, c = cell(p)
-        grid[r][c] = str(owner[i] % 10) if segments else "."
+        put(p, str(owner[i] % 10) if segments else ".")
     for s in segments[1:]:
-        r, c = cell(xy[s.start])
-        grid[r][c] = "|"
+        put(xy[s.start], "|")
     for k, p in enumerate(icps):
-        r, c = cell(p)
-        grid[r][c] = _letter(k)
-    r, c = cell(xy[0])
-    grid[r][c] = "*"
+        put(p, _letter(k))
+    put(xy[0], "*")
     border = "+" + "-" * columns + "+"
     return [border] + ["|" + "".join(row) + "|" for row in grid] + [border]
 
@@ -189,7 +207,7 @@ def plot_template(template, file):
 
     marks = [(s.start, s.tag) for s in template.segments]
     return plot_path(template.path, file, icps=template.icps, title=f"template {template.name}", marks=marks,
-                     legend="blue the path, orange x where each tag starts")
+                     legend="blue the path, orange x where each tag starts", zoom=pen_down(template))
 
 
 # --------------------------------------------------------------------------- worlds
