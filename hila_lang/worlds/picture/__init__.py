@@ -1,6 +1,6 @@
 """The picture world (issue 24): the iCub retraces a route on a map sheet it finds by scene matching.
 
-- :mod:`.texture` -- the seeded map texture printed on the sheet
+- :mod:`.texture` -- the seeded map texture printed on the sheet, or the person's own picture
 - :mod:`.scenes` -- the demonstration and task scenes (sheet poses, bends, distractors, light),
   the seeded route, what the robot's eyes see, and the referee's truth and route error
 - :mod:`.demonstration` -- the demonstration and the template learned from it (``primitives/picture.yaml``)
@@ -12,7 +12,7 @@ the matching over seeded scenes (``docs/scene-matching.md``).
 
 from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
-from ...plugins.settings import Setting, boolean, choice
+from ...plugins.settings import Setting, boolean, choice, text
 
 WORLD = WorldInfo(
     name="picture",
@@ -25,6 +25,10 @@ WORLD = WorldInfo(
                 choice("local", "homography", "none"), default="local", metavar="local|homography|none"),
         Setting("report", "write the output folder (report.json, route.png, eyes.png)", boolean, default=True,
                 metavar="yes|no"),
+        Setting("picture.image", "print your own picture (PNG or JPEG) on the sheet instead of the generated map; "
+                                 "run a route learned on it (python -m hila_lang.worlds.picture.demonstration OUT.yaml "
+                                 "--image FILE --route ROUTE.yaml)", text(what="a picture file"), default=None,
+                metavar="FILE"),
     ),
     questions=Names("question", [
         Name("matched", "look, match the eyes' images against the demonstration's and answer the point group "

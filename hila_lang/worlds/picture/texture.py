@@ -1,4 +1,5 @@
-"""The picture on the sheet: a map-like page drawn procedurally from a seed (nothing downloaded).
+"""The picture on the sheet: a map-like page drawn procedurally from a seed (nothing downloaded),
+or the person's own picture (:func:`person_page`: ``--set picture.image=FILE``).
 
 :func:`map_texture` paints, with OpenCV, on paper-coloured ground: coloured areas (parks,
 lakes, fields as filled polygons), a road network (thick polylines with dark edges), blocks of
@@ -68,3 +69,43 @@ def map_texture(size: tuple[float, float], seed: int) -> np.ndarray:
                     int(rng.integers(1, 3)), cv2.LINE_AA)
     cv2.rectangle(img, (0, 0), (w - 1, h - 1), (40, 40, 40), 3)
     return img
+
+
+#: the paper around a person's picture that does not fill the page (RGB)
+PAPER_RGB = (244, 240, 228)
+
+
+def read_picture(path) -> np.ndarray:
+    """A person's picture file (PNG, JPEG, ...) as RGB uint8 (H, W, 3); an :class:`InputError`
+    naming the file when it is missing, too large or not a picture."""
+    import cv2
+
+    from ...core.errors import InputError
+    from ...core.fileio import read_bytes
+
+    data = read_bytes(path, "picture", limit=20 * 1024 * 1024)
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if image is None or min(image.shape[:2]) < 16:
+        raise InputError("not a picture hila can read (expected a PNG or JPEG file of 16 pixels or more a side)",
+                         file=str(path))
+    return np.ascontiguousarray(image[:, :, ::-1])
+
+
+def person_page(size: tuple[float, float], picture: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A person's ``picture`` printed on a page ``size`` = (across, depth) metres: scaled to fit
+    it whole, its shape kept, centred on paper.  Returns the page (H, W, 3) and ``to_uv``
+    (3, 3): the map from the picture's pixels (u right, v down, homogeneous) to the page's
+    texture coordinates (0..1, v down), so a route drawn on the picture lands on the page."""
+    import cv2
+
+    w = int(round(size[0] * PIXELS_PER_METRE))
+    h = int(round(size[1] * PIXELS_PER_METRE))
+    ph, pw = picture.shape[:2]
+    scale = min(w / pw, h / ph)
+    sw, sh = max(1, int(round(pw * scale))), max(1, int(round(ph * scale)))
+    page = np.empty((h, w, 3), np.uint8)
+    page[:] = PAPER_RGB
+    x0, y0 = (w - sw) // 2, (h - sh) // 2
+    page[y0:y0 + sh, x0:x0 + sw] = cv2.resize(picture, (sw, sh), interpolation=cv2.INTER_AREA)
+    to_uv = np.array([[sw / pw / w, 0.0, x0 / w], [0.0, sh / ph / h, y0 / h], [0.0, 0.0, 1.0]])
+    return page, to_uv

@@ -5,7 +5,14 @@ demonstration scene again -- the map flat at the demonstration pose, as when the
 traced (:mod:`.demonstration`) -- and remembers its triangulated features; the world refuses a
 template whose ICPs are not those features (named ``f000``, ...).  Then the task scene is laid
 out from ``--seed``: the sheet moved, turned, scaled and (``--set bent=yes``, the default) bent,
-three distractor boxes beside it, the light changed (:mod:`.scenes`).
+three distractor boxes beside it, the light changed (:mod:`.scenes`).  ``--set
+picture.image=FILE`` prints the person's own picture on the sheet instead of the generated map
+(:func:`.texture.person_page`); the route is then theirs, learned on that picture
+(:func:`.demonstration.learn`), and scored against where they drew it.
+
+The world is told the program's pen-down templates before it runs (``notify("program")``) and
+refuses, then, one not learned from its demonstration: an :class:`InputError` (exit 2) naming
+the template and how to learn one, before the robot moves.
 
 Question ``matched``: the robot looks with both eyes, matches its images against the
 demonstration's (:func:`hila_lang.perception.matching.match_scenes`, verification
@@ -36,7 +43,7 @@ from ...core.fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from . import scenes as S
-from .demonstration import DRAW, LIFT, REACH, TEXTURE_SEED, ROUTE_SEED, demonstration_features, feature_name
+from .demonstration import DRAW, LIFT, REACH, ROUTE_SEED, demonstration_features, feature_name
 
 FILES = ("report.json", "route.png", "eyes.png")
 #: the template's ICPs must be the demonstration's features within this distance, metres
@@ -51,6 +58,11 @@ class PictureWorld:
         self.seed = int(options.seed)
         self.bent = settings["bent"]
         self.model = settings["verify"]
+        self.image = settings.get("picture.image")
+        if self.image is not None:  # read now: a bad file is refused before anything is built
+            from .demonstration import page_of
+
+            self.page, self.to_uv = page_of(self.image)
         self.outputs = OutputFolder(options.out, "picture-{time}", owned=FILES) if settings["report"] else None
         self.mat = S.mat()
         self.scene = Scene(surface=self.mat, home=S.HOME)
@@ -67,11 +79,11 @@ class PictureWorld:
         backend.reset_hand(S.HOME)
         if backend.eyes is None or getattr(backend, "sim", None) is None:
             return  # nothing to see: 'ask matched' says so
-        from .texture import map_texture
+        from .demonstration import page_of
 
-        self.seen, self.demo, self.demo_images, self.demo_camera = demonstration_features(backend)
+        self.texture = page_of()[0] if self.image is None else self.page
+        self.seen, self.demo, self.demo_images, self.demo_camera = demonstration_features(backend, self.texture)
         self.names = [feature_name(i) for i in range(len(self.seen))]
-        self.texture = map_texture(S.SIZE, TEXTURE_SEED)
         self.task = S.task_sheet(self.seed, self.mat.z, self.bent)
         boxes = [(h, [p[0], p[1], self.mat.z + p[2]], c) for h, p, c in S.distractors(self.seed)]
         S.show(backend, self.task, self.texture, boxes)
@@ -118,29 +130,49 @@ class PictureWorld:
                                hint="the picture world has no events; ask it instead")
 
     def notify(self, event: str, **data: Any) -> None:
+        if event == "program":  # what the program draws with: refused now, before the robot moves
+            if hasattr(self, "seen"):
+                for ref, template in (data.get("marks") or {}).items():
+                    self._check_template(template, ref, InputError)
+            return
         if event != "state_done":
             return
         template = data.get("template")
-        if template is not None:
-            self._check_template(template)
+        if template is not None and hasattr(self, "seen"):
+            self._check_template(template, template.name, HilaRuntimeError)
         if data.get("pen_down"):
             executed = data.get("executed")
             self.drawn.append({"state": data.get("state"), "path": np.asarray(data["path"], float),
-                               "executed": None if executed is None else np.asarray(executed, float)})
+                               "executed": None if executed is None else np.asarray(executed, float),
+                               "template": template})
 
-    def _check_template(self, template) -> None:
+    def _check_template(self, template, ref: str, error=HilaRuntimeError) -> None:
         mine = {n: p for n, p in zip(self.names, self.seen.points)}
         theirs = {k: v for k, v in template.icps.items() if k not in ("start", "end")}
         if set(theirs) != set(mine) or any(np.linalg.norm(np.asarray(theirs[k]) - mine[k]) > SAME_POINT for k in mine):
-            raise HilaRuntimeError(f"the template '{template.name}' was not learned from this world's demonstration "
-                                   f"(its ICPs are not the {len(mine)} features the robot sees there)",
-                                   hint="python -m hila_lang.worlds.picture.demonstration primitives/picture.yaml")
+            on = "the generated map" if self.image is None else f"the picture {self.image}"
+            how = (f"python -m hila_lang.worlds.picture.demonstration OUT.yaml --image {self.image} --route ROUTE.yaml"
+                   if self.image is not None else "python -m hila_lang.worlds.picture.demonstration primitives/picture.yaml")
+            raise error(f"the template '{ref}' was not learned from this world's demonstration on {on} (its ICPs "
+                        f"are not the {len(mine)} features the robot sees there): it does not fit the picture world",
+                        hint=f"learn it on the sheet the robot sees: {how}")
 
     # -- the end -----------------------------------------------------------------------------
+    def _route_uv(self) -> np.ndarray:
+        """The true route in the sheet's texture coordinates (the referee's): the seeded one on
+        the generated map; on a person's picture, the draw part of the template that ran, where
+        it lay on the (flat) demonstration sheet."""
+        if self.image is None or not self.drawn or self.drawn[-1]["template"] is None:
+            return S.route_uv(ROUTE_SEED, DRAW)
+        template = self.drawn[-1]["template"]
+        down = [np.arange(s.start, s.stop) for s in template.segments if s.contact]
+        path = np.asarray(template.path, float)
+        return S.sheet_uv(self.demo, path[np.concatenate(down)] if down else path)
+
     def _score(self) -> dict[str, Any]:
         from .demonstration import demonstrated_path
 
-        route = S.route_uv(ROUTE_SEED, DRAW)
+        route = self._route_uv()
         goal = self.task.to_world(route)
         out: dict[str, Any] = {}
         drawn = self.drawn_route()
@@ -157,7 +189,7 @@ class PictureWorld:
                                "precision_after": round(float(true[k].mean()), 3) if k.any() else None,
                                "median_confidence": round(float(np.median(self.pairs.confidence[k])), 3) if k.any() else None}
             sets = S.control_sets(self.pairs, self.demo, self.task, true_demo, true_task)
-            path = demonstrated_path(self.demo)
+            path = demonstrated_path(self.demo, None if self.image is None else route)
             errors = S.control_errors(path, slice(REACH, REACH + DRAW), sets, goal, S.HOME)
             out["controls_planned_mm"] = {n: {"median": round(m, 2), "p95": round(p, 2)} for n, (m, p) in errors.items()}
         return out
@@ -185,7 +217,7 @@ class PictureWorld:
         def px(uv):
             return (np.asarray(uv) * [w, h] * 16).astype(np.int32).reshape(-1, 1, 2)
 
-        cv2.polylines(img, [px(S.route_uv(ROUTE_SEED, DRAW))], False, (0, 170, 0), 4, cv2.LINE_AA, 4)
+        cv2.polylines(img, [px(self._route_uv())], False, (0, 170, 0), 4, cv2.LINE_AA, 4)
         drawn = self.drawn_route()
         if drawn is not None:
             cv2.polylines(img, [px(self.task.to_uv(drawn))], False, (20, 40, 220), 2, cv2.LINE_AA, 4)
@@ -206,7 +238,8 @@ class PictureWorld:
 
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
         task = S.task_sheet(self.seed, self.mat.z, self.bent)
-        report = {"world": "picture", "seed": self.seed, "bent_m": round(task.bend, 4), "light": round(self.light, 3),
+        report = {"world": "picture", "seed": self.seed, "picture": self.image or "generated map",
+                  "bent_m": round(task.bend, 4), "light": round(self.light, 3),
                   "task_sheet": {"center": list(task.center), "rotation_deg": round(float(np.degrees(task.rotation)), 2),
                                  "size": list(task.size)},
                   "backend": None if self.backend is None else self.backend.name}
