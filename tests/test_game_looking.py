@@ -148,7 +148,7 @@ def test_eyes_that_disagree_are_a_doubt_resolved_by_the_next_views():
     right = Reading(["", "", "", "", "O", "", "", "", "O"])
     sight = look_at_board(eyes, Hand(arm.position, arm.move), known_table(), Memory(), LIFT, ASIDE,
                           read=scripted([left, right, Reading(list(left.marks))]))
-    assert sight.doubts == ["left eye: cell 3 hidden", "right eye: cell 9 seen as a circle (O) and as a cross (X)"]
+    assert sight.doubts == ["left eye: cell 3 hidden", "right eye: cell 9 seen as the robot's mark (O) and as a cross (X)"]
     assert [v["view"] for v in sight.views] == ["left eye", "right eye", "left eye (arm aside)"]
     assert sight.arm == "aside" and sight.board[8] == "X" and sight.unsure == []
     np.testing.assert_allclose(arm.moves, [ASIDE, LIFT])  # aside to look, and back to the lift point

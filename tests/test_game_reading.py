@@ -1,4 +1,8 @@
-"""Reading the board from one camera image: cell corners (3-D ICPs) and the O/X marks."""
+"""Reading the board from one camera image: cell corners (3-D ICPs) and the marks.
+
+The circles ``paper_texture`` draws are the robot's marks in these scenes, so the reader is
+given a circle as the robot's own mark (in a game it comes from the program's template:
+tests/test_own_mark.py); every other mark is the opponent's."""
 
 from __future__ import annotations
 
@@ -14,6 +18,14 @@ from hila_lang.sim.camera import Camera, intrinsics, look_at  # noqa: E402
 from hila_lang.worlds.tictactoe.recording import DemonstrationScene  # noqa: E402
 from hila_lang.sim.camera import CameraImage  # noqa: E402
 from hila_lang.worlds.tictactoe.board import CORNER_NAMES, Grid, cell_corners  # noqa: E402
+
+def circle_mark():
+    """The robot's own mark in these scenes: a circle (what ``paper_texture`` draws as "O")."""
+    from hila_lang.worlds.tictactoe.ownmark import OwnMark, Reference
+
+    a = np.linspace(0, 2 * np.pi, 73)
+    return OwnMark([Reference("circle", [0.016 * np.column_stack([np.cos(a), np.sin(a)])])])
+
 
 def eye_image(world: DemonstrationScene, spec: Grid, eye=(0.05, 0.034, 0.95)) -> CameraImage:
     """A 320x240 pinhole image from about where the iCub's left eye is, looking at the grid."""
@@ -34,7 +46,7 @@ def test_board_read_equals_true_board(scene, seed):
     rng = np.random.default_rng(100 + seed)
     marks = [str(m) for m in rng.choice(["", "O", "X"], 9, p=[0.4, 0.3, 0.3])]
     with DemonstrationScene(spec, marks=marks, seed=seed, marker=False) as world:
-        reading = read_board(eye_image(world, spec), spec.surface_z)
+        reading = read_board(eye_image(world, spec), spec.surface_z, own=circle_mark())
     assert reading.marks == marks
     assert corner_error(reading, spec) < 1.0e-3  # metres
     assert reading.occluded == []
@@ -46,7 +58,7 @@ def test_rotated_grid_keeps_cell_1_far_left():
                      surface_z=0.571)
     marks = ["X", "", "", "", "O", "", "", "", ""]
     with DemonstrationScene(spec, marks=marks, marker=False) as world:
-        reading = read_board(eye_image(world, spec), spec.surface_z)
+        reading = read_board(eye_image(world, spec), spec.surface_z, own=circle_mark())
     assert reading.marks == marks
     assert corner_error(reading, spec) < 1.0e-3
 
@@ -109,8 +121,8 @@ def test_sloppy_crosses_next_to_circles_in_changed_light_and_sensor_noise(light,
         backend.lighting.set_light(light, (0.2, 0.5, 1.0))
         backend.eyes.noise = noise
         backend.reset_hand(spec.grid_to_world(0.16, -0.10) + [0.0, 0.0, 0.10])  # beside the board
-        readings = [read_board(backend.eyes.camera_image(eye), spec.surface_z, body=backend.eyes.body_outline())
-                    for eye in ("left", "right")]
+        readings = [read_board(backend.eyes.camera_image(eye), spec.surface_z, body=backend.eyes.body_outline(),
+                               own=circle_mark()) for eye in ("left", "right")]
     for reading in readings:
         assert reading.marks == marks and reading.occluded == []
         assert min(reading.confidence) >= 0.5, reading.confidence  # sure of every cell

@@ -83,7 +83,7 @@ def test_whole_game_played_from_what_the_robot_sees(tmp_path, seed, settings):
         assert report["result"] == "draw"
     # the robot's eye reads the final board as it really is (sheet where it is now); a cell its own
     # arm hides (parked above the grid for some seeds, e.g. 11) is flagged as hidden, never guessed
-    reading = read_board(eye, world.spec.surface_z, body=arm)
+    reading = read_board(eye, world.spec.surface_z, body=arm, own=world.player.mark)
     seen = [i for i in range(9) if i + 1 not in reading.occluded]
     assert len(seen) >= 6, reading.occluded
     assert [reading.marks[i] for i in seen] == [world.board[i] for i in seen]

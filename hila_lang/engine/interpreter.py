@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.errors import HilaError, HilaRuntimeError, Interrupted, StepLimitError
+from ..core.errors import HilaError, HilaRuntimeError, InputError, Interrupted, StepLimitError
 from ..core.interrupts import guarded
 from ..language.fsm import FSM, RunState, SetState, State
 from ..language.limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
@@ -82,6 +82,25 @@ class Interpreter(History):
         self.history: list[Snapshot] | None = None  # see keep_history
         self._guard_now = None
         self.reset()
+        self._tell_program()
+
+    def _tell_program(self) -> None:
+        """Tell the world what the program draws with: ``notify("program", marks=...)`` (see
+        :mod:`hila_lang.engine.run`), when it draws at all.  A world that refuses one (an
+        :class:`~hila_lang.core.errors.InputError`: a template that does not fit it) is told at
+        the run statement that draws it (the first whose ``TEMPLATE.TAG`` the message names)."""
+        states = [st for st in self.fsm.states.values() if isinstance(st, RunState) and st.pen_down]
+        marks = {st.ref: self.runs.template(st) for st in states}
+        if not marks:
+            return
+        try:
+            self.world.notify("program", marks=marks)
+        except InputError as exc:
+            if exc.line is None:
+                st = next((st for st in states if f"'{st.ref}'" in exc.message), states[0])
+                exc.file, exc.line, exc.column = self.fsm.file, st.line, st.column
+                exc.source_line = source_line(self.checked.program.source, st.line)
+            raise
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:
@@ -143,6 +162,7 @@ class Interpreter(History):
         self.context.checked, self.scene.points = self.checked, self.fsm.points
         for ex in self._executors.values():
             ex.reload()
+        self._tell_program()
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> TraceEntry:

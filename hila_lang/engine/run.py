@@ -7,7 +7,9 @@ says the hand is, the program's ``point`` s, then the world's ``points()``), war
 ``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
 binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
-(``template`` is the sub-template that ran).  Its ``via``/``avoid`` constraints (and those of the
+(``template`` is the sub-template that ran); before the run, ``world.notify("program", marks=)``
+names every pen-down (sub-)template the program can run (what the robot draws with, so a world
+can know its marks; :meth:`hila_lang.engine.interpreter.Interpreter`).  Its ``via``/``avoid`` constraints (and those of the
 task calls around it) are evaluated now (:meth:`RunExecutor.constraints`: a point group gives one
 per point) and go to OSILA's plan adjustment through the same step; the trace says how each was
 met.

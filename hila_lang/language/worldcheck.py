@@ -13,7 +13,10 @@ world must answer:
   binding, or the task call whose argument becomes the target), with its distances;
 - the points bound to a template's ICPs: a 3-D template takes 3-D points; a 2-D template runs on
   the world's drawing surface (the scene points bound to it are projected onto the surface, see
-  :func:`hila_lang.hierarchy.step.hila_step`), so a world without one refuses it, with the reason.
+  :func:`hila_lang.hierarchy.step.hila_step`), so a world without one refuses it, with the reason;
+- what a pen-down (sub-)template draws, when the world declares a ``mark_check``
+  (:meth:`~hila_lang.plugins.registry.WorldInfo.check_mark`): tic-tac-toe refuses a mark the
+  robot could not tell from the opponent's cross, at the run statement that draws it.
 
 The ``--set`` pairs are split and parsed here too (:func:`hila_lang.plugins.options.split_settings`),
 so ``hila check`` and ``hila exec`` refuse a bad value alike, before anything is built.  When the
@@ -142,6 +145,15 @@ class WorldCheck:
         if dim == 3 and value_dim is not None and value_dim != 3:
             raise self.error(f"ICP '{icp}' of the 3-D template '{ref}' is bound to a {value_dim}-D point{via}", pos,
                              "give the point 3 coordinates (x, y, z), metres")
+
+    def drawn(self, ref: str, template, pos: A.Pos) -> None:
+        """A pen-down (sub-)template ``ref`` the program draws with: refused where the world says
+        it cannot play it (its ``mark_check``)."""
+        why = self.info.check_mark(ref, template)
+        if why is not None:
+            raise self.error(why, pos, "teach the robot a mark that looks unlike the opponent's cross (a circle, a "
+                                       "triangle, a tick, a square, a letter ...): it reads its marks by their shape, "
+                                       "whatever their turn and size")
 
     def template(self, ref: str, dim: int, pos: A.Pos) -> None:
         """A ``dim``-D template run in this world."""

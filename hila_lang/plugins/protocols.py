@@ -22,6 +22,7 @@ Lifecycle of a run (:mod:`hila_lang.session.runner`)::
     world = WorldInfo.build(options, settings)        # the world (and its scene) exists
     backend = BackendInfo.build(world.scene, options, settings)
     world.attach(backend)                             # e.g. park the arm, keep the back end
+    world.notify("program", marks={...})              # what the program draws with (if it draws)
     ... interpreter: world.points/query/wait/notify, backend.hand_position/reset_hand/move ...
     world.finish(trace, fsm=fsm)                      # results, output files
     backend.close()
@@ -212,8 +213,10 @@ class World(Protocol):
         ...
 
     def notify(self, event: str, **data: Any) -> None:
-        """Told what the robot did: ``"state_done"`` (state, path, executed, kind, pen_down, icps,
-        template) after each run state, ``"program_done"`` at the end."""
+        """Told what the robot did: ``"program"`` (marks: ``{"template.tag": sub-template}`` of the
+        program's pen-down runs) before it runs and when it is reloaded, if it draws at all;
+        ``"state_done"`` (state, path, executed, kind, pen_down, icps, template) after each run
+        state; ``"program_done"`` at the end.  An event a world does not know it ignores."""
         ...
 
     def finish(self, trace: Sequence[Any], *, fsm: Any = None) -> "dict | None":

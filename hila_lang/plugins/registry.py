@@ -122,6 +122,11 @@ class WorldInfo:
         ``"module:callable"``: reads a demonstration scene's ICPs from recorded frames
         (``hila learn --frames/--left/--right --world NAME``), the ``read_icps`` of
         :func:`hila_lang.perception.learn.template_from_frames`.
+    mark_check : str or None
+        ``"module:callable"``: ``callable(ref, template) -> str | None`` says why the world cannot
+        play a pen-down (sub-)template ``ref`` (``"tri.draw"``) a program draws with, or None;
+        ``hila check`` reports it at the run statement (e.g. tic-tac-toe: a mark too like the
+        opponent's cross to be told apart).
     """
 
     name: str
@@ -137,6 +142,7 @@ class WorldInfo:
     points: Mapping[str, str] = field(default_factory=dict)
     recorder: str | None = None
     icp_reader: str | None = None
+    mark_check: str | None = None
 
     def __post_init__(self) -> None:
         from .names import Names
@@ -157,6 +163,10 @@ class WorldInfo:
         return Declared(dict(self.questions), dict(self.events), None, self.drawing_surface,
                         f"the {self.name} world",
                         arities={**self.questions.arities(), **self.events.arities()})
+
+    def check_mark(self, ref: str, template) -> str | None:
+        """Why this world cannot play the pen-down (sub-)template ``ref`` (its ``mark_check``), or None."""
+        return None if self.mark_check is None else _import(self.mark_check)(ref, template)
 
     def capability(self, attr: str, what: str, flag: str):
         """The callable the world declares as ``attr`` (``recorder``, ``icp_reader``); an

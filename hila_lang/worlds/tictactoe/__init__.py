@@ -2,13 +2,15 @@
 
 - :mod:`.rules` -- rules and a minimax player that never loses (pure Python);
 - :mod:`.opponents` -- seeded built-in opponents and a person typing at a prompt;
-- :mod:`.marks` -- the opponent's hand-drawn crosses (neat or sloppy), measures of the robot's circles;
+- :mod:`.marks` -- the opponent's hand-drawn crosses (neat or sloppy), measures of the robot's marks;
+- :mod:`.ownmark` -- the robot's own mark from its program's template, and telling it from a cross;
 - :mod:`.reading` -- the grid and the marks in one camera image;
 - :mod:`.vision` -- the robot reads the board through its eyes and decides when to look again;
 - :mod:`.player` -- the robot's side: what it saw and did, and what it decides from that;
 - :mod:`.referee` -- the game's record, the opponent's moves, the perturbations, the scores;
 - :mod:`.recording` -- the circle demonstration seen by the iCub's eyes: scene, recording, learning;
 - :mod:`.demonstration` -- the seeded human-like demonstration behind ``primitives/circle.yaml``;
+- :mod:`.drawing` -- a person drawing a mark of their own: a seeded pointer model (several styles);
 - :mod:`.world` -- the ``tictactoe`` world ``hila exec programs/game.hila`` runs in;
 - :mod:`.report` -- the output folder of a game.
 
@@ -24,6 +26,7 @@ WORLD = WorldInfo(
     factory="hila_lang.worlds.tictactoe.world:make_world",
     recorder="hila_lang.worlds.tictactoe.recording:learn_from_sim",
     icp_reader="hila_lang.worlds.tictactoe.vision:demonstration_icps",
+    mark_check="hila_lang.worlds.tictactoe.ownmark:check_mark",
     doc="the paper's Experiment B: the iCub plays O on a rotated grid against an opponent",
     settings=(
         Setting("opponent", "who plays X", choice("random", "minimax", "human"), default="minimax",

@@ -6,10 +6,13 @@ arm was parked, and -- for a robot without eyes only -- the board's geometry as 
 It has no handle on the game's record, the referee or the simulator.  Every decision comes from
 its own sightings and memory:
 
-- what is on the board: its latest sighting (:func:`.vision.look_at_board`); a robot without
-  eyes plays blind, from the moves it made and the moves the opponent announced;
-- whose turn it is: the marks it sees (with the robot first, its turn when it sees as many
-  circles as crosses), and whether the game is over: three in a row or a full board, as seen;
+- what is on the board: its latest sighting (:func:`.vision.look_at_board`), each mark told
+  apart by the robot's own mark (:attr:`Player.mark`: what its program's template inks, see
+  :mod:`.ownmark`); a robot without eyes plays blind, from the moves it made and the moves the
+  opponent announced;
+- whose turn it is: the marks it sees (with the robot first, its turn when it sees as many of
+  its own marks as crosses; with a cell it could not tell, when it sees an even number of
+  marks), and whether the game is over: three in a row or a full board, as seen;
 - the cell it plays: minimax on the board it sees (:func:`.rules.best_move`);
 - the corners it binds (the ICPs ``board.cellN.*``): the grid as it sees it, :data:`PEN_PRESS`
   below the paper it sees (a hand pressing its pen: the table's height is an estimate), else
@@ -82,6 +85,9 @@ class Player:
         The cells of its circles, where it drew them in the grid as it saw it.
     choice : int or None
         The cell it chose last.
+    mark : OwnMark or None
+        Its own mark, as its program draws it (:class:`.ownmark.OwnMark`; the world sets it when
+        the program is known); None: any mark it sees is the opponent's.
     """
 
     def __init__(self, first: str, park: np.ndarray, *, eyes=None, hand: Hand | None = None,
@@ -97,6 +103,7 @@ class Player:
         self.sightings: list[dict[str, Any]] = []
         self.own: list[int] = []
         self.choice: int | None = None
+        self.mark = None
         self._blind_board: ttt.Board = ttt.empty_board()
         self._since = 0
         self._stale = True
@@ -142,7 +149,12 @@ class Player:
         clock = time.perf_counter()
         last = self.sightings[-1] if self.sightings else None
         memory = Memory(None if last is None else tuple(last["board"]), None if last is None else self._since)
-        seen = look_at_board(self.eyes, self.hand, self.table, memory, self.lift_point(), self.aside_point())
+        from functools import partial
+
+        from .reading import read_board
+
+        seen = look_at_board(self.eyes, self.hand, self.table, memory, self.lift_point(), self.aside_point(),
+                             read=partial(read_board, own=self.mark))
         entry = {"look": len(self.sightings) + 1, "marks_made": self._since, "board": seen.board,
                  "corners": seen.corners, "center": seen.center, "views": seen.views, "arm": seen.arm,
                  "unsure": seen.unsure, "doubts": seen.doubts, "surface_z": seen.surface_z,
@@ -174,6 +186,9 @@ class Player:
         if ttt.game_over(board):
             return None
         circles, crosses = board.count(ttt.CIRCLE), board.count(ttt.CROSS)
+        if ttt.UNCLEAR in board:  # a mark it could not tell: the count of marks says whose turn it is
+            placed = 9 - board.count(ttt.EMPTY)
+            return ROBOT if (placed % 2 == 0) == (self.first == ROBOT) else OPPONENT
         if self.first == ROBOT:
             return ROBOT if circles <= crosses else OPPONENT
         return ROBOT if crosses > circles else OPPONENT

@@ -19,16 +19,21 @@ change moves them with it:
    to world +x (the robot faces +x), "right" is far rotated by -90 degrees about z, matching
    :mod:`hila_lang.worlds.tictactoe.board` (cell 1 far-left, ``tl`` far-left corner);
 4. the mark ink is cut along the grid lines into pieces, each in the cell that holds its centre;
-   a cell's mark is its largest piece of at least :data:`MIN_MARK_AREA` that reaches
+   a cell holds a mark when its largest piece of at least :data:`MIN_MARK_AREA` reaches
    :data:`MIN_MARK_DEPTH` into the cell (what a sloppy cross spills over a line is a stub that
-   hugs the line, and never joins the next cell's mark); its ink is a circle ("O") when its pixels lie on a circle (least-squares circle
-   fit, small residual: this holds for a circle partly hidden or not quite closed too) and a
-   cross ("X") otherwise; no blob means empty ("").
+   hugs the line, and never joins the next cell's mark); no such piece means empty ("");
+5. the mark is every piece of the cell's ink of at least :data:`MIN_MARK_AREA` that is not such
+   a stub (a letter's bar, a mark's strokes that do not touch; not the specks sensor noise makes
+   in dim light), compared with the robot's own mark -- the strokes its program's
+   template inks (:class:`.ownmark.OwnMark`, given as ``own``) -- whatever turn, size and place
+   OSILA gave it: the robot's ("O", the robot's side of the board) when close, the opponent's
+   ("X") when far, unclear ("?") in between (:meth:`.ownmark.OwnMark.classify`).  Without
+   ``own`` (a robot that draws nothing) every mark is the opponent's.
 
 Each cell also gets a confidence in [0, 1] (how far its measure is from the decision's
-threshold: ink amount for an empty cell, the circle fit's residual for a mark) and may be
-*occluded* (more than 20 % of it neither paper nor ink, e.g. the arm in
-front): the robot's looking (:mod:`.vision`) uses both to decide whether to look again.
+threshold: ink amount for an empty cell, the distance from the robot's mark for a mark), the
+distance itself, and may be *occluded* (more than 20 % of it neither paper nor ink, e.g. the
+arm in front): the robot's looking (:mod:`.vision`) uses these to decide whether to look again.
 
 An image where no grid can be found raises :class:`~hila_lang.core.errors.InputError` saying why.
 """
@@ -55,12 +60,6 @@ MIN_MARK_AREA = 25e-6
 #: 0.29 (one faint cross; 1 % of crosses below 0.49, circles 0.48 and more): a quarter of a cell
 #: lies in that gap
 MIN_MARK_DEPTH = 0.25
-#: a cell's ink is a circle when it lies on one: the RMS distance of its pixels from the
-#: best-fitting circle below this fraction of the circle's radius (measured on rasterised marks:
-#: the demonstrated circle 0.10, half of it 0.10; crosses, neat or sloppy, 0.455-0.468)
-CIRCLE_FIT = 0.25
-#: the distance from CIRCLE_FIT at which a reading is fully sure
-CIRCLE_FIT_SURE = 0.12
 #: a cell is occluded when more than this fraction of it is neither paper nor ink
 OCCLUDED_FRACTION = 0.2
 _CORNER_STEPS = {"tl": (-0.5, 0.5), "tr": (0.5, 0.5), "br": (0.5, -0.5), "bl": (-0.5, -0.5)}
@@ -76,7 +75,8 @@ class BoardReading:
         Cell (1..9) -> ``{"tl", "tr", "br", "bl"}`` -> point (3,), world frame, metres, on the
         plane z = ``surface_z``.
     marks : list[str]
-        Nine entries in {"", "O", "X"}, cells 1..9.
+        Nine entries in {"", "O", "X", "?"}, cells 1..9: empty, the robot's own mark, the
+        opponent's, unclear.
     center : ndarray, shape (3,)
         The grid's centre, world, metres.
     far, right : ndarray, shape (3,)
@@ -90,11 +90,14 @@ class BoardReading:
         their marks are not trustworthy; look again from another view or move the arm away.
     confidence : list[float]
         Per cell (1..9), in [0, 1]: how far its measure is from the threshold that decided its
-        mark (ink amount for empty cells, the circle fit's residual for marks); 0 for an
+        mark (ink amount for empty cells, the distance from the robot's own mark for marks); 0 for an
         occluded cell.
     contrast : float
         How much darker the grid lines are than the paper, as a fraction of the paper's
         brightness (about 0.6 in good light; low contrast makes every reading less sure).
+    distance : list[float or None]
+        Per cell, the mark's distance from the robot's own mark (:mod:`.ownmark`); None for an
+        empty cell or without ``own``.
     """
 
     corners: dict[int, dict[str, np.ndarray]]
@@ -107,6 +110,7 @@ class BoardReading:
     occluded: list[int] = field(default_factory=list)
     confidence: list[float] = field(default_factory=list)
     contrast: float = 1.0
+    distance: list = field(default_factory=list)
 
 
 def plane_to_image_homography(K: np.ndarray, world_T_camera: np.ndarray, z: float) -> np.ndarray:
@@ -309,7 +313,7 @@ def _intersect(l1, l2) -> np.ndarray:
 
 
 def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_cell: float = 0.02,
-               max_cell: float = 0.15, body=None) -> BoardReading:
+               max_cell: float = 0.15, body=None, own=None) -> BoardReading:
     """Find the grid and the marks in one camera image.
 
     Parameters
@@ -326,6 +330,8 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     body : list of (ndarray (2, 3), float), optional
         The camera's own robot as capsules (points, radius), world frame, metres: what they
         cover is hidden, neither paper nor ink (:meth:`hila_lang.robot.eyes.Eyes.body_outline`).
+    own : OwnMark, optional
+        The robot's own mark (:class:`.ownmark.OwnMark`); None: every mark is the opponent's.
 
     Returns
     -------
@@ -338,15 +344,15 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     """
     import cv2
 
-    top, origin, regions, own = rectify(image, float(surface_z), resolution, body=body)
+    top, origin, regions, hidden = rectify(image, float(surface_z), resolution, body=body)
     paper_level = float(np.median(top[regions].mean(axis=1))) if regions.any() else 240.0
     grid_ink, ink = _ink_masks(top, paper_level, resolution)
     n, labels = cv2.connectedComponents(regions.astype(np.uint8), connectivity=8)
     counts = np.bincount(labels[grid_ink & regions], minlength=n)
     counts[0] = 0
     sheet = _fill_holes(labels == int(np.argmax(counts)))  # marks of any size are on the sheet
-    grid_ink &= sheet & ~own
-    ink &= sheet & ~own
+    grid_ink &= sheet & ~hidden
+    ink &= sheet & ~hidden
     ys, xs = np.nonzero(grid_ink)
     if len(xs) < 50:
         raise InputError("no grid found on the sheet: no dark grid lines seen",
@@ -410,31 +416,17 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
                             for name, (dr, df) in _CORNER_STEPS.items()}
     lo, hi, gray = _channels(top)
     paperlike = (np.abs(gray - paper_level) < 0.175 * paper_level) & ((hi - lo) < 0.2 * paper_level)
-    seen = (paperlike | ink | grid_ink) & ~own
+    seen = (paperlike | ink | grid_ink) & ~hidden
     contrast = float((paper_level - np.median(gray[grid_ink])) / paper_level) if grid_ink.sum() > 20 else 0.0
     frame = (origin, resolution, c3, right_u, far_u, cell)
-    marks, fractions, occluded, confidence = _read_marks(ink & ~grid_ink, seen, frame, lines)
-    return BoardReading(corners, marks, c3, far_u, right_u, cell, fractions, occluded, confidence, contrast)
+    marks, fractions, occluded, confidence, distance = _read_marks(ink & ~grid_ink, seen, frame, lines, own)
+    return BoardReading(corners, marks, c3, far_u, right_u, cell, fractions, occluded, confidence, contrast,
+                        distance)
 
 
 def _vec3(v2: np.ndarray) -> np.ndarray:
     """A plane vector (2,) as a world vector (3,) with z = 0."""
     return np.array([v2[0], v2[1], 0.0])
-
-
-def _circle_residual(pts: np.ndarray) -> float:
-    """RMS distance of points (N, 2) from their least-squares circle (Kasa's algebraic fit),
-    as a fraction of its radius; 1 for fewer than 3 points or a degenerate fit."""
-    if len(pts) < 3:
-        return 1.0
-    A = np.column_stack([2 * pts, np.ones(len(pts))])
-    sol = np.linalg.lstsq(A, (pts ** 2).sum(axis=1), rcond=None)[0]
-    centre = sol[:2]
-    r2 = sol[2] + centre @ centre
-    if not r2 > 0:
-        return 1.0
-    radius = np.sqrt(r2)
-    return float(np.sqrt(np.mean((np.linalg.norm(pts - centre, axis=1) - radius) ** 2)) / radius)
 
 
 def _depth(k: int, labels: np.ndarray, stats: np.ndarray, near: np.ndarray) -> float:
@@ -448,13 +440,15 @@ def _depth(k: int, labels: np.ndarray, stats: np.ndarray, near: np.ndarray) -> f
     return float(near[y0:y0 + bh, x0:x0 + bw][piece.astype(bool)].max())
 
 
-def _read_marks(mark, seen, frame, lines) -> tuple[list[str], list[float], list[int], list[float]]:
-    """Each cell's mark ("", "O" or "X"), inked fraction, whether it is occluded, and confidence.
+def _read_marks(mark, seen, frame, lines, own=None):
+    """Each cell's mark ("", "O", "X" or "?"), inked fraction, whether it is occluded, confidence
+    and distance from the robot's own mark.
 
     ``mark`` is the ink that may be a mark (not the grid's own ink), ``seen`` what is paper or
     ink (top view, bool); ``frame`` = (origin (2,), resolution, centre (3,), right (3,), far (3,),
     cell size); ``lines`` the grid lines (point, direction) in top-view pixels.  A cell's mark is
-    its largest piece of ink (the ink cut along the grid lines) whose centre is in the cell.
+    its largest piece of ink (the ink cut along the grid lines) whose centre is in the cell;
+    what the mark is, all its pieces that are not spills over a line, compared with ``own``.
     """
     import cv2
 
@@ -481,29 +475,40 @@ def _read_marks(mark, seen, frame, lines) -> tuple[list[str], list[float], list[
     count, labels, stats, cents = cv2.connectedComponentsWithStats((mark & ~band).astype(np.uint8), connectivity=8)
     min_area, min_depth = MIN_MARK_AREA / res ** 2, MIN_MARK_DEPTH * cell / res
     biggest = np.zeros(10, dtype=int)  # cell -> its largest piece of ink that may be a mark (0: none)
+    pieces: dict[int, list[int]] = {}  # cell -> the pieces of its mark (not spills, not specks)
     for k in range(1, count):
         cx, cy = (int(round(c)) for c in cents[k])
         home = cell_of[min(max(cy, 0), h - 1), min(max(cx, 0), w - 1)]
-        if not home or biggest[home] and stats[k, cv2.CC_STAT_AREA] <= stats[biggest[home], cv2.CC_STAT_AREA]:
+        if not home:
             continue
-        if stats[k, cv2.CC_STAT_AREA] >= min_area and _depth(k, labels, stats, near) < min_depth:
+        size = stats[k, cv2.CC_STAT_AREA]
+        if size >= min_area and _depth(k, labels, stats, near) < min_depth:
             continue  # a spill over a line from the next cell
-        biggest[home] = k
-    marks, fractions, occluded, confidence = [], [], [], []
+        if size >= min_area:  # a piece of the mark; smaller specks (sensor noise in dim light) are not
+            pieces.setdefault(int(home), []).append(k)
+        if not biggest[home] or size > stats[biggest[home], cv2.CC_STAT_AREA]:
+            biggest[home] = k
+    marks, fractions, occluded, confidence, distances = [], [], [], [], []
     for cellno in range(1, 10):
         fractions.append(float(inked[cellno] / area[cellno]))
         if hidden[cellno] > OCCLUDED_FRACTION:
             occluded.append(cellno)
         largest = stats[biggest[cellno], cv2.CC_STAT_AREA] if biggest[cellno] else 0
+        distance = None
         if largest < min_area:  # sure it is empty while its largest piece is under 3/4 of a mark's size
             marks.append("")
             conf = float(np.clip(2.0 * (1.0 - largest / min_area), 0.0, 1.0))
+        elif own is None:  # a robot that draws nothing: any mark is the opponent's
+            marks.append("X")
+            conf = 1.0
         else:
-            x0, y0, bw, bh = stats[biggest[cellno], :4]
-            py, px = np.nonzero(labels[y0:y0 + bh, x0:x0 + bw] == biggest[cellno])
-            fit = _circle_residual(np.column_stack([px + x0, py + y0]).astype(float))
-            marks.append("O" if fit < CIRCLE_FIT else "X")
-            conf = float(np.clip(abs(fit - CIRCLE_FIT) / CIRCLE_FIT_SURE, 0.0, 1.0))
+            ks = pieces.get(cellno) or [biggest[cellno]]
+            x0, y0 = stats[ks, 0].min(), stats[ks, 1].min()
+            x1, y1 = (stats[ks, 0] + stats[ks, 2]).max(), (stats[ks, 1] + stats[ks, 3]).max()
+            ink = np.isin(labels[y0:y1, x0:x1], ks)
+            seen_as, conf, distance = own.classify(ink, res)
+            marks.append(seen_as)
+        distances.append(distance)
         h_frac = float(hidden[cellno])
         confidence.append(0.0 if h_frac > OCCLUDED_FRACTION else conf * (1.0 - h_frac / OCCLUDED_FRACTION / 2))
-    return marks, fractions, occluded, confidence
+    return marks, fractions, occluded, confidence, distances

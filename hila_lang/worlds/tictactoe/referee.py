@@ -8,10 +8,11 @@ its own sightings (:mod:`.player`), and the game goes on from them.  The referee
 after the fact:
 
 - each sighting against what the paper holds (:meth:`Referee.paper_marks`: the record, and the
-  robot's circles drawn out of turn in empty cells, whose ink is there though the game does not
-  count them) and the true sheet: ``misreads`` (cell, what the robot saw, what is there), the
-  distances of the perceived grid corners from the true ones and of the estimated table height
-  from the true one;
+  robot's marks drawn out of turn in empty cells, whose ink is there though the game does not
+  count them) and the true sheet: ``misreads`` (cell, what the robot saw, what is there),
+  ``unclear`` (cells whose ink the robot said it could not tell, ``"?"``: not guessed, so not a
+  misread, but listed), the distances of the perceived grid corners from the true ones and of
+  the estimated table height from the true one;
 - each circle: the cell its ink lies in (on the sheet as it is), how far it strays outside it,
   and ``fouls`` (a circle drawn out of turn or in a taken cell; the record keeps the cell's
   first mark, and only the game's legal moves).
@@ -124,6 +125,7 @@ class Referee:
         self.crosses: list[list[np.ndarray]] = []  # the opponent's strokes, per move
         self.looks: list[dict[str, Any]] = []      # per sighting: its score
         self.misreads: list[dict[str, Any]] = []
+        self.unclear: list[dict[str, Any]] = []
         self.fouls: list[dict[str, Any]] = []
         self.perturbations: list[dict[str, Any]] = []
         #: cell -> mark inked on the paper outside the game's record (a circle drawn out of turn)
@@ -203,11 +205,14 @@ class Referee:
         truth = self.paper_marks()
         misreads = [{"look": sight["look"], "moves_before": len(self.record.moves), "cell": c,
                      "seen": sight["board"][c - 1], "true": truth[c - 1]}
-                    for c in range(1, 10) if sight["board"][c - 1] != truth[c - 1]]
+                    for c in range(1, 10) if sight["board"][c - 1] not in (truth[c - 1], ttt.UNCLEAR)]
+        self.unclear += [{"look": sight["look"], "moves_before": len(self.record.moves), "cell": c, "true": truth[c - 1]}
+                         for c in range(1, 10) if sight["board"][c - 1] == ttt.UNCLEAR]
         errors = corner_errors(sight["corners"], self.grid)
         self.looks.append({"look": sight["look"], "moves_before": len(self.record.moves),
                            "views": [v["view"] for v in sight["views"]], "arm": sight["arm"],
                            "unsure": list(sight["unsure"]), "misreads": len(misreads),
+                           "board": list(sight["board"]),
                            "corner_error_median_m": float(np.median(errors)),
                            "corner_error_max_m": float(errors.max()), "corner_errors_m": errors,
                            "table_error_m": float(sight["surface_z"] - self.grid.surface_z),
@@ -228,14 +233,16 @@ class Referee:
         cell = cell_at(self.grid, np.median(ink, axis=0))
         if cell is None:
             raise HilaRuntimeError("the robot drew its circle outside the grid", state=entry["state"])
-        demo = None if template is None else np.asarray(template.path, dtype=float)
-        demo_circle = None if demo is None else on_paper(demo, float(demo[:, 2].min()))
+        from .ownmark import inked_strokes
+
+        strokes = [] if template is None else inked_strokes(template)
+        demo_circle = np.vstack(strokes) if strokes else None  # the demonstrated ink, in its paper's plane
         planned = entry["planned"]
         planned_circle = None if planned is None else on_paper(planned, self.grid.surface_z)
 
         def r_of(circle):
             ok = demo_circle is not None and circle is not None and len(circle) >= 4 and len(demo_circle) >= 4
-            return mark_correlation(circle, demo_circle) if ok else None
+            return mark_correlation(np.asarray(circle)[:, :2], demo_circle) if ok else None
 
         mark = {"cell": cell, "intended_cell": intended, "state": entry["state"], "planned": planned,
                 "executed": drawn, "contact_points": int(len(touching)),

@@ -3,14 +3,16 @@
 Files (all written atomically through :mod:`hila_lang.core.fileio`):
 
 - ``report.json``: seed, opponent, who started, the moves, the final board, the result, per-mark
-  R of each drawn circle against the demonstrated one (after similarity alignment), how far each
-  circle strays outside its cell (on the sheet where it was then), tracking error (planned
+  R of each drawn mark against the demonstrated one (after similarity alignment), how far each
+  mark strays outside its cell (on the sheet where it was then), tracking error (planned
   against executed pen path), wall time, the perturbations (settings and what happened when),
   the referee's ``fouls``, and ``vision``: whether the robot read the board with its eye cameras
-  or played blind (dry back end); with eyes, every ``misread`` the referee found (look, cell,
-  what the robot saw, what was there), the perceived grid corners' distance from the true ones
-  (median and max, mm), the table height the robot estimated and its error, and per look the
-  views it took and why;
+  or played blind (dry back end); with eyes, the robot's mark (``robot_mark``: the pen-down
+  sub-templates it reads its marks by), every ``misread`` the referee found (look, cell, what the
+  robot saw, what was there), every ``unclear`` cell (ink the robot said it could not tell,
+  ``"?"``: not guessed), the perceived grid corners' distance from the true ones (median and
+  max, mm), the table height the robot estimated and its error, and per look the board it read
+  (the same reading it played on), the views it took and why;
 - ``eye.png``: the final left eye-camera image (PyBullet back end only);
 - ``top.png``: the board from above with the planned paths (green) and the executed pen paths
   (blue) drawn over it -- a rendered camera view with the PyBullet back end (the arm may hide
@@ -120,7 +122,9 @@ def vision_summary(world) -> dict[str, Any]:
         "corners_from": "eye cameras",
         "looks": len(sightings),
         "images": sum(len(s["views"]) for s in sightings),
+        "robot_mark": None if world.player.mark is None else world.player.mark.names,
         "misreads": [dict(m) for m in world.referee.misreads],
+        "unclear": [dict(u) for u in world.referee.unclear],
         "unsure": [{"look": s["look"], "cells": list(s["unsure"])} for s in sightings if s["unsure"]],
         "corner_error_mm": {"median": _mm(np.median(errors)), "max": _mm(errors.max())},
         "corner_error_max_mm": _mm(errors.max()),
@@ -130,7 +134,7 @@ def vision_summary(world) -> dict[str, Any]:
         "arm_aside": sum(s["arm"] == "aside" for s in sightings),
         "seconds": round(sum(s["seconds"] for s in sightings), 3),
         "per_look": [{"look": look["look"], "moves_before": look["moves_before"], "views": look["views"],
-                      "doubts": sight["doubts"], "misreads": look["misreads"],
+                      "board": look["board"], "doubts": sight["doubts"], "misreads": look["misreads"],
                       "corner_error_median_mm": _mm(look["corner_error_median_m"]),
                       "corner_error_max_mm": _mm(look["corner_error_max_m"]),
                       "table_error_mm": _mm(look["table_error_m"])}

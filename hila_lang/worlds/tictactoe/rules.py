@@ -2,8 +2,10 @@
 
 The board is a tuple of 9 strings, cell 1 first (row-major as the robot sees the grid: cell 1 is
 far-left, cell 9 near-right, see :mod:`hila_lang.worlds.tictactoe.board`).  An entry is ``""`` (empty),
-``"O"`` (a circle: the robot's mark) or ``"X"`` (a cross: the opponent's mark).  Cells are
-numbered 1..9 everywhere in this module's interface.
+``"O"`` (the robot's mark, whatever shape it was taught: a circle in the paper's experiment),
+``"X"`` (the opponent's cross) or, on a board as the robot read it, ``"?"`` (ink it could not tell:
+the cell is taken, by neither side as far as the robot knows; it never completes a line).  Cells
+are numbered 1..9 everywhere in this module's interface.
 """
 
 from __future__ import annotations
@@ -13,7 +15,9 @@ from typing import Sequence
 
 from ...core.errors import InputError
 
-EMPTY, CIRCLE, CROSS = "", "O", "X"
+EMPTY, CIRCLE, CROSS, UNCLEAR = "", "O", "X", "?"
+#: each mark in words, for messages
+NAMES = {EMPTY: "empty", CIRCLE: "the robot's mark (O)", CROSS: "a cross (X)", UNCLEAR: "ink it could not tell (?)"}
 #: the three-in-a-row lines, as 0-based indices
 LINES = (
     (0, 1, 2), (3, 4, 5), (6, 7, 8),
@@ -34,8 +38,8 @@ def empty_board() -> Board:
 def check_board(board: Sequence[str]) -> Board:
     """Return ``board`` as a tuple of 9 marks; :class:`InputError` for anything else."""
     board = tuple(board)
-    if len(board) != 9 or any(m not in (EMPTY, CIRCLE, CROSS) for m in board):
-        raise InputError(f"expected a board of 9 marks in {{'', 'O', 'X'}}, got {board!r}")
+    if len(board) != 9 or any(m not in (EMPTY, CIRCLE, CROSS, UNCLEAR) for m in board):
+        raise InputError(f"expected a board of 9 marks in {{'', 'O', 'X', '?'}}, got {board!r}")
     return board
 
 
@@ -72,7 +76,7 @@ def winner(board: Board) -> str | None:
 def winning_line(board: Board) -> tuple[int, int, int] | None:
     """The completed line as cells 1..9, or None."""
     for a, b, c in LINES:
-        if board[a] != EMPTY and board[a] == board[b] == board[c]:
+        if board[a] in (CIRCLE, CROSS) and board[a] == board[b] == board[c]:
             return (a + 1, b + 1, c + 1)
     return None
 

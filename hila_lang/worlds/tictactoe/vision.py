@@ -51,6 +51,7 @@ import numpy as np
 
 from ...core.errors import HilaRuntimeError, InputError
 from .board import CORNER_NAMES, cell_number
+from .rules import NAMES as _NAMES
 
 #: the views tried in order while in doubt: (name, eye, where the arm is -- None: where the views
 #: before left it --, where the eyes look)
@@ -83,7 +84,6 @@ TABLE_SPREAD = 0.002
 #: images are read again when the table estimate moves by more than this, metres (0.2 mm of
 #: height moves a corner seen 35 degrees off the vertical by 0.14 mm)
 REREAD_DZ = 0.0002
-_NAMES = {"": "empty", "O": "a circle (O)", "X": "a cross (X)"}
 
 
 class Table:

@@ -1,7 +1,12 @@
 """The ``tictactoe`` world that ``programs/game.hila`` runs in (the paper's Experiment B).
 
-The iCub plays circles (``O``) on :meth:`Grid.game` -- a grid 20 % smaller than the
-demonstration's, rotated and 0.20 m higher -- against an opponent who plays crosses (``X``).
+The iCub plays its own mark (``O`` on the board: whatever its program draws -- the circle of
+``primitives/circle.yaml`` in the paper's experiment, or a person's triangle) on
+:meth:`Grid.game` -- a grid 20 % smaller than the demonstration's, rotated and 0.20 m higher --
+against an opponent who plays crosses (``X``).  The world is told the program's pen-down
+sub-templates before it runs (``notify("program", marks=...)``): the robot reads its own
+marks on the paper by them (:mod:`.ownmark`); ``hila check`` refuses a mark too like the cross
+(:func:`check_mark`).
 
 Two sides, kept apart.  The robot's side is a :class:`~.player.Player`: it decides from what
 the robot's eyes see (:mod:`.vision`) and what it remembers, and has no handle on the game's
@@ -60,7 +65,6 @@ PARK_HEIGHT = (0.08, 0.13)
 IDLE_WAITS = 3
 #: the game stops after this many circles drawn out of turn or over a mark (the referee's fouls)
 MAX_FOULS = 3
-_NAMES = {"": "empty", "O": "a circle (O)", "X": "a cross (X)"}
 
 
 def park_position(spec: Grid, rng: np.random.Generator) -> np.ndarray:
@@ -118,6 +122,7 @@ class TicTacToeWorld:
         self.backend = None
         self.fsm = None
         self._scored = 0
+        self._told_unclear: list = []
         self._idle = 0
         #: the REPL's ``back``: the game as it was -- the referee's record, sheet pose, generator
         #: and scores, the robot's own memory (its moves, table estimate, what it last chose), the
@@ -128,7 +133,7 @@ class TicTacToeWorld:
              "referee.stray",
              "player.table", "player.own", "player.choice", "player._blind_board", "player._since", "player._stale"),
             append_only=("states", "referee.record._moves", "referee.marks", "referee.crosses", "referee.looks",
-                         "referee.misreads", "referee.fouls", "referee.perturbations", "player.sightings"))
+                         "referee.misreads", "referee.unclear", "_told_unclear", "referee.fouls", "referee.perturbations", "player.sightings"))
 
     # -- the referee's view, for reports and tests -------------------------------------------
     @property
@@ -186,8 +191,8 @@ class TicTacToeWorld:
         # the layout only for a robot that plays blind: one with eyes knows the board from its sightings
         self.player = Player(self.first, self.park, eyes=backend.eyes, hand=hand,
                              layout=self.referee.layout if backend.eyes is None else None)
-        self._print(f"tic-tac-toe: the robot plays O, the opponent ({self.opponent.name}) plays X; "
-                    f"{self.first} starts")
+        self._print(f"tic-tac-toe: the robot plays its own mark (O on the board), the opponent "
+                    f"({self.opponent.name}) plays X; {self.first} starts")
         self._print(ttt.render(self.board))
 
     # -- World protocol: the robot's side (the record is sealed meanwhile) -------------------
@@ -280,7 +285,23 @@ class TicTacToeWorld:
         self.player.opponent_moved(cell)
         return cell
 
+    @property
+    def seen_board(self) -> ttt.Board:
+        """The board as the robot last read it (its latest sighting; blind: as it knows it), cells
+        1..9 in {"", "O", "X", "?"}: what a view of the robot's side shows (the report's
+        ``vision`` has every look)."""
+        if self.player.sightings:
+            return tuple(self.player.sightings[-1]["board"])
+        return tuple(self.player._blind_board)
+
     def notify(self, event: str, **data: Any) -> None:
+        if event == "program":  # the pen-down sub-templates the program draws with: the robot's own mark
+            from .ownmark import OwnMark
+
+            self.player.mark = OwnMark.from_templates(data.get("marks") or {})
+            if self.player.mark is not None:
+                self._print(f"the robot's mark: what {', '.join(self.player.mark.names)} inks (O on the board)")
+            return
         if event != "state_done":
             return
         executed = data.get("executed")
@@ -312,8 +333,12 @@ class TicTacToeWorld:
         since: it changes only when the opponent moves or the robot draws, after this)."""
         for sight in self.player.sightings[self._scored:]:
             for m in self.referee.score_sighting(sight):
-                self._print(f"referee: at look {m['look']} the robot saw cell {m['cell']} {_NAMES[m['seen']]}, "
-                            f"it holds {_NAMES[m['true']]}")
+                self._print(f"referee: at look {m['look']} the robot saw cell {m['cell']} {ttt.NAMES[m['seen']]}, "
+                            f"it holds {ttt.NAMES[m['true']]}")
+            for u in self.referee.unclear[len(self._told_unclear):]:
+                self._told_unclear.append(u)
+                self._print(f"referee: at look {u['look']} the robot could not tell the ink in cell {u['cell']} "
+                            f"(it holds {ttt.NAMES[u['true']]})")
         self._scored = len(self.player.sightings)
 
     def _seen_versus_real(self) -> str:
