@@ -134,21 +134,23 @@ def template_text(template, path=None) -> str:
     lines.append(f"path from above, {PAPER_VIEW}: digits = the tag's points, | = a cut, letters = ICPs, "
                  "* = start")
     lines += ["  " + row for row in picture(t)]
-    drawn = pen_down(t)
-    if drawn is not None and len(drawn) >= 2:
-        whole = np.ptp(np.asarray(t.path, float), axis=0).max()
-        part = np.ptp(np.asarray(t.path, float)[drawn], axis=0).max()
-        if part < whole / 3:  # the mark is small beside the whole: show it again, fitted
-            lines.append("")
-            lines.append("the drawing (pen down), zoomed to fit:")
-            lines += ["  " + row for row in picture(t, only=drawn)]
+    drawn = small_drawing(t)
+    if drawn is not None:  # the mark is small beside the whole: shown again, fitted
+        lines.append("")
+        lines.append("the drawing (pen down), zoomed to fit:")
+        lines += ["  " + row for row in picture(t, only=drawn)]
     return "\n".join(lines)
 
 
-def pen_down(template):
-    """Indices of the template's pen-down (contact) samples, or None when no segment touches."""
+def small_drawing(template):
+    """Indices of the template's pen-down (contact) samples when they span less than a third of
+    its whole path (a mark beside a far hand's start: worth a second, fitted picture), else None."""
     idx = [np.arange(s.start, s.stop) for s in template.segments if s.contact]
-    return np.concatenate(idx) if idx else None
+    if not idx:
+        return None
+    drawn = np.concatenate(idx)
+    path = np.asarray(template.path, float)
+    return drawn if len(drawn) >= 2 and np.ptp(path[drawn], axis=0).max() < np.ptp(path, axis=0).max() / 3 else None
 
 
 def _letter(k: int) -> str:
@@ -207,7 +209,7 @@ def plot_template(template, file):
 
     marks = [(s.start, s.tag) for s in template.segments]
     return plot_path(template.path, file, icps=template.icps, title=f"template {template.name}", marks=marks,
-                     legend="blue the path, orange x where each tag starts", zoom=pen_down(template))
+                     legend="blue the path, orange x where each tag starts", zoom=small_drawing(template))
 
 
 # --------------------------------------------------------------------------- worlds

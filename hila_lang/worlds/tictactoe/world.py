@@ -133,7 +133,8 @@ class TicTacToeWorld:
              "referee.stray",
              "player.table", "player.own", "player.choice", "player._blind_board", "player._since", "player._stale"),
             append_only=("states", "referee.record._moves", "referee.marks", "referee.crosses", "referee.looks",
-                         "referee.misreads", "referee.unclear", "_told_unclear", "referee.fouls", "referee.perturbations", "player.sightings"))
+                         "referee.misreads", "referee.unclear", "_told_unclear", "referee.fouls",
+                         "referee.perturbations", "player.sightings"))
 
     # -- the referee's view, for reports and tests -------------------------------------------
     @property
