@@ -163,4 +163,4 @@ def test_a_template_not_learned_on_the_picture_is_refused_before_the_robot_moves
 def test_a_picture_file_that_is_no_picture_is_refused_at_once(tmp_path, capsys):
     (tmp_path / "notes.png").write_text("not a picture")
     assert main(["exec", PROGRAM, "--set", f"picture.image={tmp_path / 'notes.png'}", "--set", "report=no"]) == 2
-    assert "notes.png: error: not a picture hila can read" in capsys.readouterr().err
+    assert "notes.png: error: unreadable picture: not a PNG, JPEG, BMP, PPM or TIFF picture" in capsys.readouterr().err

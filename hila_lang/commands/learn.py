@@ -7,6 +7,7 @@ or a recording made in simulation (``--from-sim``).
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path, seed
 import argparse
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
@@ -36,7 +37,7 @@ the tags that touch the surface (drawing).  Where the cuts go (--method):
             pen-down touch)
   speed     the k-1 deepest dips in the hand's speed (where one stroke ends and the next begins;
             bench/segmentation.py measures it): the default without a pen column
-  kmeans    the paper's k-means; changepoint (needs ruptures); equal (equal lengths)
+  kmeans    the paper's k-means; changepoint (change points of the velocity); equal (equal lengths)
 --cuts A,B,... puts the k-1 cuts at those samples (as printed, or as moved by hand in hila
 studio), so a template cut by hand is remade by one command.
 Example: hila learn demo.csv --icps scene.yaml -k 3 --tags reach,draw,retract --contact draw \\
@@ -75,21 +76,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="segmentation: contact (where the recorded pen touches and leaves the paper; the "
                              "default when DEMO.csv has a 'pen' column), speed (the deepest dips in speed, where "
                              "the hand slows between strokes; the default otherwise), kmeans (the paper's: "
-                             "k-means on position and time), changepoint (ruptures on the velocity; needs "
-                             "ruptures), equal (equal lengths)")
+                             "k-means on position and time), changepoint (change points of the velocity), equal "
+                             "(equal lengths)")
     parser.add_argument("--cuts", default=None, metavar="A,B,...",
                         help="the k-1 cuts as sample indices (each the first sample of the next tag), instead of "
                              "a --method: a template cut by hand, remade by one command")
-    parser.add_argument("--seed", type=int, default=0, help="k-means seed (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="k-means seed (default 0)")
     parser.add_argument("--name", default=None, help="template name (default: the output file's stem)")
     parser.add_argument("--description", default=None, help="provenance text stored in the template")
     known = parser.add_argument_group("recognition of known parts (docs/recognition.md)")
     known.add_argument("--library", metavar="DIR", help="find DIR's templates and sub-templates in the demonstration")
-    known.add_argument("--report", metavar="FILE.json", help="with --library: write the parts found as JSON")
+    known.add_argument("--report", type=output_path, metavar="FILE.json", help="with --library: write the parts found as JSON")
     known.add_argument("--stream", action="store_true",
                        help="with --library: feed the demonstration point by point and say each known part as soon as "
                             "it is found (online recognition); the final answer is the offline one")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.yaml", help="template file to write")
+    parser.add_argument("-o", "--output", type=output_path, required=True, metavar="OUT.yaml", help="template file to write")
 
 
 def _split(text: str | None, option: str = "--tags") -> list[str]:

@@ -76,18 +76,15 @@ PAPER_RGB = (244, 240, 228)
 
 
 def read_picture(path) -> np.ndarray:
-    """A person's picture file (PNG, JPEG, ...) as RGB uint8 (H, W, 3); an :class:`InputError`
-    naming the file when it is missing, too large or not a picture."""
-    import cv2
-
+    """A person's picture file as RGB uint8 (H, W, 3) (:func:`hila_lang.core.images.read_picture`:
+    its size checked by its header before it is decoded); an :class:`InputError` naming the file
+    when it is missing, too large, not a picture or smaller than 16 pixels a side."""
     from ...core.errors import InputError
-    from ...core.fileio import read_bytes
+    from ...core.images import read_picture as read
 
-    data = read_bytes(path, "picture", limit=20 * 1024 * 1024)
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    if image is None or min(image.shape[:2]) < 16:
-        raise InputError("not a picture hila can read (expected a PNG or JPEG file of 16 pixels or more a side)",
-                         file=str(path))
+    image = read(path)
+    if min(image.shape[:2]) < 16:
+        raise InputError("a picture of 16 pixels or more a side is needed to find features on", file=str(path))
     return np.ascontiguousarray(image[:, :, ::-1])
 
 
