@@ -248,8 +248,9 @@ def test_the_referee_lists_unclear_cells_apart_from_misreads():
 def test_the_shipped_game_plays_a_drawn_mark_whose_retract_heads_elsewhere(tmp_path, capsys, monkeypatch):
     """A person's triangle whose retract leaves the way the reach did not come: the game as it was
     (retract with hand = arm.park) ran the final retract 48.6 mm under the paper (exit 1); the
-    shipped game binds the retract's end to the park instead and plays to the end, and hila check
-    warns about the old binding: it depends on where the demonstration's retract went."""
+    shipped game leaves `hand` out of the retract (as demonstrated, placed by the cell and the
+    pen) and plays to the end, and hila check warns about the old binding: it depends on where
+    the demonstration's retract went."""
     monkeypatch.chdir(tmp_path)
     game = program(tmp_path, learn_drawn(tmp_path, "triangle", "small", 1))
     capsys.readouterr()
@@ -257,12 +258,12 @@ def test_the_shipped_game_plays_a_drawn_mark_whose_retract_heads_elsewhere(tmp_p
     assert "warning" not in capsys.readouterr().err
     assert main(["exec", str(game), "--backend", "dry", "--seed", "1", "--set", "report=no"]) == 0
     old = tmp_path / "old.hila"
-    old.write_text(game.read_text().replace("run circle.retract(last.*, hand = none, end = arm.park)",
+    old.write_text(game.read_text().replace("run circle.retract(last.*, hand = none)",
                                             "run circle.retract(last.*, hand = arm.park)"))
     capsys.readouterr()
     assert main(["check", str(old)]) == 0
     err = capsys.readouterr().err
-    assert f"{old}:43:32: warning: ICP 'hand' of 'circle.retract' is bound here, but its path never comes near " \
+    assert f"{old}:44:32: warning: ICP 'hand' of 'circle.retract' is bound here, but its path never comes near " \
            "'hand' in the template" in err
     assert main(["exec", str(old), "--backend", "dry", "--seed", "1", "--set", "report=no"]) == 1
     assert "mm below the paper" in capsys.readouterr().err

@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import textwrap
 
-import numpy as np
-
 HELP = "show a template (tags, ICPs, a picture of its path) or a world (points, questions, events, settings)"
 DESCRIPTION = """\
 Show what a program can use.
@@ -146,6 +144,8 @@ def template_text(template, path=None) -> str:
 def small_drawing(template):
     """Indices of the template's pen-down (contact) samples when they span less than a third of
     its whole path (a mark beside a far hand's start: worth a second, fitted picture), else None."""
+    import numpy as np
+
     idx = [np.arange(s.start, s.stop) for s in template.segments if s.contact]
     if not idx:
         return None
@@ -164,6 +164,8 @@ def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS, 
     number of the tag it belongs to, the first point of every tag after the first a ``|`` (a cut),
     each ICP its letter, the start ``*``; later marks draw over earlier ones in that order.
     ``only`` (indices of the path): fitted to those points (what falls outside is left out)."""
+    import numpy as np
+
     from ..session.plot import paper_view
 
     xy = paper_view(np.asarray(template.path, dtype=float))

@@ -267,23 +267,22 @@ def _similarity(source: np.ndarray, target: np.ndarray):
 
 def render(strokes, resolution: float, width: float) -> np.ndarray:
     """Strokes (list of (n, 2) metres) inked into a top view (bool mask; column right = +x, row
-    down = -y) at ``resolution`` metres per pixel with a pen ``width`` metres wide."""
-    import cv2
+    down = -y) at ``resolution`` metres per pixel with a pen ``width`` metres wide: the pixels
+    whose centres lie within half the width of a stroke."""
+    from scipy.spatial import cKDTree
 
     pts = np.vstack(strokes)
     lo = pts.min(axis=0) - 3 * width
     hi = pts.max(axis=0) + 3 * width
     w, h = (np.ceil((hi - lo) / resolution).astype(int) + 1)
-    img = np.zeros((h, w), np.uint8)
-    shift = 4
-    for s in strokes:
-        px = np.column_stack([(s[:, 0] - lo[0]) / resolution, (hi[1] - s[:, 1]) / resolution])
-        cv2.polylines(img, [np.round(px * (1 << shift)).astype(np.int32)], False, 255,
-                      max(1, int(round(width / resolution))), cv2.LINE_AA, shift)
-    return img > 127
+    dense = np.vstack([_densify(np.asarray(s, float), resolution / 4) for s in strokes])
+    cols, rows = np.meshgrid(np.arange(w), np.arange(h))
+    centres = np.column_stack([lo[0] + cols.ravel() * resolution, hi[1] - rows.ravel() * resolution])
+    near, _ = cKDTree(dense).query(centres, distance_upper_bound=width)
+    return (near <= width / 2).reshape(h, w)
 
 
-def cross_samples(count: int = 8, seed: int = 0) -> list[list[np.ndarray]]:
+def cross_samples(count: int = 6, seed: int = 0) -> list[list[np.ndarray]]:
     """``count`` of the world's own crosses (:func:`.marks.cross_strokes`), half neat and half
     sloppy, in the game's cells, as strokes (n, 2) in the paper's plane, metres."""
     from .board import Grid
