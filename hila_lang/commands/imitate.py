@@ -133,9 +133,9 @@ def run(args: argparse.Namespace) -> int:
         raise
     piece = gen.pieces[0]
     path = gen.path
-    from ..osila.demofile import demo_csv
+    from ..osila.demofile import demo_csv_text
 
-    text = demo_csv(path, gen.times)
+    text = demo_csv_text(path, gen.times)
     out = sys.stdout
     if args.output:
         atomic_write_text(args.output, text)

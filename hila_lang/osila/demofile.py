@@ -114,7 +114,7 @@ def read_demo(path: str | Path) -> Demo:
     return Demo(arr, None, pen)
 
 
-def demo_csv(path: np.ndarray, times: np.ndarray | None = None, pen: np.ndarray | None = None) -> str:
+def demo_csv_text(path: np.ndarray, times: np.ndarray | None = None, *, pen: np.ndarray | None = None) -> str:
     """The CSV text :func:`read_demo` reads: ``path`` (T, D), optional ``times`` (T,) and ``pen``
     (T,) bool; floats written with ``repr`` precision (a round trip is exact)."""
     path = np.asarray(path, dtype=float)

@@ -165,10 +165,10 @@ def proposal(path, times, k: int, method: str, seed: int = 0) -> dict:
 
 
 def _csv(path: np.ndarray, times: np.ndarray | None) -> str:
-    """The demonstration CSV ``hila learn`` reads (:func:`hila_lang.osila.demofile.demo_csv`)."""
-    from ..osila.demofile import demo_csv
+    """The demonstration CSV ``hila learn`` reads (:func:`hila_lang.osila.demofile.demo_csv_text`)."""
+    from ..osila.demofile import demo_csv_text
 
-    return demo_csv(path, times)
+    return demo_csv_text(path, times)
 
 
 def save(folder: Path, req: dict) -> dict:

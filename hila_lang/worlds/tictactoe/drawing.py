@@ -236,11 +236,11 @@ def write_demonstration(folder, name: str, drawing: Drawing) -> tuple[Path, Path
     import yaml
 
     from ...core.fileio import atomic_write_text
-    from ...osila.demofile import demo_csv
+    from ...osila.demofile import demo_csv_text
 
     folder = Path(folder)
     demo, icps = folder / f"{name}.demo.csv", folder / f"{name}.icps.yaml"
-    atomic_write_text(demo, demo_csv(drawing.path, drawing.times, drawing.pen))
+    atomic_write_text(demo, demo_csv_text(drawing.path, drawing.times, pen=drawing.pen))
     atomic_write_text(icps, yaml.safe_dump({k: [float(v) for v in p] for k, p in drawing.icps.items()},
                                            sort_keys=False, default_flow_style=None))
     return demo, icps
