@@ -76,16 +76,6 @@ def load_task(path, dim: int) -> dict:
     return {"icps": icps, "forced": doc.get("forced"), "obstacles": doc.get("obstacles"), "options": dict(options)}
 
 
-def _csv(path, times) -> str:
-    axes = "xyz"[: path.shape[1]]
-    head = ("t," if times is not None else "") + ",".join(axes)
-    rows = [head]
-    for i, p in enumerate(path):
-        cells = ([repr(float(times[i]))] if times is not None else []) + [repr(float(v)) for v in p]
-        rows.append(",".join(cells))
-    return "\n".join(rows) + "\n"
-
-
 def run(args: argparse.Namespace) -> int:
     import difflib
     import sys
@@ -95,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from ..core.errors import InputError
     from ..core.fileio import atomic_write_text, ensure_writable
     from ..hierarchy.generate import generate
+    from ..osila.demofile import demo_csv_text
     from ..osila.template import END, START, load_template
     from ..core.validation import check_int, check_positive
 
@@ -142,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     piece = gen.pieces[0]
     path = gen.path
-    text = _csv(path, gen.times)
+    text = demo_csv_text(path, gen.times)
     out = sys.stdout
     if args.output:
         atomic_write_text(args.output, text)

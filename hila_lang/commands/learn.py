@@ -1,8 +1,9 @@
 """``hila learn``: one demonstration -> a segmented template YAML.
 
-The demonstration comes from a CSV path plus its ICPs, or is seen through the iCub's stereo
-cameras (:mod:`hila_lang.perception.learn`): recorded frames (``--frames``, ``--left/--right``)
-or a recording made in simulation (``--from-sim``).
+The demonstration comes from a CSV path plus its ICPs (learned by
+:func:`hila_lang.hierarchy.learn.learn_files`, the function the studio and the letters world call
+too), or is seen through the iCub's stereo cameras (:mod:`hila_lang.perception.learn`): recorded
+frames (``--frames``, ``--left/--right``) or a recording made in simulation (``--from-sim``).
 """
 
 from __future__ import annotations
@@ -218,21 +219,13 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..osila.demofile import load_icps, read_demo_csv
-    from ..core.errors import InputError
     from ..core.fileio import ensure_writable
-    from ..osila.segmentation import segment_template
-    from ..osila.segmentation import describe
-    from ..osila.template import Template, save_template
+    from ..hierarchy.learn import default_tags, learn_files
+    from ..osila.template import save_template
 
     source = _source(args)
-    tags = _split(args.tags)
+    k, tags = default_tags(_split(args.tags), args.k)
     contact = _split(args.contact, "--contact")
-    k = args.k if args.k is not None else max(len(tags), 1)
-    if k < 1:
-        raise InputError(f"expected -k >= 1, got {k}")
-    if not tags and k > 1:
-        tags = [f"s{i + 1}" for i in range(k)]
     library = _library(args)  # a bad library stops before anything is made or written
     out = ensure_writable(args.output)  # before the work: learning by perception takes a minute
     report = ensure_writable(args.report) if args.report else None
@@ -242,19 +235,8 @@ def run(args: argparse.Namespace) -> int:
     if source != "DEMO.csv":
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:
-        demo, times = read_demo_csv(args.demo)
-        icps = load_icps(args.icps, demo.shape[1])
-        description = args.description or (f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}."
-                                           + (f" {describe(args.method, k)}" if tags else ""))
-        try:
-            template = Template(name, demo, icps, times=times, description=description)
-        except InputError as exc:
-            exc.file = exc.file or str(args.demo)
-            raise
-        if tags:
-            template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
-        elif contact:
-            raise InputError("--contact needs segments: give --tags (and -k)")
+        template = learn_files(args.demo, args.icps, name=name, tags=tags, contact=contact, k=k, method=args.method,
+                               seed=args.seed, description=args.description or None)
     if library is not None:
         template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)

@@ -1,4 +1,4 @@
-"""Safe file input and output shared by every stage: atomic writes, safe YAML, CSV paths."""
+"""Safe file input and output shared by every stage: atomic writes, bounded reads, safe YAML, output folders."""
 
 from __future__ import annotations
 
@@ -422,14 +422,19 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
             loader.dispose()
 
 
-def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
-    """Write ``data`` as block-style YAML, atomically, after an optional ``# comment`` header."""
+def yaml_text(data: Any, header: str = "") -> str:
+    """``data`` as block-style YAML after an optional ``# comment`` header."""
     import yaml
 
     body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
     if header:
         header = "".join(f"# {ln}\n" if ln else "#\n" for ln in header.splitlines())
-    return atomic_write_text(path, header + body)
+    return header + body
+
+
+def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
+    """Write :func:`yaml_text` of ``data`` atomically."""
+    return atomic_write_text(path, yaml_text(data, header))
 
 
 def cache_folders(name: str) -> list[Path]:

@@ -1,9 +1,14 @@
-"""Demonstration files: a path as CSV and its scene ICPs as YAML (``hila learn``, ``hila eval``).
+"""Demonstration files: a path as CSV and its scene ICPs as YAML, read and written here only.
 
 CSV: a header line ``t,x,y``, ``t,x,y,z``, ``x,y`` or ``x,y,z`` (t in seconds, strictly
 increasing; x, y, z in metres or pixels), then one row per waypoint; blank lines and lines starting
 with ``#`` are skipped.  ICPs: a YAML mapping ``name: [x, y(, z)]``, or a task file's ``icps:``
 mapping.
+
+The readers (:func:`read_demo_csv`, :func:`load_icps`) serve ``hila learn`` and ``hila eval``; the
+writers (:func:`demo_csv_text`, :func:`write_demo_csv`, :func:`icps_text`, :func:`write_icps`) serve everything that
+makes such files -- ``hila imitate``'s output, the studio's saved demonstrations, the letters'
+handwriting model, ``hila eval``'s stand-in data set -- so every one is a file the readers take.
 """
 
 from __future__ import annotations
@@ -13,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.fileio import load_yaml, read_text
+from ..core.fileio import atomic_write_text, load_yaml, read_text, yaml_text
 from .template import MAX_COORDINATE, check_coordinates
+
 
 def read_demo_csv(path: str | Path):
     """Read a demonstration CSV: returns (path (T, D), times (T,) or None).
@@ -90,3 +96,42 @@ def load_icps(path: str | Path, dim: int) -> dict:
             raise InputError(f"expected finite numbers for ICP {name!r}, got {point!r}", file=str(path))
         check_coordinates(point, f"ICP {name!r}", str(path))
     return {str(k): v for k, v in doc.items()}
+
+
+def demo_csv_text(path, times=None, *, decimals: int | None = None, time_decimals: int | None = None) -> str:
+    """The demonstration CSV of ``path`` (T, D) and ``times`` (T,) or None, as :func:`read_demo_csv`
+    reads it: the header ``t,x,y[,z]`` (``x,y[,z]`` without times), one row per waypoint.
+
+    Floats are written exactly (``repr`` round-trips) unless ``decimals`` (coordinates) and
+    ``time_decimals`` (times; default ``decimals``) fix the digits after the point.
+    """
+    path = np.asarray(path, float)
+    times = None if times is None else np.asarray(times, float)
+    if path.ndim != 2 or path.shape[1] not in (2, 3) or (times is not None and times.shape != (len(path),)):
+        raise InputError(f"expected a path (T, 2 or 3) and T times, got {path.shape} and "
+                         f"{None if times is None else times.shape}")
+    time_decimals = decimals if time_decimals is None else time_decimals
+
+    def cell(v: float, digits: int | None) -> str:
+        return repr(float(v)) if digits is None else f"{v:.{digits}f}"
+
+    rows = [("t," if times is not None else "") + ",".join("xyz"[: path.shape[1]])]
+    for i, p in enumerate(path):
+        cells = ([cell(times[i], time_decimals)] if times is not None else []) + [cell(v, decimals) for v in p]
+        rows.append(",".join(cells))
+    return "\n".join(rows) + "\n"
+
+
+def write_demo_csv(file: str | Path, path, times=None, **digits) -> Path:
+    """Write :func:`demo_csv_text` to ``file`` atomically; ``digits`` as there."""
+    return atomic_write_text(file, demo_csv_text(path, times, **digits))
+
+
+def icps_text(icps: dict, header: str = "") -> str:
+    """Scene ICPs ``name -> point`` as the YAML mapping :func:`load_icps` reads."""
+    return yaml_text({str(k): [float(v) for v in p] for k, p in icps.items()}, header=header)
+
+
+def write_icps(file: str | Path, icps: dict, header: str = "") -> Path:
+    """Write :func:`icps_text` to ``file`` atomically."""
+    return atomic_write_text(file, icps_text(icps, header))
