@@ -283,3 +283,12 @@ def test_the_cycle_finder_finds_a_cycle():
 
 def test_no_import_cycle_in_the_package():
     assert _cycles(GRAPH) == []
+
+
+def test_no_front_end_or_world_imports_a_command():
+    """Learning is a library function (``hierarchy/learn.py``): the studio and the worlds call it,
+    not ``commands/``, whose modules only the CLI loads."""
+    wrong = sorted((a, b) for a, targets in GRAPH.items() for b in targets
+                   if _under(a, "studio", "worlds") and _under(b, "commands"))
+    assert wrong == []
+    assert any(_under(b, "hierarchy") for b in GRAPH["hila_lang.studio.demonstrate"])  # the reader saw its arrows

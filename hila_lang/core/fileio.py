@@ -218,6 +218,16 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
 
     ``image`` is RGB unless ``bgr`` (OpenCV's own channel order, for images drawn with cv2).
     """
+    try:
+        data = png_bytes(image, bgr=bgr)
+    except InputError as exc:  # pragma: no cover - OpenCV encodes any uint8 image
+        exc.file = str(path)
+        raise
+    return atomic_write_bytes(path, data)
+
+
+def png_bytes(image, *, bgr: bool = False) -> bytes:
+    """An image (H, W, 3) or (H, W) uint8 encoded as PNG; RGB unless ``bgr``."""
     import cv2
     import numpy as np
 
@@ -226,8 +236,8 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
         image = cv2.cvtColor(image, cv2.COLOR_RGB2BGR)
     ok, buf = cv2.imencode(".png", image)
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
-        raise InputError(f"cannot encode a PNG image of shape {image.shape}", file=str(path))
-    return atomic_write_bytes(path, buf.tobytes())
+        raise InputError(f"cannot encode a PNG image of shape {image.shape}")
+    return buf.tobytes()
 
 
 MB = 1 << 20

@@ -24,6 +24,7 @@ from typing import Any, Mapping
 
 from ..core.errors import InputError
 from .settings import Setting, parse_settings
+from .studio import StudioView
 
 GROUPS = {"world": "hila.worlds", "back end": "hila.backends"}
 #: the world of a program without ``world NAME``
@@ -122,6 +123,9 @@ class WorldInfo:
         ``"module:callable"``: reads a demonstration scene's ICPs from recorded frames
         (``hila learn --frames/--left/--right --world NAME``), the ``read_icps`` of
         :func:`hila_lang.perception.learn.template_from_frames`.
+    studio : StudioView or None
+        What the world shows in ``hila studio`` (:mod:`hila_lang.plugins.studio`): a scene to
+        demonstrate on, its board during a run, the settings the Run page offers; None: nothing.
     """
 
     name: str
@@ -137,6 +141,7 @@ class WorldInfo:
     points: Mapping[str, str] = field(default_factory=dict)
     recorder: str | None = None
     icp_reader: str | None = None
+    studio: StudioView | None = None
 
     def __post_init__(self) -> None:
         from .names import Names

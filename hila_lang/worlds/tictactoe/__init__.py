@@ -10,7 +10,8 @@
 - :mod:`.recording` -- the circle demonstration seen by the iCub's eyes: scene, recording, learning;
 - :mod:`.demonstration` -- the seeded human-like demonstration behind ``primitives/circle.yaml``;
 - :mod:`.world` -- the ``tictactoe`` world ``hila exec programs/game.hila`` runs in;
-- :mod:`.report` -- the output folder of a game.
+- :mod:`.report` -- the output folder of a game;
+- :mod:`.studio` -- the game in ``hila studio``: the demonstration sheet to draw on, the board to click.
 
 :data:`WORLD` declares it (entry point ``hila.worlds: tictactoe``).
 """
@@ -18,6 +19,7 @@
 from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
 from ...plugins.settings import Setting, boolean, choice, number
+from ...plugins.studio import StudioView
 
 WORLD = WorldInfo(
     name="tictactoe",
@@ -63,4 +65,9 @@ WORLD = WorldInfo(
     ]),
     default_backend="pybullet",
     drawing_surface=True,
+    studio=StudioView(
+        scene="hila_lang.worlds.tictactoe.studio:scene", scene_label="tic-tac-toe (robot's eye)",
+        board="hila_lang.worlds.tictactoe.studio:board",
+        settings={"opponent": {"human": "you (click a cell)", "minimax": "minimax", "random": "random"}},
+        hint="In tic-tac-toe you play the crosses: click a cell when asked."),
 )
