@@ -120,9 +120,9 @@ def run(args: argparse.Namespace) -> int:
         options["smoothing"] = check_positive(args.smoothing, "--smoothing", allow_zero=True)
     if args.timing is not None:
         options["timing"] = check_positive(args.timing, "--timing", allow_zero=True)
-    from ..plugins.options import check_osila_ranges
+    from ..plugins.options import check_osila_options
 
-    check_osila_ranges(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
+    options = check_osila_options(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
     try:
         gen = generate(
             [step], task["icps"], forced={0: task["forced"]} if task["forced"] is not None else None,
