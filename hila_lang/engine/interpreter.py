@@ -41,7 +41,7 @@ from ..core.errors import HilaError, HilaRuntimeError, Interrupted, StepLimitErr
 from ..core.interrupts import guarded
 from ..language.fsm import FSM, RunState, SetState, State
 from ..language.limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
-from ..language.parser import source_line
+from ..language.source import source_line
 from .executors import Context, Executor, executor
 from .history import History, Snapshot
 from .run import RunExecutor

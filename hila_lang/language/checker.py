@@ -27,7 +27,7 @@ from . import ast as A
 from ..core.errors import CheckError, HilaError, did_you_mean
 from ..plugins import registry
 from .loader import TemplateLoader
-from .parser import source_line
+from .source import source_line
 from .worldcheck import WorldCheck
 
 START, END = "start", "end"

@@ -18,7 +18,7 @@ from . import ast as A
 from ..core.errors import CheckError
 from .checker import CheckedProgram
 from .fsm import END_STATE, FSM, BranchState, CallState, EndState, RunState, SetState, State, WaitState
-from .parser import source_line
+from .source import source_line
 
 
 def _base(s) -> str | None:

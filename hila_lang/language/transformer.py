@@ -14,7 +14,7 @@ from lark.exceptions import VisitError
 from . import ast as A
 from ..core.errors import HilaError, HilaSyntaxError
 from .limits import MAX_NESTING
-from .parser import source_line
+from .source import source_line
 
 
 def _pos(meta) -> A.Pos:
@@ -37,7 +37,9 @@ def _items(children) -> tuple:
 
 class ToAst(Transformer):
     """Builds the frozen dataclasses bottom-up.  A statement registered with
-    :func:`hila_lang.language.ast.statement` and no method here is built by :func:`_generic`."""
+    :func:`hila_lang.language.ast.statement` and no method here is built by :func:`_generic` (its
+    fields are its rule's children: ``let``, ``wait``, ``while``, ``until``, ``repeat``); ``run``,
+    ``call`` and ``if`` have methods, their children needing more than that."""
 
     # ---- expressions
     def number(self, meta, ch):
@@ -114,12 +116,6 @@ class ToAst(Transformer):
         name, args, *constraints = ch
         return A.CallStmt(str(name), args or (), _pos(meta), tuple(constraints))
 
-    def let_stmt(self, meta, ch):
-        return A.LetStmt(str(ch[0]), ch[1], _pos(meta))
-
-    def wait_stmt(self, meta, ch):
-        return A.WaitStmt(ch[0], _pos(meta))
-
     def elif_clause(self, meta, ch):
         return (ch[0], ch[1])
 
@@ -135,15 +131,6 @@ class ToAst(Transformer):
             elif c is not None:
                 orelse = c
         return A.IfStmt(tuple(branches), orelse, _pos(meta))
-
-    def while_stmt(self, meta, ch):
-        return A.WhileStmt(ch[0], ch[1], _pos(meta))
-
-    def until_stmt(self, meta, ch):
-        return A.UntilStmt(ch[0], ch[1], _pos(meta))
-
-    def repeat_stmt(self, meta, ch):
-        return A.RepeatStmt(ch[0], ch[1], _pos(meta))
 
     # ---- top level
     def world_decl(self, meta, ch):
@@ -597,7 +584,7 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
     """
     from lark.exceptions import UnexpectedInput
 
-    from .parser import syntax_error
+    from .source import syntax_error
 
     text = text.removeprefix("\ufeff")
     try:
