@@ -133,7 +133,7 @@ TOP_ALWAYS = {"__init__", "__main__", "cli"}
 def test_the_top_of_the_package_has_at_most_five_loose_modules():
     loose = sorted(p.stem for p in PACKAGE.glob("*.py") if p.stem not in TOP_ALWAYS)
     assert len(loose) <= 5, f"loose modules at the top of hila_lang/: {loose}; give them a floor"
-    assert "metrics" in loose  # DESIGN §3's contract hila_lang.metrics stays where it is
+    assert "metrics" in loose  # docs/design.md §3's contract hila_lang.metrics stays where it is
 
 
 def _package(name: str) -> str:

@@ -1,8 +1,8 @@
 """The hila language's front end: grammar -> AST -> checked program -> FSM.
 
 The front end is one object, :class:`.environment.Environment` (the grammar, the template
-loader and its cache, the plug-in registry); every stage is callable on its own (STYLE.md
-habit 2)::
+loader and its cache, the plug-in registry); every stage is callable on its own, and a
+flag stops early (``stop=``)::
 
     from hila_lang.language.environment import Environment
     env = Environment.default()

@@ -4,7 +4,7 @@ The chain is read from the generated URDF (:mod:`hila_lang.robot.model`): the jo
 root link to the pen tip, with their fixed origins, axes and limits.  Forward kinematics and the
 geometric Jacobian are computed here from those joint frames and axes; PyBullet's
 ``calculateJacobian`` disagreed with finite differences on this model and its IK treats limits
-as soft (``DESIGN.md`` section 4), so neither is used.
+as soft (docs/design.md §5), so neither is used.
 
 Task: put the pen tip at a point and keep the pen vertical (its axis, +z of the tip frame,
 pointing down -z world); rotation about the pen axis is free.  That is 5 constraints for 10

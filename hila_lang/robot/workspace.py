@@ -1,4 +1,4 @@
-"""The robot's workplace: the table in front of the iCub (measured facts, DESIGN.md section 4).
+"""The robot's workplace: the table in front of the iCub (measured facts, docs/design.md §5).
 
 World frame: metres, z up, origin on the floor below the robot.  The iCub's root (waist) is
 fixed at (0, 0, 0.62) facing +x; its right side is -y.  The table top is at z = 0.57 with its
