@@ -267,3 +267,18 @@ def test_the_tictactoe_scene_maps_the_paper_to_its_picture():
         demonstrate.scene("world:letters", None)
     with pytest.raises(InputError, match="unknown world"):
         demonstrate.scene("world:nowhere", None)
+
+
+def test_an_uploaded_picture_is_a_sheet_of_its_size_and_a_broken_one_is_refused(tmp_path):
+    from hila_lang.core.fileio import write_png
+
+    write_png(tmp_path / "map.png", np.zeros((30, 40, 3), np.uint8))
+    doc = demonstrate.scene("upload:map.png", tmp_path)
+    assert (doc["width"], doc["height"]) == (40, 30) and doc["image"] == "/api/raw?path=map.png" and doc["z"] is None
+    assert np.allclose(np.array(doc["H"]) @ [0.0, 0.0, 1.0], [0.0, 30.0, 1.0])  # the plane's origin: bottom-left
+    (tmp_path / "bad.png").write_bytes(b"not a picture at all")
+    with pytest.raises(InputError, match="unreadable uploaded image") as info:
+        demonstrate.scene("upload:bad.png", tmp_path)
+    assert info.value.file == str(tmp_path / "bad.png")
+    with pytest.raises(InputError, match="goes up a folder"):
+        demonstrate.scene("upload:../map.png", tmp_path)

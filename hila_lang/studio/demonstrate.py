@@ -87,15 +87,9 @@ def scene(name: str, folder: Path) -> dict:
                     H=np.asarray(sc.H, float).tolist(), z=sc.z, lift=sc.lift,
                     features=[dict(name=n, point=list(p)) for n, p in sc.features])
     if name.startswith("upload:"):
-        import cv2
+        from ..core.images import read_picture
 
-        from ..core.fileio import read_bytes
-
-        path = inside(folder, name[len("upload:"):])
-        image = cv2.imdecode(np.frombuffer(read_bytes(path, "image file"), np.uint8), cv2.IMREAD_COLOR)
-        if image is None:
-            raise InputError(f"{name[7:]}: not a picture (expected a PNG or JPEG file)")
-        h, w = image.shape[:2]
+        h, w = read_picture(inside(folder, name[len("upload:"):]), "uploaded image").shape[:2]
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=w, height=h, H=_sheet_H(h).tolist(),
                     z=None, features=[], lift=None)
     raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
