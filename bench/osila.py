@@ -19,7 +19,7 @@ all 17 (2-D) / 29 (3-D) candidates (OSILA's default, 2 σ of the path's noise, w
 nothing on these clean paths).  Times are medians of interleaved repeats (a busy moment hits all
 alike); the load average is printed.  Not a test.
 
-    python bench/osila.py [--repeat 5] [--small-repeat 200] [--sizes 10,50,200,1000] [--threads 1] [--numpy]
+    python bench/osila.py [--repeat 5] [--small-repeat 200] [--sizes 10,50,200,1000] [--threads N|auto] [--numpy]
 """
 
 from __future__ import annotations
@@ -257,18 +257,25 @@ def main() -> None:
     ap.add_argument("--adjust-sizes", default="200,1000",
                     help="K values of the plan-adjustment comparison (bordered vs refactorised; '' skips it)")
     ap.add_argument("--numpy", action="store_true", help="also measure the small case with numpy only (HILA_JIT=0)")
-    ap.add_argument("--threads", type=int, default=1,
-                    help="BLAS threads for both sides (default 1: on a shared machine a threaded BLAS spins "
-                         "on small products and the times scatter; 0 = the library's default)")
+    ap.add_argument("--threads", default=None,
+                    help="BLAS threads for both sides: a number, or 'auto' for the libraries' default "
+                         "(default: hila's own policy, hila_lang.core.threads: one thread unless HILA_THREADS says otherwise)")
     args = ap.parse_args()
     from contextlib import nullcontext
 
-    import scipy.linalg  # noqa: F401 -- scipy's own BLAS, loaded before the limit so that it applies to it too
-    from threadpoolctl import threadpool_limits
+    import hila_lang  # noqa: F401 -- hila's thread policy, as every user of hila gets it
+    import scipy.linalg  # noqa: F401 -- scipy's own BLAS, loaded before any limit so that it applies to it too
+    from threadpoolctl import threadpool_info, threadpool_limits
 
-    print(f"machine: {os.cpu_count()} cores (shared); load average {os.getloadavg()[0]:.2f} at start; "
-          f"BLAS threads: {args.threads or 'default'}")
-    with threadpool_limits(args.threads) if args.threads else nullcontext():
+    from hila_lang.core.threads import parse
+
+    # 'auto' (parse: None) is a thread per core, whatever hila set
+    limits = nullcontext() if args.threads is None else threadpool_limits(parse(args.threads) or os.cpu_count())
+    with limits:
+        blas = sorted({i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"})
+        print(f"machine: {os.cpu_count()} cores (shared); load average {os.getloadavg()[0]:.2f} at start; "
+              f"BLAS threads: {','.join(map(str, blas))} "
+              f"({'hila default' if args.threads is None else '--threads ' + args.threads})")
         scaling([int(k) for k in args.sizes.split(",")], [int(t) for t in args.stamps.split(",")], args.repeat)
         adjustment([int(k) for k in args.adjust_sizes.split(",") if k], args.repeat)
         small(args.small_repeat, "imitate")

@@ -93,8 +93,12 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "_run", None) is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    from .core import threads
     from .core.interrupts import exit_code, handle_termination
 
+    if threads.problem():  # HILA_THREADS is read when hila is imported; a bad value is bad input
+        print(f"hila: error: {threads.problem()}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     handle_termination()  # SIGTERM and SIGHUP stop a run as Ctrl-C does (exit 143, 129)
     for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii: escapes, not UnicodeEncodeError
         if "utf" not in (getattr(stream, "encoding", None) or "utf").lower() and hasattr(stream, "reconfigure"):
