@@ -51,6 +51,7 @@ def installed(tmp_path_factory):
     return site, elsewhere, hila
 
 
+@pytest.mark.slow
 def test_the_package_carries_its_templates_programs_and_grammar(installed):
     site, _, _ = installed
     package = site / "hila_lang"
