@@ -61,6 +61,7 @@ def test_the_package_carries_its_templates_programs_and_grammar(installed):
     assert len(list((package / "primitives" / "letters").glob("*.yaml"))) == 26
 
 
+@pytest.mark.slow
 def test_the_shipped_game_runs_from_any_folder(installed):
     site, elsewhere, hila = installed
     out = hila("exec", "game.hila", "--backend", "dry", "--quiet", "--out", "g")

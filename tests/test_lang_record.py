@@ -45,6 +45,7 @@ def test_a_recorded_game_verifies_with_no_difference(game):
     assert proc.stdout.splitlines() == [f"no difference: {len(record['steps'])} steps verified (tolerance 0.001 mm)"]
 
 
+@pytest.mark.slow
 def test_the_recording_holds_the_run(game):
     record = read_record(game)
     assert record["hila_record"] == 1 and record["command"]["backend"] == "pybullet"

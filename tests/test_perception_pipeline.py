@@ -59,6 +59,7 @@ def test_recording_layout_and_atomicity(recording):
         record_demonstration(recording, frames=2)
 
 
+@pytest.mark.slow
 def test_calibration_reprojection_error_and_intrinsics(learned, recording):
     truth = load_yaml(recording / "truth.yaml")
     K = np.array(truth["K"])
