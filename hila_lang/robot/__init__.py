@@ -20,7 +20,7 @@ points ``hila.backends``).  Importing this package imports nothing heavy; pybull
 ``backend``.
 """
 
-from ..plugins.registry import BackendInfo
+from ..plugins.registry import BackendInfo, RobotInfo
 from ..plugins.settings import Setting, number, point
 
 #: the iCub arm's kinematic reach bound (:mod:`hila_lang.robot.reach`; kept here as numbers so
@@ -47,3 +47,10 @@ PYBULLET = BackendInfo(
                       flag="--speed"),),
     reach=REACH,
 )
+
+ICUB = RobotInfo(name="icub", factory="hila_lang.robot.model:spec",
+                 doc="the iCub: torso + right arm (10 joints), eyes in its head (the default)")
+PANDA = RobotInfo(name="panda", factory="hila_lang.robot.spec:panda",
+                  doc="Franka Emika Panda (7 joints, pybullet_data), a stereo rig on a stand")
+KUKA = RobotInfo(name="kuka", factory="hila_lang.robot.spec:kuka",
+                 doc="KUKA LBR iiwa (7 joints, pybullet_data), a stereo rig on a stand")
