@@ -15,11 +15,16 @@
   has no joints: :meth:`RigEyes.chain` is a fixed chain and ``joints`` is empty, and
   :meth:`RigEyes.look_at` cannot turn it (it only says how far off the point is).
 
-Where a rig stands by default (:data:`DEFAULT_RIG_OFFSET`): across the table from the robot,
-0.36 m beyond the sheet's centre and 0.34 m above it, looking down at it about 43 degrees from
-the horizontal, 0.5 m away (the iCub's eyes see the sheet from 0.4 m, 50 degrees): the arm
-reaches in from the other side, so it hides the board only under the hand.  The stand (a grey
-pole and bar) is drawn behind the cameras, out of their view.
+Where a rig stands by default (:data:`DEFAULT_RIG_OFFSET`): on the robot's side of the table and
+to its left, 0.25 m behind the sheet's centre, 0.30 m to its left and 0.50 m above it, looking
+down at it 52 degrees from the horizontal from 0.63 m (the iCub's eyes see the sheet from 0.4 m,
+50 degrees), with a 0.10 m baseline.  Measured on the game's board with the Panda and the KUKA
+(the pen ready above the sheet's centre, and taken aside): from there both cameras read the
+whole grid in all 8 images; from across the table (the sheet's centre + (0.26, 0, 0.44)) the
+bright floor beyond the table's front edge was taken for the paper and 4 of 8 images found no
+grid; from (-0.20, 0.25, 0.50) the arm hid one cell in one of 8.  The arm comes in from the
+robot's base, so it hides the board only near the hand.  The stand (a grey pole and bar) is
+drawn behind the cameras, out of their view.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from . import ik
 from .lens import EYE_HEIGHT, EYE_WIDTH, eye_calibration, pair_calibration, true_lens
 
 #: a rig's left camera relative to the sheet's centre when the spec does not place it, metres
-DEFAULT_RIG_OFFSET = np.array([0.36, 0.0, 0.34])
+DEFAULT_RIG_OFFSET = np.array([-0.25, 0.30, 0.50])
 #: the pen's radius in the body outline, metres (a little wider than the pen)
 PEN_OUTLINE = 0.01
 STAND_RGBA = (0.35, 0.35, 0.38, 1.0)
