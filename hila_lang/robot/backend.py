@@ -183,6 +183,9 @@ class PyBulletBackend:
                 pos = [center[0] + dx * (depth / 2 - 0.04), center[1] + dy * (width / 2 - 0.04), leg_h / 2]
                 self.sim.add_box([0.02, 0.02, leg_h / 2], pos, [0.35, 0.25, 0.15, 1])
         self.sim.add_box([2, 2, 0.005], [0, 0, -0.005], [0.75, 0.75, 0.78, 1])
+        base = self.robot.base_position
+        if self.robot.pedestal and base[2] > 0.02:  # an arm on a stand: a grey column under its base
+            self.sim.add_box([0.09, 0.09, base[2] / 2], [base[0], base[1], base[2] / 2], [0.42, 0.42, 0.45, 1])
 
     # -- Backend --------------------------------------------------------------------------------
     def hand_position(self) -> np.ndarray:

@@ -267,8 +267,8 @@ def spec():
         comfort={n: (lo, hi) for n, lo, hi in zip(TORSO_JOINTS, *TORSO_COMFORT)},
         forces=dict(FORCE_LIMITS), hold_force=HOLD_FORCE,
         table_prior=ROOT_POSITION[2] - TABLE_PRIOR_BELOW_ROOT, eyes="head",
-        outline_radius=0.045, source="hila_lang/robot/model.py",
-        generator="hila_lang.robot.model:urdf_path", pen_tip_link=PEN_TIP_LINK, declared_reach=REACH)
+        outline_radius=0.045, pedestal=False, source="hila_lang/robot/model.py",
+        generator=urdf_path, pen_tip_link=PEN_TIP_LINK, declared_reach=REACH)
 
 
 @lru_cache(maxsize=None)

@@ -15,7 +15,7 @@
   has no joints: :meth:`RigEyes.chain` is a fixed chain and ``joints`` is empty, and
   :meth:`RigEyes.look_at` cannot turn it (it only says how far off the point is).
 
-Where a rig stands by default (:data:`DEFAULT_RIG_OFFSET`): on the robot's side of the table and
+Where a rig stands by default (:data:`hila_lang.robot.spec.RIG_OFFSET`): on the robot's side of the table and
 to its left, 0.25 m behind the sheet's centre, 0.30 m to its left and 0.50 m above it, looking
 down at it 52 degrees from the horizontal from 0.63 m (the iCub's eyes see the sheet from 0.4 m,
 50 degrees), with a 0.10 m baseline.  Measured on the game's board with the Panda and the KUKA
@@ -37,8 +37,6 @@ from ..sim.scene import check_point
 from . import ik
 from .lens import EYE_HEIGHT, EYE_WIDTH, eye_calibration, pair_calibration, true_lens
 
-#: a rig's left camera relative to the sheet's centre when the spec does not place it, metres
-DEFAULT_RIG_OFFSET = np.array([-0.25, 0.30, 0.50])
 #: the pen's radius in the body outline, metres (a little wider than the pen)
 PEN_OUTLINE = 0.01
 STAND_RGBA = (0.35, 0.35, 0.38, 1.0)
@@ -52,6 +50,20 @@ def rig_poses(rig) -> dict[str, np.ndarray]:
     right = left.copy()
     right[:3, 3] = left[:3, 3] + rig.baseline * left[:3, 0]
     return {"left": left, "right": right}
+
+
+def watching_poses(robot, target) -> dict[str, np.ndarray]:
+    """``{"left", "right"} -> world_T_camera`` (4, 4) of ``robot``'s eyes (a
+    :class:`~.spec.RobotSpec`) while it watches a demonstration at ``target`` (3,), without a
+    simulator: the iCub's head aims its gaze there (:func:`.eyes.eye_poses_looking_at`); a rig's
+    cameras stay where they stand."""
+    if robot.eyes == "head":
+        from .eyes import eye_poses_looking_at
+
+        return eye_poses_looking_at(target)
+    if robot.eyes is None:
+        raise InputError(f"robot {robot.name!r} has no eyes to watch a demonstration with")
+    return rig_poses(robot.eyes)
 
 
 def _fixed_chain(world_T_camera: np.ndarray) -> ik.KinematicChain:

@@ -62,6 +62,9 @@ BASE_REACH_SHARE = 0.5
 BASE_DISTANCE = (0.30, 0.60)
 #: a bare URDF's pen length, metres (as the iCub's)
 DEFAULT_PEN = 0.10
+#: a rig's left camera relative to the sheet's centre when the spec does not place it, metres
+#: (why there: :mod:`.rig`)
+RIG_OFFSET = np.array([-0.25, 0.30, 0.50])
 
 
 @dataclass(frozen=True)
@@ -102,10 +105,12 @@ class RobotSpec:
     eyes: Any = None
     packages: tuple[str, ...] = ()
     outline_radius: float = 0.06
+    #: the base stands on a pedestal from the floor (drawn; the iCub stands on its legs)
+    pedestal: bool = True
     source: str = ""
-    #: the iCub's own: its generated model ("module:callable" -> Path), its pen tip's link and its
+    #: the iCub's own: its generated model (a callable -> Path), its pen tip's link and its
     #: declared reach ((x, y, z), radius); None for a robot made from its URDF
-    generator: str | None = None
+    generator: Any = None
     pen_tip_link: str | None = None
     declared_reach: tuple | None = None
 
@@ -127,9 +132,7 @@ class RobotSpec:
     def urdf_path(self) -> Path:
         """The URDF file PyBullet loads (made ready once and cached, :mod:`.urdf`)."""
         if self.generator is not None:
-            from ..plugins.registry import _import
-
-            return _import(self.generator)()
+            return self.generator()
         from .urdf import prepare
 
         return prepare(self)
@@ -203,20 +206,6 @@ class RobotSpec:
         if self.declared_reach is not None:
             return self.declared_reach
         return chain_reach(self.chain())
-
-    def watching_poses(self, target) -> dict[str, np.ndarray]:
-        """``{"left", "right"} -> world_T_camera`` (4, 4) of the robot's eyes while it watches a
-        demonstration at ``target`` (3,), without a simulator: the iCub's head aims its gaze
-        there (:func:`.eyes.eye_poses_looking_at`); a rig's cameras stay where they stand."""
-        if self.eyes == "head":
-            from .eyes import eye_poses_looking_at
-
-            return eye_poses_looking_at(target)
-        if self.eyes is None:
-            raise InputError(f"robot {self.name!r} has no eyes to watch a demonstration with")
-        from .rig import rig_poses
-
-        return rig_poses(self.eyes)
 
     def default_surface(self):
         """The sheet a world that says nothing gets (:func:`.workspace.default_surface`)."""
@@ -315,7 +304,7 @@ def spec_from_mapping(data: dict, *, base: Path, source: str, overrides: dict | 
         raise InputError("the robot spec names no urdf", file=source or None)
     urdf = _urdf_file(data["urdf"], base, source)
     overrides = dict(overrides or {})
-    from .urdf import read, root_link
+    from .urdf import read, resolve_meshes, root_link
 
     robot, _ = read(urdf)
     base_link = str(data.get("base_link") or root_link(robot, urdf))
@@ -351,6 +340,7 @@ def spec_from_mapping(data: dict, *, base: Path, source: str, overrides: dict | 
     eyes = data.get("eyes", "rig")
     spec = RobotSpec(**kwargs)
     spec = _apply_overrides(spec, overrides)
+    resolve_meshes(robot, urdf, spec.packages)  # a missing mesh is refused now, before anything runs
     if "position" not in where and "base" not in overrides:
         spec = replace(spec, base_position=_default_base(spec))
     spec = replace(spec, eyes=_eyes(eyes, spec, source))
@@ -386,9 +376,7 @@ def _eyes(value, spec: RobotSpec, source: str):
     if not isinstance(value, dict):
         raise InputError(f"eyes must be 'rig', 'none' or a mapping of position, look_at, baseline; got {value!r}",
                          file=source or None)
-    from .rig import DEFAULT_RIG_OFFSET
-
-    position = _numbers(value.get("position", centre + DEFAULT_RIG_OFFSET), 3, "eyes.position", source)
+    position = _numbers(value.get("position", centre + RIG_OFFSET), 3, "eyes.position", source)
     look = _numbers(value.get("look_at", centre), 3, "eyes.look_at", source)
     return RigSpec(position, look, float(value.get("baseline", 0.10)))
 
@@ -413,8 +401,8 @@ def _apply_overrides(spec: RobotSpec, overrides: dict) -> RobotSpec:
 
 
 def find_tip(robot, urdf: Path, base: str) -> str:
-    """A URDF's flange when none is named: the leaf link with the most movable joints above it
-    (fixed leaves after it, a tool frame, are skipped back to the last movable joint's child)."""
+    """A URDF's flange when none is named: the child of the movable joint with the most movable
+    joints above it, then on down a lone fixed joint at a time (a flange or tool frame)."""
     from .urdf import MOVABLE
 
     by_child = {j.find("child").get("link"): j for j in robot.findall("joint") if j.find("child") is not None}
@@ -428,7 +416,11 @@ def find_tip(robot, urdf: Path, base: str) -> str:
             best, count = link, n
     if best is None:
         raise InputError("the URDF has no movable joint", file=str(urdf))
-    return best
+    while True:  # on to the flange frame: a single fixed joint below
+        below = [j for j in robot.findall("joint") if j.find("parent") is not None and j.find("parent").get("link") == best]
+        if len(below) != 1 or below[0].get("type") != "fixed":
+            return best
+        best = below[0].find("child").get("link")
 
 
 def _default_base(spec: RobotSpec) -> tuple[float, float, float]:

@@ -168,7 +168,9 @@ def resolve_mesh(name: str, urdf: Path, folders) -> Path | None:
     return candidate.resolve() if candidate.is_file() else None
 
 
-def _resolve_meshes(robot: ET.Element, urdf: Path, packages) -> None:
+def resolve_meshes(robot: ET.Element, urdf: Path, packages) -> None:
+    """Point every mesh of ``robot`` (the URDF's root element) at its file (:func:`resolve_mesh`);
+    the first one found nowhere is an InputError naming it, its link and where it was looked for."""
     folders = search_path(urdf, packages)
     for link in robot.findall("link"):
         for mesh in link.iter("mesh"):
@@ -247,7 +249,7 @@ def prepared_text(spec) -> str:
     for element in list(robot):
         if element.tag not in ("link", "joint", "material"):
             robot.remove(element)
-    _resolve_meshes(robot, spec.urdf, spec.packages)
+    resolve_meshes(robot, spec.urdf, spec.packages)
     _freeze(robot, {j.get("name") for j in joints if j.get("type") in MOVABLE}, dict(spec.frozen))
     for link in robot.findall("link"):
         for collision in link.findall("collision"):

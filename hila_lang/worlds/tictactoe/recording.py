@@ -113,13 +113,14 @@ def demonstration_rig(spec: Grid | None = None, robot=None):
     default the iCub): the iCub's gaze aimed at the demonstration grid's centre, each eye placed
     by its joint angles through its kinematic chain (:func:`hila_lang.robot.eyes.eye_poses_looking_at`,
     the function that places the game's eyes); a stereo rig's cameras where they stand
-    (:meth:`~hila_lang.robot.spec.RobotSpec.watching_poses`)."""
+    (:func:`hila_lang.robot.rig.watching_poses`)."""
     from ...perception.rig import rig
+    from ...robot.rig import watching_poses
     from ...robot.spec import resolve
 
     spec = spec or Grid.demonstration()
     robot = robot if robot is not None else resolve()
-    return rig(robot.watching_poses((spec.grid_center[0], spec.grid_center[1], spec.surface_z)))
+    return rig(watching_poses(robot, (spec.grid_center[0], spec.grid_center[1], spec.surface_z)))
 
 
 def record_demonstration(out_dir, seed: int = 0, *, n_calibration: int = 40, n_stereo: int = 16,
