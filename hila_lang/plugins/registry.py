@@ -194,6 +194,8 @@ class BackendInfo:
         A ball (world frame, metres) that holds every point the back end's hand can reach, when
         it moves a robot's arm: ``hila check`` refuses a target bound outside it, at the
         statement that binds it (:mod:`hila_lang.language.worldcheck`).  None: no such bound.
+        The iCub's; a run that names its robot (``--robot``) is checked against that robot's
+        reach instead (:meth:`hila_lang.robot.spec.RobotSpec.reach`).
     """
 
     name: str

@@ -88,8 +88,9 @@ def settings_help() -> str:
                 lines.append("    (no settings)")
     from ..plugins.options import OSILA_SETTABLE  # not hila_lang.osila: 'hila --help' imports no numpy
 
-    lines.append("  the robot (--robot NAME|PATH): robot.tip=LINK (the flange), robot.packages=DIR[:DIR] "
-                 "(package:// meshes), robot.base=X,Y,Z, robot.pen=METRES")
+    lines.extend(textwrap.wrap("the robot (--robot NAME|PATH): robot.tip=LINK (the flange), robot.packages=DIR[:DIR] "
+                               "(package:// meshes), robot.base=X,Y,Z, robot.pen=METRES (docs/robots.md)",
+                               96, initial_indent="  ", subsequent_indent="    "))
     settable = ", ".join(f"osila.{name}" for name in OSILA_SETTABLE)
     lines.extend(textwrap.wrap(f"OSILA: {settable} (see 'hila imitate --help')",
                                96, initial_indent="  ", subsequent_indent="    "))
