@@ -152,6 +152,8 @@ def test_malformed_urdf_unknown_robot_and_missing_file_are_bad_input(tmp_path, c
     assert code == 2 and "unknown robot 'pandaa'" in err and "did you mean 'panda'" in err
     code, _, err = run_cli(capsys, "check", ROOT / "programs" / "reach_return.hila", "--robot", tmp_path / "no.urdf")
     assert code == 2 and "no such URDF file" in err
+    code, _, err = run_cli(capsys, "check", ROOT / "programs" / "reach_return.hila", "--robot", "")
+    assert code == 2 and "--robot needs a robot's name" in err
     code, _, err = run_cli(capsys, "check", ROOT / "programs" / "reach_return.hila", "--robot", "panda",
                            "--set", "robot.tip=panda_link3")  # 3 joints: no pen held vertical over the sheet
     assert code == 2 and "robot 'panda' cannot hold its pen vertical 0.10 m above the sheet's centre" in err

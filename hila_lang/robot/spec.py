@@ -494,6 +494,8 @@ def resolve(robot: str | None = None, settings: dict[str, str] | None = None) ->
     ``--set robot.KEY=VALUE`` of ``settings``: a registered name, a ``.yaml`` spec file or a
     bare ``.urdf``.  Anything else is an InputError naming the known robots."""
     overrides = robot_settings(settings or {})
+    if robot is not None and not str(robot).strip():  # --robot "$UNSET": not silently the iCub
+        raise InputError("--robot needs a robot's name or the path of a spec file or URDF, got an empty value")
     name = robot or DEFAULT_ROBOT
     from ..plugins import registry
 
