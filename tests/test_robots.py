@@ -311,3 +311,21 @@ def test_a_spec_file_names_the_urdf_relative_to_itself(tmp_path, capsys):
     code, out, err = run_cli(capsys, "exec", ROOT / "programs" / "reach_return.hila", "--robot", spec)
     assert code == 0, err  # the dry back end, with the arm's own reach
     assert S.resolve(str(spec)).pen_length == 0.12
+
+
+def test_the_studio_run_page_runs_and_shows_the_chosen_robot():
+    """The Run page's robot choice reaches the run: the back end moves the Panda and the 3-D view
+    (rendered by the simulator holding that arm) is not the iCub's."""
+    pytest.importorskip("starlette")
+    from hila_lang.studio.session import RunSession
+
+    views = {}
+    for robot in ("panda", None):
+        session = RunSession(ROOT / "programs" / "reach_return.hila", lambda message: None, backend="pybullet",
+                             robot=robot)
+        try:
+            assert session.interp.backend.robot.name == (robot or "icub")
+            views[robot] = session.robot  # the 3-D view, a PNG data URL
+        finally:
+            session.close()
+    assert views["panda"] and views[None] and views["panda"] != views[None]

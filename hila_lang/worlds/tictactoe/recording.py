@@ -81,8 +81,9 @@ class DemonstrationScene:
         self.sim = SimScene(style=STUDIO)
         s = self.spec
         self.paper = self.marker = None
-        if table:
-            half = (0.6, 0.6, 0.02)
+        if table:  # 3 m square: a stereo rig on a stand sees table around the sheet, not the sky
+            # (the iCub's eyes see the same pixels as with the 1.2 m table it was first given)
+            half = (1.5, 1.5, 0.02)
             top = s.surface_z - 0.001
             self.sim.add_box(half, (s.grid_center[0] + 0.15, s.grid_center[1], top - half[2]), TABLE_RGBA)
         if paper:
