@@ -19,7 +19,8 @@
 
 The robot knows a neutral drawing surface (:class:`hila_lang.sim.surface.Surface`): what is
 printed on it is a world's business.  ``DRY`` and ``PYBULLET`` declare the two back ends (entry
-points ``hila.backends``); ``ICUB``, ``PANDA`` and ``KUKA`` the shipped robots (``hila.robots``).  Importing this package imports nothing heavy; pybullet is loaded by
+points ``hila.backends``); ``ICUB``, ``PANDA`` and ``KUKA`` the shipped robots
+(``hila.robots``).  Importing this package imports nothing heavy; pybullet is loaded by
 ``backend``.
 """
 

@@ -3,8 +3,8 @@
 :meth:`Arm.move` prefixes the path with the current pen-tip position, densifies it to waypoints
 at most 2 mm apart, and solves every waypoint by IK (:mod:`.ik`), warm-started from the
 previous one, over the arm's chain within *comfort limits* (a margin inside the URDF limits,
-and the spec's comfort ranges: the iCub's torso kept near upright).  Only when every waypoint is solved does the arm move: joint
-targets are interpolated along the path's arc length with a trapezoidal speed profile (drawing
+and the spec's comfort ranges: the iCub's torso kept near upright).  Only when every waypoint
+is solved does the arm move: joint targets are interpolated along the path's arc length with a trapezoidal speed profile (drawing
 5 cm/s with the pen down, 15 cm/s with it up), sent to PyBullet's position controllers with
 realistic force limits at 240 Hz, with the matching joint velocities as feed forward.  The pen
 tip is recorded every step and joint limits are checked every step.  A target more than 2 mm

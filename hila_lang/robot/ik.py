@@ -9,8 +9,8 @@ as soft (``DESIGN.md`` section 4), so neither is used.
 
 Task: put the pen tip at a point and keep the pen vertical (its axis, +z of the tip frame,
 pointing down -z world); rotation about the pen axis is free.  That is 5 constraints for 10
-joints (the iCub's torso + right arm; the Panda's and KUKA's 7).  Each iteration takes a damped least-squares step ``dq = J^T (J J^T + l^2 I)^-1 e``
-(damping ``l`` = 0.01, step at most 0.3 rad), clamps to the joint limits and drops joints that
+joints (the iCub's torso + right arm; the Panda's and KUKA's 7).  Each iteration takes a
+damped least-squares step ``dq = J^T (J J^T + l^2 I)^-1 e`` (damping ``l`` = 0.01, step at most 0.3 rad), clamps to the joint limits and drops joints that
 sit at a limit and are pushed further out.
 
 Frames and units: world frame, metres, radians.  ``q`` is ordered as the chain (root to tip).

@@ -142,8 +142,8 @@ def eyes_calibration():
 @lru_cache(maxsize=None)
 def pair_calibration(left_T_right: tuple, who: str = "a stereo rig"):
     """The robot's calibration of an eye pair whose right eye is at ``left_T_right`` (4x4 nested
-    tuples: truth, to render the sessions; the lenses are the eyes' lens model) (:class:`~hila_lang.perception.calibration.StereoCalibration`:
-    ``right_T_left``), from a card both eyes see (:func:`~hila_lang.perception.calibration.stereo_views`,
+    tuples: truth, to render the sessions; the lenses are the eyes' lens model), a
+    :class:`~hila_lang.perception.calibration.StereoCalibration` (``right_T_left``), from a card both eyes see (:func:`~hila_lang.perception.calibration.stereo_views`,
     :func:`~hila_lang.perception.calibration.calibrate_stereo` with each eye's own calibration);
     cached like :func:`eye_calibration`.  Triangulating with it keeps the two eyes' rays
     consistent with their calibrated intrinsics (a principal point 0.1 px off moves a depth at
