@@ -159,6 +159,7 @@ class RunSession(_Session):
                     steps=it.trace.total, waiting=self.stdin.waiting,
                     board=None if board is None else [str(c) for c in board],
                     path=None if path is None else path.tolist(), eye=self.last_eye, robot=self.robot,
+                    arm=getattr(getattr(it.backend, "robot", None), "name", None),  # the robot that runs
                     breakpoints=list(self.repl.breakpoints) if self.repl else [])
 
     def move(self, cell: int) -> None:
