@@ -329,3 +329,26 @@ def test_the_studio_run_page_runs_and_shows_the_chosen_robot():
         finally:
             session.close()
     assert views["panda"] and views[None] and views["panda"] != views[None]
+
+
+def test_a_demonstration_is_learned_through_the_rig(tmp_path):
+    """``hila learn --from-sim --robot panda``: the demonstration recorded through the rig's
+    cameras where they stand, learned by perception as for the iCub (a short recording, as
+    ``tests/test_perception_pipeline.py`` makes for the iCub)."""
+    from hila_lang.core.fileio import load_yaml
+    from hila_lang.perception.learn import template_from_frames
+    from hila_lang.robot.rig import rig_poses
+    from hila_lang.worlds.tictactoe.board import Grid
+    from hila_lang.worlds.tictactoe.recording import demonstration_rig, record_demonstration
+    from hila_lang.worlds.tictactoe.vision import demonstration_icps
+
+    panda = S.resolve("panda")
+    rig = demonstration_rig(Grid.demonstration(), panda)
+    assert np.allclose(rig.left.world_T_camera, rig_poses(panda.eyes)["left"])  # the rig does not turn
+    out = tmp_path / "rec"
+    record_demonstration(out, seed=0, n_calibration=16, n_stereo=8, frames=40, robot=panda)
+    template = template_from_frames(out, read_icps=demonstration_icps)
+    truth = load_yaml(out / "truth.yaml")
+    for name in ("tl", "tr", "br", "bl"):
+        assert np.linalg.norm(template.icps[name] - truth["icps"][name]) < 2e-3, name
+    assert np.linalg.norm(template.icps["hand"] - truth["icps"]["hand"]) < 5e-3
