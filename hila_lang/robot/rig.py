@@ -21,8 +21,8 @@ down at it 52 degrees from the horizontal from 0.63 m (the iCub's eyes see the s
 50 degrees), with a 0.10 m baseline.  Measured on the game's board with the Panda and the KUKA
 (the pen ready above the sheet's centre, and taken aside): from there both cameras read the
 whole grid in all 8 images; from across the table (the sheet's centre + (0.26, 0, 0.44)) the
-bright floor beyond the table's front edge was taken for the paper and 4 of 8 images found no
-grid; from (-0.20, 0.25, 0.50) the arm hid one cell in one of 8.  The arm comes in from the
+bright floor beyond the table's front edge was taken for the paper in 2 of the Panda's 4 images;
+from (-0.20, 0.25, 0.50) the arm hid one cell in one of each arm's 4.  The arm comes in from the
 robot's base, so it hides the board only near the hand.  The stand (a grey pole and bar) is
 drawn behind the cameras, out of their view.
 """
