@@ -107,7 +107,7 @@ def test_a_first_run_reads_the_shipped_calibration_when_nothing_is_cached(tmp_pa
         pair = lens.eyes_calibration()
     finally:
         lens.eye_calibration.cache_clear()
-        lens.eyes_calibration.cache_clear()
+        lens.pair_calibration.cache_clear()
     assert got.n_views >= 20 and pair.rms < 0.1
     assert not (tmp_path / "hila" / "lens").exists() or not any((tmp_path / "hila" / "lens").iterdir())
 

@@ -140,15 +140,19 @@ def _eye_name(eye: str, opencv: str | None = None) -> str:
     return f"eye_{eye}_{_key(opencv, eye=eye, seed=CALIBRATION_SEEDS[eye])}.yaml"
 
 
-def _pair_name(opencv: str | None = None) -> str:
-    key = _key(opencv, pairs=STEREO_PAIRS, seed=STEREO_SEED, head=np.round(eyes_in_head(), 6).tolist(),
+def _pair_name(opencv: str | None = None, head: np.ndarray | None = None) -> str:
+    """The file name of the calibration of the pair whose right eye is at ``head`` (default the
+    iCub's eyes in its head)."""
+    head = eyes_in_head() if head is None else head
+    key = _key(opencv, pairs=STEREO_PAIRS, seed=STEREO_SEED, head=np.round(head, 6).tolist(),
                left=CALIBRATION_SEEDS["left"], right=CALIBRATION_SEEDS["right"])
     return f"eyes_{key}.yaml"
 
 
 def names(opencv: str | None = None) -> list[str]:
-    """The file names of the three calibrations (each eye, the pair) for ``opencv``'s version
-    (default the one loaded): what :data:`SHIPPED` must hold to be used."""
+    """The file names of the three calibrations the iCub uses (each eye, its eye pair) for
+    ``opencv``'s version (default the one loaded): what :data:`SHIPPED` must hold to be used.
+    A stand rig's pair (another robot's eyes) is calibrated on first use and cached."""
     return [_eye_name("left", opencv), _eye_name("right", opencv), _pair_name(opencv)]
 
 
@@ -204,7 +208,7 @@ def pair_calibration(left_T_right: tuple, who: str = "a stereo rig"):
         dump_yaml(path, {"right_T_left": stereo.right_T_left.tolist(), "rms_px": stereo.rms, "n_pairs": stereo.n_pairs},
                   header=f"{who} calibrated from simulated chessboard pairs (hila_lang.robot.lens)")
 
-    return _cached(_pair_name(), load, make, save)
+    return _cached(_pair_name(head=head), load, make, save)
 
 
 #: what :data:`SHIPPED` was made with (the OpenCV version its names hash), beside the files
@@ -228,7 +232,7 @@ def ship(folder: str | Path | None = None) -> list[Path]:
         saved = SHIPPED, os.environ.get("HILA_CACHE_DIR")
         SHIPPED, os.environ["HILA_CACHE_DIR"] = Path(tmp) / "nothing-shipped", tmp
         eye_calibration.cache_clear()
-        eyes_calibration.cache_clear()
+        pair_calibration.cache_clear()
         try:
             wanted = names()
             eyes_calibration()  # and both eyes
@@ -239,7 +243,7 @@ def ship(folder: str | Path | None = None) -> list[Path]:
             else:
                 os.environ["HILA_CACHE_DIR"] = saved[1]
             eye_calibration.cache_clear()
-            eyes_calibration.cache_clear()
+            pair_calibration.cache_clear()
         target.mkdir(parents=True, exist_ok=True)
         for old in target.glob("*.yaml"):
             old.unlink()
