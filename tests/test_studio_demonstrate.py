@@ -84,133 +84,6 @@ def test_open_a_lasa_shape():
         demonstrate.open_source(None, "lasa", "Nope")
 
 
-#: a person's reach, circle and retract over cell 5 of the tic-tac-toe sheet, as pointer events
-#: with their own time stamps: hover in from the lower left, pause, pen down, one circle, pen up,
-#: pause, hover out to the upper right and off the canvas
-DRAW_JS = """
-async ({cell}) => {
-  const S = window.hilaStudio.demo, c = document.querySelector('[data-testid=demo-canvas]');
-  const box = c.getBoundingClientRect();
-  const { applyH } = await import('/static/common.js');
-  const px = (p) => applyH(S.H, p[0], p[1]);
-  const corners = ['tl','tr','br','bl'].map(k => S.scene.features.find(f => f.name === `cell${cell}.${k}`).point);
-  const cx = corners.reduce((a, p) => a + p[0], 0) / 4, cy = corners.reduce((a, p) => a + p[1], 0) / 4;
-  const r = 0.3 * Math.hypot(corners[0][0] - corners[1][0], corners[0][1] - corners[1][1]);
-  const sleep = (ms) => new Promise(res => setTimeout(res, ms));
-  const fire = (type, p, down) => { const [u, v] = px(p);
-    c.dispatchEvent(new PointerEvent(type, {bubbles: true, clientX: box.left + u, clientY: box.top + v, pointerId: 7,
-      pointerType: 'pen', isPrimary: true, buttons: down ? 1 : 0, pressure: down ? 0.6 : 0})); };
-  const smooth = (s) => s * s * (3 - 2 * s);
-  const leg = async (a, b, n, down) => { for (let i = 1; i <= n; i++) { const s = smooth(i / n);
-    fire('pointermove', [a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s], down); await sleep(16); } };
-  const start = [cx - 0.12, cy - 0.10], touch = [cx + r, cy], end = [cx + 0.10, cy + 0.12];
-  fire('pointermove', start, false); await sleep(16);
-  await leg(start, touch, 45, false);
-  for (let i = 0; i < 10; i++) { fire('pointermove', touch, false); await sleep(16); }
-  fire('pointerdown', touch, true); await sleep(16);
-  for (let i = 1; i <= 70; i++) { const a = 2 * Math.PI * smooth(i / 70);
-    fire('pointermove', [cx + r * Math.cos(a), cy + r * Math.sin(a)], true); await sleep(16); }
-  fire('pointerup', touch, false); await sleep(16);
-  for (let i = 0; i < 10; i++) { fire('pointermove', touch, false); await sleep(16); }
-  await leg(touch, end, 45, false);
-  c.dispatchEvent(new PointerEvent('pointerleave', {bubbles: false, pointerId: 7, pointerType: 'pen'}));
-  return [cx, cy, r];
-}
-"""
-
-
-
-def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
-    page.get_by_test_id("scene-select").select_option("world:tictactoe")
-    page.wait_for_function("window.hilaStudio.demo.scene.name === 'world:tictactoe' && window.hilaStudio.demo.image.complete")
-    page.evaluate(DRAW_JS, {"cell": 5})
-    page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.cuts.length === 2")
-    demo = page.evaluate("window.hilaStudio.demo")
-    path = np.array(demo["path"])
-    assert path.shape[1] == 3 and 60 < len(path) < 140
-    z = demo["scene"]["z"]
-    assert abs(path[:, 2].min() - z) < 1e-9 and path[0, 2] > z + 0.05 and path[-1, 2] > z + 0.05  # lifted while up
-    page.get_by_test_id("mode-icp").check()
-    feats = {f["name"]: f["point"] for f in demo["scene"]["features"]}
-
-    def px(p):
-        return plane_to_pixel(page, demo["H"], p)
-
-    for corner in ("tl", "tr", "br", "bl"):
-        page.get_by_test_id("icp-name").fill(corner)
-        u, v = px(feats[f"cell5.{corner}"])
-        click_at(page, "demo-canvas", u + 3, v - 2)  # near the crossing: it snaps
-    page.get_by_test_id("icp-name").fill("hand")
-    u, v = px(path[0])
-    click_at(page, "demo-canvas", u + 2, v + 2)  # near the path's start: it snaps
-    icps = page.evaluate("window.hilaStudio.demo.icps")
-    assert icps["tl"] == feats["cell5.tl"] and icps["hand"] == demo["path"][0]
-    page.get_by_test_id("rename-icp-tl").fill("corner")
-    page.get_by_test_id("rename-icp-tl").dispatch_event("change")
-    assert list(page.evaluate("window.hilaStudio.demo.icps")) == ["corner", "tr", "br", "bl", "hand"]  # order kept
-    page.get_by_test_id("rename-icp-corner").fill("tl")
-    page.get_by_test_id("rename-icp-corner").dispatch_event("change")
-    page.get_by_test_id("icp-name").fill("extra")
-    click_at(page, "demo-canvas", 20, 20)
-    page.get_by_test_id("remove-icp-extra").click()
-    assert list(page.evaluate("window.hilaStudio.demo.icps")) == ["tl", "tr", "br", "bl", "hand"]
-    page.get_by_test_id("template-name").fill("circle")
-    page.screenshot(path=tmp_path / "demonstrate.png")
-    page.get_by_test_id("save-template").click()
-    page.wait_for_function("window.hilaStudio.demo.saved !== undefined")
-    saved = page.evaluate("window.hilaStudio.demo.saved")
-    assert [s["tag"] for s in saved["segments"]] == ["reach", "draw", "retract"]
-    draw = saved["segments"][1]
-    assert abs(path[draw["start"]:draw["stop"], 2] - z).max() < 0.01  # the cut found pen contact
-    page.screenshot(path=tmp_path / "demonstrate-saved.png")
-
-    # the page's template is the file `hila learn` writes from the same points and ICPs
-    folder = studio.folder
-    r = subprocess.run([sys.executable, "-m", "hila_lang", "learn", str(folder / "circle.demo.csv"),
-                        "--icps", str(folder / "circle.icps.yaml"), "-k", "3", "--tags", "reach,draw,retract",
-                        "--contact", "draw", "--name", "circle", "-o", str(tmp_path / "learned.yaml")],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    assert (folder / "circle.yaml").read_text() == (tmp_path / "learned.yaml").read_text()
-
-    # game.hila in the folder imports the drawn circle (beside it) in place of circle.yaml
-    r = subprocess.run([sys.executable, "-m", "hila_lang", "exec", "game.hila", "--backend", "dry",
-                        "--opponent", "minimax", "--out", str(tmp_path / "game")],
-                       capture_output=True, text=True, cwd=folder, timeout=120)
-    assert r.returncode == 0, r.stderr + r.stdout
-    assert "result:" in r.stdout and "circle.draw" in r.stdout
-
-
-def test_open_a_template_move_a_cut_and_save(page, studio):
-    from hila_lang.osila.template import load_template
-
-    page.get_by_test_id("open-source").select_option("template:reach.yaml")
-    page.wait_for_function("window.hilaStudio.demo.speed && window.hilaStudio.demo.source")
-    original = load_template(studio.folder / "reach.yaml")
-    cuts = page.evaluate("window.hilaStudio.demo.cuts")
-    assert cuts == [s.start for s in original.segments[1:]]
-    assert page.get_by_test_id("segment-tags").input_value() == ",".join(s.tag for s in original.segments)
-    plot = page.get_by_test_id("speed-plot").bounding_box()
-    T = len(original.path)
-
-    def x(i):  # the page's own speed-plot geometry (demonstrate.js's speedX)
-        return plot["x"] + page.evaluate("async ([i, T, w]) => (await import('/static/demonstrate.js')).speedX(i, T, w)",
-                                         [i, T, plot["width"]])
-
-    page.mouse.move(x(cuts[0]), plot["y"] + 60)
-    page.mouse.down()
-    page.mouse.move(x(cuts[0] + 5), plot["y"] + 60)
-    page.mouse.up()
-    moved = page.evaluate("window.hilaStudio.demo.cuts")
-    assert moved[0] == cuts[0] + 5
-    page.get_by_test_id("template-name").fill("reach2")
-    page.get_by_test_id("save-template").click()
-    page.wait_for_function("window.hilaStudio.demo.saved && window.hilaStudio.demo.saved.template === 'reach2.yaml'")
-    saved = load_template(studio.folder / "reach2.yaml")
-    assert [s.start for s in saved.segments[1:]] == moved
-    assert np.allclose(saved.path, original.path) and saved.icps.keys() == original.icps.keys()
-
-
 def test_a_worlds_scene_comes_from_its_plug_in(monkeypatch):
     """The page offers a blank sheet and what each world's plug-in declares (``WorldInfo.studio``),
     by the world's name and its words; a made-up world's scene is served like tic-tac-toe's."""
@@ -282,3 +155,132 @@ def test_an_uploaded_picture_is_a_sheet_of_its_size_and_a_broken_one_is_refused(
     assert info.value.file == str(tmp_path / "bad.png")
     with pytest.raises(InputError, match="goes up a folder"):
         demonstrate.scene("upload:../map.png", tmp_path)
+
+
+#: a person's reach, circle and retract over cell 5 of the tic-tac-toe sheet, as pointer events
+#: with their own time stamps: hover in from the lower left, pause, pen down, one circle, pen up,
+#: pause, hover out to the upper right and off the canvas
+DRAW_JS = """
+async ({cell}) => {
+  const S = window.hilaStudio.demo, c = document.querySelector('[data-testid=demo-canvas]');
+  const box = c.getBoundingClientRect();
+  const { applyH } = await import('/static/common.js');
+  const px = (p) => applyH(S.H, p[0], p[1]);
+  const corners = ['tl','tr','br','bl'].map(k => S.scene.features.find(f => f.name === `cell${cell}.${k}`).point);
+  const cx = corners.reduce((a, p) => a + p[0], 0) / 4, cy = corners.reduce((a, p) => a + p[1], 0) / 4;
+  const r = 0.3 * Math.hypot(corners[0][0] - corners[1][0], corners[0][1] - corners[1][1]);
+  const sleep = (ms) => new Promise(res => setTimeout(res, ms));
+  const fire = (type, p, down) => { const [u, v] = px(p);
+    c.dispatchEvent(new PointerEvent(type, {bubbles: true, clientX: box.left + u, clientY: box.top + v, pointerId: 7,
+      pointerType: 'pen', isPrimary: true, buttons: down ? 1 : 0, pressure: down ? 0.6 : 0})); };
+  const smooth = (s) => s * s * (3 - 2 * s);
+  const leg = async (a, b, n, down) => { for (let i = 1; i <= n; i++) { const s = smooth(i / n);
+    fire('pointermove', [a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s], down); await sleep(16); } };
+  const start = [cx - 0.12, cy - 0.10], touch = [cx + r, cy], end = [cx + 0.10, cy + 0.12];
+  fire('pointermove', start, false); await sleep(16);
+  await leg(start, touch, 45, false);
+  for (let i = 0; i < 10; i++) { fire('pointermove', touch, false); await sleep(16); }
+  fire('pointerdown', touch, true); await sleep(16);
+  for (let i = 1; i <= 70; i++) { const a = 2 * Math.PI * smooth(i / 70);
+    fire('pointermove', [cx + r * Math.cos(a), cy + r * Math.sin(a)], true); await sleep(16); }
+  fire('pointerup', touch, false); await sleep(16);
+  for (let i = 0; i < 10; i++) { fire('pointermove', touch, false); await sleep(16); }
+  await leg(touch, end, 45, false);
+  c.dispatchEvent(new PointerEvent('pointerleave', {bubbles: false, pointerId: 7, pointerType: 'pen'}));
+  return [cx, cy, r];
+}
+"""
+
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_draw_save_equals_hila_learn_and_plays_the_game(page, studio, tmp_path):
+    page.get_by_test_id("scene-select").select_option("world:tictactoe")
+    page.wait_for_function("window.hilaStudio.demo.scene.name === 'world:tictactoe' && window.hilaStudio.demo.image.complete")
+    page.evaluate(DRAW_JS, {"cell": 5})
+    page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.cuts.length === 2")
+    demo = page.evaluate("window.hilaStudio.demo")
+    path = np.array(demo["path"])
+    assert path.shape[1] == 3 and 60 < len(path) < 140
+    z = demo["scene"]["z"]
+    assert abs(path[:, 2].min() - z) < 1e-9 and path[0, 2] > z + 0.05 and path[-1, 2] > z + 0.05  # lifted while up
+    page.get_by_test_id("mode-icp").check()
+    feats = {f["name"]: f["point"] for f in demo["scene"]["features"]}
+
+    def px(p):
+        return plane_to_pixel(page, demo["H"], p)
+
+    for corner in ("tl", "tr", "br", "bl"):
+        page.get_by_test_id("icp-name").fill(corner)
+        u, v = px(feats[f"cell5.{corner}"])
+        click_at(page, "demo-canvas", u + 3, v - 2)  # near the crossing: it snaps
+    page.get_by_test_id("icp-name").fill("hand")
+    u, v = px(path[0])
+    click_at(page, "demo-canvas", u + 2, v + 2)  # near the path's start: it snaps
+    icps = page.evaluate("window.hilaStudio.demo.icps")
+    assert icps["tl"] == feats["cell5.tl"] and icps["hand"] == demo["path"][0]
+    page.get_by_test_id("rename-icp-tl").fill("corner")
+    page.get_by_test_id("rename-icp-tl").dispatch_event("change")
+    assert list(page.evaluate("window.hilaStudio.demo.icps")) == ["corner", "tr", "br", "bl", "hand"]  # order kept
+    page.get_by_test_id("rename-icp-corner").fill("tl")
+    page.get_by_test_id("rename-icp-corner").dispatch_event("change")
+    page.get_by_test_id("icp-name").fill("extra")
+    click_at(page, "demo-canvas", 20, 20)
+    page.get_by_test_id("remove-icp-extra").click()
+    assert list(page.evaluate("window.hilaStudio.demo.icps")) == ["tl", "tr", "br", "bl", "hand"]
+    page.get_by_test_id("template-name").fill("circle")
+    page.screenshot(path=tmp_path / "demonstrate.png")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.demo.saved !== undefined")
+    saved = page.evaluate("window.hilaStudio.demo.saved")
+    assert [s["tag"] for s in saved["segments"]] == ["reach", "draw", "retract"]
+    draw = saved["segments"][1]
+    assert abs(path[draw["start"]:draw["stop"], 2] - z).max() < 0.01  # the cut found pen contact
+    page.screenshot(path=tmp_path / "demonstrate-saved.png")
+
+    # the page's template is the file `hila learn` writes from the same points and ICPs
+    folder = studio.folder
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "learn", str(folder / "circle.demo.csv"),
+                        "--icps", str(folder / "circle.icps.yaml"), "-k", "3", "--tags", "reach,draw,retract",
+                        "--contact", "draw", "--name", "circle", "-o", str(tmp_path / "learned.yaml")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (folder / "circle.yaml").read_text() == (tmp_path / "learned.yaml").read_text()
+
+    # game.hila in the folder imports the drawn circle (beside it) in place of circle.yaml
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "exec", "game.hila", "--backend", "dry",
+                        "--opponent", "minimax", "--out", str(tmp_path / "game")],
+                       capture_output=True, text=True, cwd=folder, timeout=120)
+    assert r.returncode == 0, r.stderr + r.stdout
+    assert "result:" in r.stdout and "circle.draw" in r.stdout
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_open_a_template_move_a_cut_and_save(page, studio):
+    from hila_lang.osila.template import load_template
+
+    page.get_by_test_id("open-source").select_option("template:reach.yaml")
+    page.wait_for_function("window.hilaStudio.demo.speed && window.hilaStudio.demo.source")
+    original = load_template(studio.folder / "reach.yaml")
+    cuts = page.evaluate("window.hilaStudio.demo.cuts")
+    assert cuts == [s.start for s in original.segments[1:]]
+    assert page.get_by_test_id("segment-tags").input_value() == ",".join(s.tag for s in original.segments)
+    plot = page.get_by_test_id("speed-plot").bounding_box()
+    T = len(original.path)
+
+    def x(i):  # the page's own speed-plot geometry (demonstrate.js's speedX)
+        return plot["x"] + page.evaluate("async ([i, T, w]) => (await import('/static/demonstrate.js')).speedX(i, T, w)",
+                                         [i, T, plot["width"]])
+
+    page.mouse.move(x(cuts[0]), plot["y"] + 60)
+    page.mouse.down()
+    page.mouse.move(x(cuts[0] + 5), plot["y"] + 60)
+    page.mouse.up()
+    moved = page.evaluate("window.hilaStudio.demo.cuts")
+    assert moved[0] == cuts[0] + 5
+    page.get_by_test_id("template-name").fill("reach2")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.demo.saved && window.hilaStudio.demo.saved.template === 'reach2.yaml'")
+    saved = load_template(studio.folder / "reach2.yaml")
+    assert [s.start for s in saved.segments[1:]] == moved
+    assert np.allclose(saved.path, original.path) and saved.icps.keys() == original.icps.keys()

@@ -39,6 +39,7 @@ def test_snippet_is_a_program_hila_check_accepts(tmp_path):
         imitate.imitate(tpl, {"icps": {"cup": [0, 0, 0]}})
 
 
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
 def test_drag_an_icp_and_read_osilas_new_path(page, studio, tmp_path):
     from hila_lang.hierarchy.step import hila_step
     from hila_lang.osila.template import load_template

@@ -96,6 +96,7 @@ async () => {
 
 
 
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
 def test_run_game_to_its_end_by_clicks(page, studio, tmp_path):
     page.get_by_test_id("tab-run").click()
     page.get_by_test_id("program-select").select_option("game.hila")
@@ -136,6 +137,7 @@ def test_run_game_to_its_end_by_clicks(page, studio, tmp_path):
     page.screenshot(path=tmp_path / "run-finished.png")
 
 
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
 def test_open_a_recording_and_scrub(page, studio, tmp_path):
     rec = studio.folder / "game.hilarec"
     r = subprocess.run([sys.executable, "-m", "hila_lang", "exec", "game.hila", "--backend", "dry", "--opponent", "minimax",
@@ -164,6 +166,24 @@ def test_open_a_recording_and_scrub(page, studio, tmp_path):
     page.screenshot(path=tmp_path / "recording.png")
 
 
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_the_robot_menu_runs_the_chosen_arm(page, studio, tmp_path):
+    """The Run page's robot choice (issue 33), listed from the registry, reaches the run: the Panda
+    moves, and the 3-D view shows it."""
+    page.get_by_test_id("tab-run").click()
+    assert page.get_by_test_id("robot-choice").input_value() == "icub"  # the default robot first
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.get_by_test_id("backend").select_option("pybullet")
+    page.get_by_test_id("robot-choice").select_option("panda")
+    page.get_by_test_id("opponent").select_option("minimax")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.robot && s.steps === 0 && s.arm === 'panda'", timeout=120000)
+    assert page.get_by_test_id("robot-view").get_attribute("src").startswith("data:image/png")
+    page.screenshot(path=tmp_path / "run-panda.png")
+    page.get_by_test_id("stop").click()
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
 def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
     page.get_by_test_id("tab-run").click()
     page.get_by_test_id("program-select").select_option("game.hila")
@@ -184,6 +204,7 @@ def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
     page.get_by_test_id("stop").click()
 
 
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
 def test_the_docs_walk_through_swipe_save_two_line_program_run(page, studio, tmp_path):
     page.on("dialog", lambda d: d.accept("mine.hila"))
     page.get_by_test_id("scene-select").select_option("world:tictactoe")

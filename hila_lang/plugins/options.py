@@ -1,12 +1,13 @@
 """What ``hila exec`` / ``hila repl`` pass to every world and back end, and how ``--set`` pairs
-are split among OSILA, the world and the back end and parsed -- before anything is built, by
+are split among OSILA, the robot, the world and the back end and parsed -- before anything is built, by
 ``hila check`` as by ``hila exec``: a bad value is exit status 2 naming the option.
 
 ``osila.KEY`` goes to :func:`hila_lang.osila.imitate`, read and checked by its declaration here
 (:data:`OSILA_OPTIONS`: a number in a range, a whole number, or a word such as ``auto``), the
 way a world's or a back end's setting is checked by its :class:`~hila_lang.plugins.settings.Setting`
--- OSILA is not run to validate a value; any other key goes to the world or the back end that
-declares it.
+-- OSILA is not run to validate a value; ``robot`` (``--robot NAME|PATH``) and ``robot.KEY`` name
+the robot (:func:`hila_lang.robot.spec.resolve` reads them); any other key goes to the world or
+the back end that declares it.
 """
 
 from __future__ import annotations
@@ -31,7 +32,11 @@ class RunOptions:
         Open a GUI window (PyBullet) instead of running headless.
     settings : dict[str, str]
         ``--set key=value`` pairs as typed; the runner splits them among OSILA (``osila.*``),
-        the world and the back end, and parses each with the owner's declaration.
+        the robot (``robot``, the value of ``--robot``, and ``robot.*``), the world and the back
+        end, and parses each with the owner's declaration.
+    robot : RobotSpec or None
+        The robot the run moves (:func:`hila_lang.robot.spec.resolve` of the ``robot``
+        settings, done by the runner); None: the iCub.
     stdin, stdout : text streams
         A human opponent and the REPL read the same ``stdin``, so piped input drives both.
     """
@@ -42,6 +47,7 @@ class RunOptions:
     settings: dict[str, str] = field(default_factory=dict)
     stdin: TextIO = field(default_factory=lambda: sys.stdin)
     stdout: TextIO = field(default_factory=lambda: sys.stdout)
+    robot: Any = None
 
 
 @dataclass(frozen=True)
@@ -202,7 +208,7 @@ def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict
     backend_keys = {s.name for s in backend.settings}
     mine: dict[str, dict[str, str]] = {"world": {}, "backend": {}}
     for key, text in settings.items():
-        if key.startswith("osila."):
+        if key.startswith(("osila.", "robot.")) or key == "robot":  # OSILA's; the robot's (hila_lang.robot.spec)
             continue
         if key in world_keys:
             mine["world"][key] = text

@@ -1,22 +1,19 @@
-"""The Run page: a program checked as it is typed, then run (or a recording replayed) and watched.
-
-``POST /api/check`` is ``hila lsp``'s analysis (:class:`hila_lang.lsp.analysis.Document`) plus
-what the program's world offers here (:class:`hila_lang.plugins.studio.StudioView`).  The
-websocket ``/ws/run`` holds one :class:`Session`, opened by ``{"cmd": "start", path, backend,
-settings, seed}`` (:class:`RunSession`: the run ``hila repl`` builds,
-:func:`hila_lang.session.runner.prepare`) or ``{"cmd": "open", path}`` (:class:`ReplaySession`: a
-``.hilarec`` under :class:`hila_lang.session.replay.ReplayEngine`), both under
-:class:`hila_lang.session.repl.Repl`.  Every other message is one of :data:`COMMANDS`, the same
-for both: the REPL's commands fed to ``Repl.onecmd`` in a worker thread, one at a time; ``stop``
-(a breakpoint on every state; a world waiting for a person quits), ``answer`` (a person's line to
-the world: a board's button), ``view`` (turn the 3-D view), ``scrub`` (a recording to step N).
-What a session cannot do it says.  After every step the page gets the state, the trace line, the
-world's board (its plug-in's), the left eye's image and the 3-D view (:mod:`hila_lang.session.view3d`)."""
+"""The Run page: a program checked as it is typed (``POST /api/check``: ``hila lsp``'s analysis and
+what the program's world offers here), run on a robot (``GET /api/robots``: the registry's) or a
+recording replayed, and watched.  The websocket ``/ws/run`` holds one :class:`Session`:
+``{"cmd": "start", path, backend, robot, settings, seed}`` opens a :class:`RunSession` (the run
+``hila repl`` builds, :func:`hila_lang.session.runner.prepare`), ``{"cmd": "open", path}`` a
+:class:`ReplaySession` (a ``.hilarec``); both under :class:`hila_lang.session.repl.Repl` and both
+answer :data:`COMMANDS`: the REPL's commands in a worker thread, one at a time, ``stop``, ``answer``
+(a person's line to the world: a board's button), ``view`` (turn the 3-D view), ``scrub``; what a
+session cannot do it says.  After each step the page gets the state, the trace line, the world's
+board (its plug-in's), the left eye's image and the 3-D view (:mod:`hila_lang.session.view3d`)."""
 
 from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import io
 import json
 import queue
@@ -36,10 +33,9 @@ from .page import JSONSocket, Page, read_json, studio_of
 
 
 def analyse(path: Path, text: str) -> dict:
-    """The program ``text`` (as if at ``path``: imports resolve beside it) for the page:
-    ``problems`` as ``hila lsp`` locates them (``{line, character, end_line, end_character,
-    message, severity}``, 0-based), ``settings`` its world declares, and what the world's studio
-    view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
+    """The program ``text`` (as if at ``path``) for the page: ``problems`` as ``hila lsp`` locates
+    them (0-based ``line``, ``character``, ...), the ``settings`` its world declares, and what the
+    world's studio view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
     from ..lsp.analysis import Document
 
     doc = Document(str(path))
@@ -99,10 +95,8 @@ def _png(rgb) -> str:
 
 
 class Session:
-    """What the Run page steps: a run or a recording under the REPL, one command at a time.
-
-    ``interp`` is the engine it steps; ``length`` the number of steps of a recording (None for a
-    run).  The base class is a recording's answers to what only a run does."""
+    """What the Run page steps under the REPL, one command at a time: ``interp`` is its engine,
+    ``length`` a recording's steps (None: a run); the base class answers as a recording does."""
 
     length: int | None = None
 
@@ -153,7 +147,7 @@ class RunSession(Session):
     """A program run on a back end, stepped by the page's buttons."""
 
     def __init__(self, program: Path, emit, *, backend: str | None = None, settings: dict | None = None,
-                 seed: int = 0) -> None:
+                 seed: int = 0, robot: str | None = None) -> None:
         from ..plugins import registry
         from ..plugins.options import RunOptions
         from ..session.repl import Repl
@@ -162,26 +156,25 @@ class RunSession(Session):
         super().__init__(emit)
         self.stdin, self.stdout = LineInput(lambda: self.emit(self.snapshot())), Output(emit)
         self._out = tempfile.TemporaryDirectory(prefix="hila-studio-")
-        options = RunOptions(seed=seed, out=Path(self._out.name), settings=dict(settings or {}), stdin=self.stdin,
-                             stdout=self.stdout)
-        self.interp = prepare(program, options, backend)
+        settings = dict(settings or {}, **({"robot": robot} if robot else {}))  # --robot NAME: the arm that runs
+        self.options = RunOptions(seed=seed, out=Path(self._out.name), settings=settings, stdin=self.stdin,
+                                  stdout=self.stdout)
+        self.interp = prepare(program, self.options, backend)
         view = registry.world(self.interp.checked.world).studio
         self._board = view.load("board") if view is not None and view.board else None
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
         self.interp.observers.append(self._observe)
-        self.last_eye: str | None = None  # the left eye's last image, base64 PNG
-        self.robot: str | None = None  # the 3-D view
+        self.last_eye = self.robot = None  # base64 PNGs: the left eye's last image, the 3-D view
         self.azimuth = 35.0
         self._view()
 
     def _observe(self, entry) -> None:
-        eyes = self.interp.backend.eyes
-        if eyes is not None and entry.kind == "run":
+        if entry.kind == "run":
+            eyes = self.interp.backend.eyes
             try:
-                self.last_eye = _png(eyes.camera_image("left").rgb)
+                self.last_eye = None if eyes is None else _png(eyes.camera_image("left").rgb)
             except Exception:  # noqa: BLE001 - no picture is not a failed step
                 self.last_eye = None
-        if entry.kind == "run":
             self._view(entry)
         self.emit(dict(self.snapshot(), type="step", entry=str(entry)))
 
@@ -206,7 +199,8 @@ class RunSession(Session):
     def details(self) -> dict:
         board = None if self._board is None else self._board(self.interp.world)
         return dict(waiting=self.stdin.waiting, board=None if board is None else board.to_json(), eye=self.last_eye,
-                    robot=self.robot, breakpoints=list(self.repl.breakpoints) if self.repl else [])
+                    robot=self.robot, arm=self.options.robot.name,  # the arm that runs
+                    breakpoints=list(self.repl.breakpoints) if self.repl else [])
 
     def answer(self, text: str) -> None:
         self.stdin.put(text)
@@ -227,11 +221,8 @@ class RunSession(Session):
 
         if self.stdin.waiting:
             self.stdin.put("q")
-        with self._lock:
-            try:
-                finish(self.interp)
-            except HilaError:
-                pass
+        with self._lock, contextlib.suppress(HilaError):
+            finish(self.interp)
         self._out.cleanup()
 
 
@@ -323,7 +314,7 @@ class RunSocket(JSONSocket):
         known = analyse(path, read_text(path, "program"))["settings"]
         settings = {str(k): str(v) for k, v in given.items() if k in known and v}
         return RunSession(path, self.emit, backend=doc.get("backend") or None, settings=settings,
-                          seed=int(doc.get("seed", 0)))
+                          seed=int(doc.get("seed", 0)), robot=str(doc.get("robot") or "") or None)
 
     async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:
         self.emit({"type": "error", "text": text})
@@ -338,6 +329,14 @@ class RunSocket(JSONSocket):
         await self._close()
 
 
+async def _robots(request: Request) -> Response:
+    from ..plugins import registry
+    from ..robot.spec import DEFAULT_ROBOT
+
+    robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first
+    return JSONResponse([dict(name=r.name, doc=r.doc) for r in robots])
+
+
 async def _check(request: Request) -> Response:
     doc = await read_json(request)
     path = studio_of(request).path(str(doc.get("path") or "untitled.hila"))
@@ -346,5 +345,6 @@ async def _check(request: Request) -> Response:
 
 PAGE = Page("run", "3 Run & watch", "run.js", routes=[
     Route("/api/check", _check, methods=["POST"]),
+    Route("/api/robots", _robots),
     WebSocketRoute("/ws/run", RunSocket),
 ])

@@ -8,6 +8,7 @@ export const html = `
     <label>Program <select id="program" data-testid="program-select"></select></label>
     <button id="program-save" data-testid="program-save">Save</button>
     <label>back end <select id="backend" data-testid="backend"><option value="dry">dry (fast)</option><option value="pybullet">PyBullet</option></select></label>
+    <label>robot <select id="robot-choice" data-testid="robot-choice"></select></label>
     <span id="world-settings"></span>
     <span class="sep"></span>
     <button id="btn-start" class="primary" data-testid="start">Start</button>
@@ -34,7 +35,7 @@ export const html = `
         <img id="eye" data-testid="eye" alt="" hidden>
         <canvas id="top-view" data-testid="top-view" width="220" height="220"></canvas>
       </div>
-      <div id="robot-box" hidden><img id="robot" data-testid="robot-view" alt="the iCub, rendered by PyBullet">
+      <div id="robot-box" hidden><img id="robot" data-testid="robot-view" alt="the robot, rendered by PyBullet">
         <br><label>turn the view <input type="range" id="azimuth" min="-180" max="180" value="35" data-testid="azimuth"></label>
         <span class="muted">planned path blue, executed orange</span></div>
       <pre id="trace" data-testid="trace"></pre>
@@ -158,11 +159,15 @@ export async function mount() {
     await refreshFiles(); $("program").value = p;
   });
   $("btn-start").addEventListener("click", () => { R.breaks.clear();
-    send({ cmd: "start", path: $("program").value, backend: $("backend").value, settings: worldSettings() }); });
+    send({ cmd: "start", path: $("program").value, backend: $("backend").value, robot: $("robot-choice").value,
+      settings: worldSettings() }); });
   for (const c of ["step", "run", "back", "reload", "stop"]) $("btn-" + c).addEventListener("click", () => send({ cmd: c }));
   $("recording").addEventListener("change", () => { if ($("recording").value) send({ cmd: "open", path: $("recording").value }); });
   $("azimuth").addEventListener("change", () => send({ cmd: "view", azimuth: +$("azimuth").value }));
   $("scrub").addEventListener("input", () => send({ cmd: "scrub", n: +$("scrub").value }));
+  const robots = await api("/api/robots");   // the robots a run may move (--robot), the default first
+  fill($("robot-choice"), robots.map((r) => [r.name, r.name]));
+  [...$("robot-choice").options].forEach((o, i) => { o.title = robots[i].doc; });
 }
 
 export async function files(list) {
