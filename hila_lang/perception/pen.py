@@ -9,7 +9,8 @@ shows: the markers, the ball, the tip on the paper, so a live page can draw them
 Per frame:
 
 1. *The sheet.*  OpenCV's ArUco detector finds the sheet's markers (corners refined
-   sub-pixel); their ids say which sheet it is.  With at least :data:`MIN_MARKERS` of the four
+   sub-pixel; a marker it missed is looked for again where the others put it,
+   ``refineDetectedMarkers``); their ids say which sheet it is.  With at least :data:`MIN_MARKERS` of the four
    in view the homography from the paper (mm) to the image is fitted to all their corners
    (least squares); with fewer the frame has no sheet.
 2. *The ball.*  The largest blob of the ball's colour, its coverage-weighted centroid
@@ -19,9 +20,11 @@ Over the recording (:meth:`PenTracker.finish`):
 
 3. *Gaps.*  Frames without the sheet, then frames without the ball, are bridged by cubic
    interpolation when a run is at most ``max_gap`` frames long and lies between two frames
-   that have them (:func:`hila_lang.perception.extraction.bridge`); a longer run, or one at the
-   start or end, is an error that names the frames and which was missing -- never guessed.
-   The bridged frames are listed in the track.
+   that have them (:func:`hila_lang.perception.extraction.bridge`); a longer run without the
+   sheet is bridged only when the sheet is seen at rest on both sides of it (a hand covered a
+   marker; the camera and the paper did not move: its corners within :data:`STILL_PX`).  Any
+   other long run, or one at the start or end, is an error that names the frames and which was
+   missing -- never guessed.  The bridged frames are listed in the track.
 4. *The camera.*  Its focal length from the homographies (principal point at the image centre,
    square pixels: a plane seen at an angle fixes f; Zhang's two constraints, least squares over
    the frames).  A sheet seen nearly face-on does not: then f comes from an assumed horizontal
@@ -59,6 +62,8 @@ from .sheet import DICTIONARY, SheetLayout, layout_for_ids
 
 #: markers needed in a frame for its homography: three of the four span the sheet
 MIN_MARKERS = 3
+#: a sheet whose corners moved less than this across frames where it was hidden was at rest, pixels
+STILL_PX = 1.0
 #: horizontal field of view assumed when the sheet is seen too face-on to measure the focal
 #: length, degrees (laptop webcams: about 55-75)
 DEFAULT_HFOV = 62.0
@@ -73,6 +78,10 @@ SNAP_S = 0.25
 SLOW_MM_S = 10.0
 #: the quantile of the size ratio taken as "on the paper" (module docstring, step 5)
 PAPER_QUANTILE = 0.2
+#: brightness between a ball and its background needed to see its edge, grey levels
+MIN_CONTRAST = 20.0
+#: how far apart a ray's brightness and colour edges may be and still be one edge, pixels
+AGREE_PX = 1.5
 #: an outline point further inside the fitted circle than this is hidden, not edge, pixels
 EDGE_TOLERANCE_PX = 0.5
 #: default diameter of the pen's ball, millimetres
@@ -225,11 +234,31 @@ def camera_pose(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return R, -R.T @ t
 
 
-def ball_edges(colour_map: np.ndarray, start: np.ndarray, radius: float, rays: int = 48) -> np.ndarray:
-    """Points (N, 2) on the outline of the ball around ``start`` (pixels): along ``rays`` rays
-    from ``start``, where the colourness falls below half the highest seen so far on that ray
-    (bilinear, sub-pixel; half-height is where a blurred edge was).  A ray that never falls
-    is left out."""
+def _crossing(g: np.ndarray, hit: np.ndarray, level: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """(distance along each ray of the first sample where ``hit``, interpolated to where ``g``
+    crosses ``level`` (per ray); whether the ray has one)."""
+    has = hit.any(axis=1)
+    j = np.maximum(np.argmax(hit, axis=1), 1)
+    k = np.arange(len(g))
+    g0, g1 = g[k, j - 1], g[k, j]
+    frac = np.clip((level - g0) / np.where(np.abs(g1 - g0) > 1e-9, g1 - g0, 1e-9), 0.0, 1.0)
+    return (j - 1 + frac) * step, has
+
+
+def ball_edges(grey: np.ndarray, colour_map: np.ndarray, start: np.ndarray, radius: float,
+               rays: int = 48) -> np.ndarray:
+    """Points (N, 2) on the outline of the ball around ``start`` (pixels), along ``rays`` rays.
+
+    On each ray two edges: where the colourness (``colour_map``) falls below half its peak so
+    far, and where the brightness (``grey``, (H, W)) crosses half-way from the ball's own level
+    (the median over its inner half) to the background's (the median from 1.5 to 2.2 radii out)
+    -- bilinear, sub-pixel; half-way is where a blurred edge was.  A camera sends colour at
+    half the resolution of brightness (4:2:0 video: every webcam and video file), so the
+    brightness edge is the sharp one and is kept where the two agree within
+    :data:`AGREE_PX` and the background is brighter than the ball by :data:`MIN_CONTRAST`.
+    Elsewhere -- the ball over a table as dark as itself, a ray that met something else first
+    (the pen's dark body beside the ball, a grid line) -- the colourness edge is the point.
+    """
     import cv2
 
     angles = np.linspace(0.0, 2 * np.pi, rays, endpoint=False)
@@ -238,20 +267,25 @@ def ball_edges(colour_map: np.ndarray, start: np.ndarray, radius: float, rays: i
     s = np.arange(0.0, 2.2 * radius + 3.0, step)
     xs = (start[0] + u[:, :1] * s).astype(np.float32)
     ys = (start[1] + u[:, 1:] * s).astype(np.float32)
-    g = cv2.remap(colour_map.astype(np.float32), xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                  borderValue=0.0)
-    peak = np.maximum.accumulate(g, axis=1)
-    half = peak / 2.0
-    below = (g < half) & (peak > 0)
-    below[:, 0] = False
-    has = below.any(axis=1)
-    j = np.argmax(below, axis=1)
-    k = np.flatnonzero(has)
-    j = j[k]
-    g0, g1, h = g[k, j - 1], g[k, j], half[k, j]
-    frac = np.clip((g0 - h) / np.maximum(g0 - g1, 1e-9), 0.0, 1.0)
-    dist = (j - 1 + frac) * step
-    return start + u[k] * dist[:, None]
+
+    def sample(image):
+        return cv2.remap(image.astype(np.float32), xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+    c = sample(colour_map)
+    peak = np.maximum.accumulate(c, axis=1)
+    half = peak / 2
+    falls = (c < half) & (peak > 0)
+    falls[:, 0] = False
+    d_colour, has_colour = _crossing(c, falls, half[np.arange(rays), np.argmax(falls, axis=1)], step)
+    g = sample(grey)
+    inner = np.median(g[:, s <= 0.5 * radius], axis=1)
+    outer = np.median(g[:, (s >= 1.5 * radius) & (s <= 2.2 * radius)], axis=1)
+    mid = (inner + outer) / 2
+    rising = (g >= mid[:, None]) & (s > 0.3 * radius)
+    d_grey, has_grey = _crossing(g, rising, mid, step)
+    sharp = has_grey & has_colour & (outer - inner >= MIN_CONTRAST) & (np.abs(d_grey - d_colour) <= AGREE_PX)
+    dist = np.where(sharp, d_grey, d_colour)
+    return start + u[has_colour] * dist[has_colour, None]
 
 
 def fit_ball(edges: np.ndarray, start: np.ndarray, principal: np.ndarray, f: float) -> tuple[np.ndarray, float] | None:
@@ -318,6 +352,7 @@ class PenTracker:
         self.layout: SheetLayout | None = None
         self.size: tuple[int, int] | None = None
         self._detector = _aruco_detector()
+        self._board_cache = None
         self._rows: list[np.ndarray] = []
 
     # -- one frame ---------------------------------------------------------------------------
@@ -336,10 +371,14 @@ class PenTracker:
                              f"{self.size[0]}x{self.size[1]}")
         index = len(self.frames)
         time = index / fps if t is None else float(t)
-        corners, ids, _ = self._detector.detectMarkers(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY))
+        grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        corners, ids, rejected = self._detector.detectMarkers(grey)
+        if self.layout is None and ids is not None:
+            self.layout = layout_for_ids(ids.ravel())
+        if self.layout is not None and ids is not None and len(ids) < 4:
+            # the markers missed (blur, a shadow) are looked for where the ones found put them
+            corners, ids, _, _ = self._detector.refineDetectedMarkers(grey, self._board(), corners, ids, rejected)
         found = {} if ids is None else {int(i): c.reshape(4, 2).astype(float) for i, c in zip(ids.ravel(), corners)}
-        if self.layout is None and found:
-            self.layout = layout_for_ids(found)
         markers = {} if self.layout is None else {i: c for i, c in found.items() if i in self.layout.ids}
         H = None
         if len(markers) >= MIN_MARKERS:
@@ -353,7 +392,7 @@ class PenTracker:
         f_px = self.focal()[0]
         ball, radius, edges, tip = None, 0.0, None, None
         if blob is not None:
-            edges = ball_edges(colourness(rgb, self.ball_colour), blob.centre, np.sqrt(blob.area / np.pi))
+            edges = ball_edges(grey, colourness(rgb, self.ball_colour), blob.centre, np.sqrt(blob.area / np.pi))
             fitted = fit_ball(edges, blob.centre, self._centre(), f_px)
             if fitted is not None:
                 ball, radius = fitted
@@ -364,6 +403,16 @@ class PenTracker:
         frame = PenFrame(index, time, markers, H, ball, radius, edges, tip)
         self.frames.append(frame)
         return frame
+
+    def _board(self):
+        """The sheet's markers as an OpenCV ArUco board (corners in mm on the plane z = 0)."""
+        import cv2
+
+        if self._board_cache is None:
+            printed = self.layout.marker_corners()
+            points = [np.column_stack([printed[i], np.zeros(4)]).astype(np.float32) for i in self.layout.ids]
+            self._board_cache = cv2.aruco.Board(points, self._detector.getDictionary(), np.array(self.layout.ids))
+        return self._board_cache
 
     def _centre(self) -> np.ndarray:
         return np.array([(self.size[0] - 1) / 2.0, (self.size[1] - 1) / 2.0])
@@ -424,7 +473,7 @@ class PenTracker:
                                   "with --ball")
         Hs = np.array([f.H.ravel() / f.H[2, 2] if f.H is not None else np.full(9, np.nan) for f in self.frames])
         lost_sheet = np.flatnonzero(~np.isfinite(Hs).all(axis=1)).tolist()
-        Hs = bridge(Hs, max_gap, camera="camera", names=names,
+        Hs = bridge(self._still(Hs, max_gap), max_gap, camera="camera", names=names,
                     what=f"the sheet (at least {MIN_MARKERS} of its 4 markers)")
         f_px, measured = self.focal()
         balls = np.full((T, 3), np.nan)
@@ -458,6 +507,25 @@ class PenTracker:
         tip = np.where(contact[:, None], np.column_stack([on_paper[:, :2], np.zeros(T)]),
                        np.column_stack([centres[:, :2], np.maximum(height, 0.0)]))
         return PenTrack(times, tip, contact, height, self.layout, f_px, measured, lost_sheet, lost_ball, seen, names)
+
+    def _still(self, Hs: np.ndarray, max_gap: int) -> np.ndarray:
+        """``Hs`` (T, 9) with each run of frames without the sheet longer than ``max_gap`` filled
+        when the sheet did not move across it: its corners in the frames on either side within
+        :data:`STILL_PX` of each other (camera and sheet at rest, so the sheet is where it was,
+        hidden by a hand).  Shorter runs, and runs the sheet moved across, are left to
+        :func:`~hila_lang.perception.extraction.bridge`."""
+        out = Hs.copy()
+        w, h = self.layout.size
+        paper = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1]], float)
+        lost = ~np.isfinite(Hs).all(axis=1)
+        for a, b, gone in _runs(lost):
+            if not gone or b - a <= max_gap or a == 0 or b == len(Hs):
+                continue
+            before, after = (paper @ Hs[k].reshape(3, 3).T for k in (a - 1, b))
+            moved = np.linalg.norm(before[:, :2] / before[:, 2:] - after[:, :2] / after[:, 2:], axis=1).max()
+            if moved <= STILL_PX:
+                out[a:b] = Hs[a - 1]
+        return out
 
     def _contact(self, times: np.ndarray, height: np.ndarray, path: np.ndarray) -> np.ndarray:
         """Pen down per frame: the height (median of 5) with hysteresis, short runs dropped, each
@@ -519,3 +587,41 @@ def _contiguous(idx: np.ndarray, at: int) -> np.ndarray:
     while b + 1 < len(idx) and idx[b + 1] == idx[b] + 1:
         b += 1
     return idx[a:b + 1]
+
+
+def track_video(source, *, ball: str = "green", ball_mm: float = BALL_MM, hfov_deg: float | None = None,
+                fps: float = 30.0, max_gap: int = 3, progress=None) -> PenTrack:
+    """Track the pen in a video file or a folder of frames (``fps`` apart) on the sheet.
+
+    ``progress(frames_done)`` is called every 100 frames.  Raises :class:`InputError` as
+    :meth:`PenTracker.finish` does (and for an unreadable video or folder).
+    """
+    from pathlib import Path
+
+    from .recording import iter_frames
+
+    tracker = PenTracker(ball, ball_mm, hfov_deg)
+    names = []
+    for image, name, t in iter_frames(source, "frames", fps=fps):
+        tracker.feed(image, t)
+        names.append(name)
+        if progress is not None and len(names) % 100 == 0:
+            progress(len(names))
+    return tracker.finish(max_gap, names=names, source=Path(source).name)
+
+
+def sheet_icps(layout: SheetLayout, cell: int | None = None) -> dict[str, np.ndarray]:
+    """The ICPs the sheet prints, metres on the paper (z = 0): the grid cell ``cell``'s corners
+    ``tl``, ``tr``, ``br``, ``bl`` (a sheet printed with its grid), or without ``cell`` the
+    corner markers' centres under the same names."""
+    feats = layout.features()
+    if cell is None:
+        chosen = {name: feats[name] for name in ("tl", "tr", "br", "bl")}
+    else:
+        if not layout.grid:
+            raise InputError(f"--cell {cell}: the video shows the {layout.name} sheet, which has no grid",
+                             hint="print the sheet with 'hila sheet --grid', or leave out --cell")
+        if not 1 <= cell <= 9:
+            raise InputError(f"--cell {cell}: expected a cell 1 to 9 (1 top left, 9 bottom right as you read the sheet)")
+        chosen = {name: feats[f"cell{cell}.{name}"] for name in ("tl", "tr", "br", "bl")}
+    return {name: np.array([p[0] / 1000.0, p[1] / 1000.0, 0.0]) for name, p in chosen.items()}

@@ -20,9 +20,9 @@ leaning as a right hand holds it) hides what it covers, at twice the resolution,
 the exposure (motion blur).
 
 Files: :func:`write_y4m` writes YUV4MPEG2 (4:2:0, the format Chromium's
-``--use-file-for-fake-video-capture`` reads) and :func:`read_y4m` reads it back;
-:func:`write_video` writes ``.y4m``, a video OpenCV can encode (``.mp4``, ``.avi``) or a folder
-of PNGs.
+``--use-file-for-fake-video-capture`` reads; OpenCV's FFmpeg reads it too, so ``hila learn``
+takes it); :func:`write_video` writes ``.y4m``, a video OpenCV can encode (``.mp4``, ``.avi``)
+or a folder of PNGs.
 """
 
 from __future__ import annotations
@@ -79,8 +79,8 @@ class PenVideoSpec:
         How much the light changes: brightness swings by +-light, and a gradient across the
         image of the same size turns around.
     occluder : bool
-        A hand-coloured occluder passes over the bottom-left marker (about a second), and
-        covers the ball for ``hidden_frames`` frames.
+        A hand-coloured occluder (the free hand holding the sheet) comes over the top-left
+        marker for about a second, and a finger covers the ball for ``hidden_frames`` frames.
     hidden_frames : int
     ball : str
         Colour of the ball (:data:`BALL_RGB`).
@@ -310,13 +310,18 @@ class PenVideo:
 
     # -- the occluder: an ellipse of skin, in the image ---------------------------------------
     def _plan_occluder(self, times: np.ndarray) -> dict | None:
+        """The free hand holding the sheet's top-left corner: it comes in from outside the sheet,
+        covers the marker there for about a second, and goes; a finger of the drawing hand
+        covers the ball for ``hidden_frames`` frames in the middle of the video."""
         if not self.spec.occluder:
             return None
-        bl = self.layout.marker_corners()[self.layout.ids[3]].mean(axis=0)
-        target = self.camera.project(np.array([[bl[0], bl[1], 0.0]]))[0]
-        span = times[-1]
-        t0 = self._rng.uniform(0.15, 0.35) * span
-        return {"target": target, "t0": t0, "t1": t0 + 1.0, "axes": (0.11 * self.spec.width, 0.08 * self.spec.height),
+        w, h = self.layout.size
+        tl = self.layout.marker_corners()[self.layout.ids[0]].mean(axis=0)
+        marker, centre = self.camera.project(np.array([[tl[0], tl[1], 0.0], [w / 2, h / 2, 0.0]]))
+        outward = (marker - centre) / np.linalg.norm(marker - centre)
+        t0 = self._rng.uniform(0.15, 0.35) * times[-1]
+        return {"marker": marker, "outward": outward, "t0": t0, "t1": t0 + 1.0,
+                "axes": (0.11 * self.spec.width, 0.08 * self.spec.height),
                 "hide": int(self._rng.integers(len(times) // 3, 2 * len(times) // 3))}
 
     def _occluder_centre(self, t: float) -> np.ndarray | None:
@@ -324,7 +329,8 @@ class PenVideo:
         if o is None or not (o["t0"] <= t <= o["t1"]):
             return None
         s = (t - o["t0"]) / (o["t1"] - o["t0"])
-        return o["target"] + np.array([(s - 0.5) * 2.2 * o["axes"][0], -(s - 0.5) * 0.8 * o["axes"][1]])
+        reach = np.sin(np.pi * s)  # 0 outside the sheet .. 1 over the marker .. 0
+        return o["marker"] + o["outward"] * (1.0 - reach) * 2.2 * o["axes"][0]
 
     def _occluder_on_marker(self, t: float) -> bool:
         return self._occluder_centre(t) is not None
@@ -493,50 +499,6 @@ def write_y4m(path: str | os.PathLike, frames: Iterable[np.ndarray], fps: float)
         out.discard()
         raise
     return out.commit()
-
-
-def read_y4m(path: str | os.PathLike) -> tuple[float, Iterator[np.ndarray]]:
-    """(frame rate, RGB frames) of a YUV4MPEG2 4:2:0 file written by :func:`write_y4m` (or any
-    progressive 4:2:0 one); :class:`InputError` naming the file for anything else."""
-    import cv2
-
-    path = Path(path)
-    fh = open(path, "rb")  # noqa: SIM115 - closed by the generator
-    header = fh.readline(256)
-    if not header.startswith(b"YUV4MPEG2 ") or not header.endswith(b"\n"):
-        fh.close()
-        raise InputError("not a YUV4MPEG2 (.y4m) file: its first line is not a 'YUV4MPEG2 ...' header", file=str(path))
-    fields = {tok[:1]: tok[1:] for tok in header.decode("ascii", "replace").split()[1:]}
-    try:
-        width, height = int(fields["W"]), int(fields["H"])
-        num, den = (int(v) for v in fields.get("F", "30:1").split(":"))
-        fps = num / den
-    except (KeyError, ValueError, ZeroDivisionError):
-        fh.close()
-        raise InputError(f"y4m header without a valid size and frame rate: {header.decode('ascii', 'replace').strip()!r}",
-                         file=str(path)) from None
-    colour = fields.get("C", "420jpeg")
-    if not colour.startswith("420") or fields.get("I", "p") != "p" or width % 2 or height % 2:
-        fh.close()
-        raise InputError(f"only progressive 4:2:0 y4m of an even size is read, got C{colour} I{fields.get('I', 'p')} "
-                         f"{width}x{height}", file=str(path))
-    frame_bytes = width * height * 3 // 2
-
-    def frames() -> Iterator[np.ndarray]:
-        with fh:
-            i = 0
-            while True:
-                tag = fh.readline(256)
-                if not tag:
-                    return
-                data = fh.read(frame_bytes)
-                if not tag.startswith(b"FRAME") or len(data) != frame_bytes:
-                    raise InputError(f"y4m frame {i} is truncated or has no FRAME header", file=str(path))
-                yuv = np.frombuffer(data, np.uint8).reshape(height * 3 // 2, width)
-                yield cv2.cvtColor(yuv, cv2.COLOR_YUV2RGB_I420)
-                i += 1
-
-    return fps, frames()
 
 
 def write_video(path: str | os.PathLike, video: PenVideo) -> Path:
