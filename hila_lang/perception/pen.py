@@ -10,9 +10,11 @@ Per frame:
 
 1. *The sheet.*  OpenCV's ArUco detector finds the sheet's markers (corners refined
    sub-pixel; a marker it missed is looked for again where the others put it,
-   ``refineDetectedMarkers``); their ids say which sheet it is.  With at least :data:`MIN_MARKERS` of the four
-   in view the homography from the paper (mm) to the image is fitted to all their corners
-   (least squares); with fewer the frame has no sheet.
+   ``refineDetectedMarkers``); their ids say which sheet it is.  A marker hidden (a hand
+   over it) is taken from the last frame that showed all four when the markers seen now are
+   where they were then (:data:`STILL_PX`: the camera and the sheet at rest).  With at least
+   :data:`MIN_MARKERS` of the four the homography from the paper (mm) to the image is fitted
+   to all their corners (least squares); with fewer the frame has no sheet.
 2. *The ball.*  The largest blob of the ball's colour, its coverage-weighted centroid
    (sub-pixel) and its area (:func:`hila_lang.perception.extraction.detect_blob`).
 
@@ -20,11 +22,9 @@ Over the recording (:meth:`PenTracker.finish`):
 
 3. *Gaps.*  Frames without the sheet, then frames without the ball, are bridged by cubic
    interpolation when a run is at most ``max_gap`` frames long and lies between two frames
-   that have them (:func:`hila_lang.perception.extraction.bridge`); a longer run without the
-   sheet is bridged only when the sheet is seen at rest on both sides of it (a hand covered a
-   marker; the camera and the paper did not move: its corners within :data:`STILL_PX`).  Any
-   other long run, or one at the start or end, is an error that names the frames and which was
-   missing -- never guessed.  The bridged frames are listed in the track.
+   that have them (:func:`hila_lang.perception.extraction.bridge`); a longer run, or one at
+   the start or end, is an error that names the frames and which was missing -- never
+   guessed.  The bridged frames, and those with a remembered marker, are listed in the track.
 4. *The camera.*  Its focal length from the homographies (principal point at the image centre,
    square pixels: a plane seen at an angle fixes f; Zhang's two constraints, least squares over
    the frames).  A sheet seen nearly face-on does not: then f comes from an assumed horizontal
@@ -62,8 +62,11 @@ from .sheet import DICTIONARY, SheetLayout, layout_for_ids
 
 #: markers needed in a frame for its homography: three of the four span the sheet
 MIN_MARKERS = 3
-#: a sheet whose corners moved less than this across frames where it was hidden was at rest, pixels
+#: markers whose corners moved less than this since the last frame that showed all four are at rest, pixels
 STILL_PX = 1.0
+#: the focal length is measured only from a sheet seen at least this far from face-on, degrees:
+#: below it the perspective is within the noise of the marker corners (bench/pen.py, row face-on)
+MIN_TILT_DEG = 15.0
 #: horizontal field of view assumed when the sheet is seen too face-on to measure the focal
 #: length, degrees (laptop webcams: about 55-75)
 DEFAULT_HFOV = 62.0
@@ -110,6 +113,9 @@ class PenFrame:
     tip : ndarray (2,) or None
         Where the ball would touch the paper (the ray at z = radius), mm: a live estimate, with
         the focal length known so far.
+    remembered : list of int
+        Markers not seen in this frame, taken from the last frame that showed all four (the
+        sheet at rest: :meth:`PenTracker._remember`).
     """
 
     index: int
@@ -120,12 +126,13 @@ class PenFrame:
     ball_radius: float = 0.0
     edges: np.ndarray | None = None
     tip: np.ndarray | None = None
+    remembered: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """Plain data (JSON) for a page that draws the frame."""
         return {"index": self.index, "time": self.time,
                 "markers": {str(k): v.tolist() for k, v in self.markers.items()},
-                "sheet": self.H is not None,
+                "sheet": self.H is not None, "remembered": list(self.remembered),
                 "ball": None if self.ball is None else {"uv": self.ball.tolist(), "radius": self.ball_radius},
                 "tip": None if self.tip is None else self.tip.tolist()}
 
@@ -154,6 +161,8 @@ class PenTrack:
         Frames where the sheet, or the ball, was not seen and was interpolated.
     markers_seen : ndarray (T,) int
         How many of the sheet's markers each frame showed.
+    sheet_remembered : list of int
+        Frames where a hidden marker was taken from the last frame that showed all four.
     names : list of str
         The frames' names.
     """
@@ -168,6 +177,7 @@ class PenTrack:
     sheet_bridged: list = field(default_factory=list)
     ball_bridged: list = field(default_factory=list)
     markers_seen: np.ndarray | None = None
+    sheet_remembered: list = field(default_factory=list)
     names: list = field(default_factory=list)
 
     def summary(self) -> str:
@@ -175,6 +185,8 @@ class PenTrack:
         focal = (f"focal length {self.focal_px:.0f} px measured from the sheet's perspective" if self.focal_measured
                  else f"focal length {self.focal_px:.0f} px assumed (the sheet was seen too face-on to measure it)")
         gaps = []
+        if self.sheet_remembered:
+            gaps.append(f"a hidden marker taken from where it was in {len(self.sheet_remembered)} frame(s)")
         if self.sheet_bridged:
             gaps.append(f"the sheet interpolated in {len(self.sheet_bridged)} frame(s)")
         if self.ball_bridged:
@@ -207,10 +219,12 @@ def focal_constraints(H: np.ndarray, centre: np.ndarray) -> np.ndarray:
     return rows
 
 
-def solve_focal(rows: np.ndarray, width: int) -> float | None:
+def solve_focal(rows: np.ndarray, width: int, H: np.ndarray | None = None, centre=None) -> float | None:
     """f from stacked :func:`focal_constraints` rows, or None when they do not fix it: a
     negative or vanishing solution, an f outside 0.3 to 5 image widths (a horizontal field of
-    view outside about 11-120 degrees)."""
+    view outside about 11-120 degrees), or -- given a homography ``H`` and the principal point
+    ``centre`` -- a sheet that this f shows less than :data:`MIN_TILT_DEG` from face-on, where
+    the perspective the constraints rest on is within the noise of the marker corners."""
     A, B = rows[:, 0], rows[:, 1]
     if A @ A < 1e-18:
         return None
@@ -218,7 +232,14 @@ def solve_focal(rows: np.ndarray, width: int) -> float | None:
     if a <= 0:
         return None
     f = 1.0 / np.sqrt(a)
-    return float(f) if 0.3 * width <= f <= 5 * width else None
+    if not 0.3 * width <= f <= 5 * width:
+        return None
+    if H is not None:
+        K = np.array([[f, 0.0, centre[0]], [0.0, f, centre[1]], [0.0, 0.0, 1.0]])
+        R, _ = camera_pose(H, K)
+        if np.degrees(np.arccos(min(1.0, abs(R[2, 2])))) < MIN_TILT_DEG:
+            return None
+    return float(f)
 
 
 def camera_pose(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -354,6 +375,8 @@ class PenTracker:
         self._detector = _aruco_detector()
         self._board_cache = None
         self._rows: list[np.ndarray] = []
+        self._last_H: np.ndarray | None = None
+        self._reference: dict | None = None
 
     # -- one frame ---------------------------------------------------------------------------
     def feed(self, rgb: np.ndarray, t: float | None = None, fps: float = 30.0) -> PenFrame:
@@ -380,14 +403,16 @@ class PenTracker:
             corners, ids, _, _ = self._detector.refineDetectedMarkers(grey, self._board(), corners, ids, rejected)
         found = {} if ids is None else {int(i): c.reshape(4, 2).astype(float) for i, c in zip(ids.ravel(), corners)}
         markers = {} if self.layout is None else {i: c for i, c in found.items() if i in self.layout.ids}
+        use, remembered = self._remember(markers)
         H = None
-        if len(markers) >= MIN_MARKERS:
+        if len(use) >= MIN_MARKERS:
             printed = self.layout.marker_corners()
-            src = np.concatenate([printed[i] for i in markers])
-            dst = np.concatenate([markers[i] for i in markers])
+            src = np.concatenate([printed[i] for i in use])
+            dst = np.concatenate([use[i] for i in use])
             H, _ = cv2.findHomography(src, dst, 0)
             if H is not None:
                 self._rows.append(focal_constraints(H, self._centre()))
+                self._last_H = H
         blob = detect_blob(rgb, colour=self.ball_colour)
         f_px = self.focal()[0]
         ball, radius, edges, tip = None, 0.0, None, None
@@ -400,9 +425,25 @@ class PenTracker:
             K = self.intrinsics(f_px)
             R, C = camera_pose(H, K)
             tip = self._on_paper(ball[None], R, C, K)[0, :2]
-        frame = PenFrame(index, time, markers, H, ball, radius, edges, tip)
+        frame = PenFrame(index, time, markers, H, ball, radius, edges, tip, remembered)
         self.frames.append(frame)
         return frame
+
+    def _remember(self, markers: dict) -> tuple[dict, list[int]]:
+        """(the markers to fit the sheet to, the ids taken from memory) for a frame showing
+        ``markers``.  The last frame that showed all four is the reference; a marker missing now
+        (a hand over it) is taken from it when the markers seen now are where they were then,
+        within :data:`STILL_PX` -- two of them at least: the camera and the sheet at rest."""
+        if self.layout is not None and len(markers) == len(self.layout.ids):
+            self._reference = {i: c.copy() for i, c in markers.items()}
+            return markers, []
+        if self._reference is None or len(markers) < 2:
+            return markers, []
+        moved = max(np.abs(c - self._reference[i]).max() for i, c in markers.items())
+        if moved > STILL_PX:
+            return markers, []
+        missing = sorted(i for i in self._reference if i not in markers)
+        return {**{i: self._reference[i] for i in missing}, **markers}, missing
 
     def _board(self):
         """The sheet's markers as an OpenCV ArUco board (corners in mm on the plane z = 0)."""
@@ -421,7 +462,7 @@ class PenTracker:
         """(focal length in pixels, whether it was measured) from the frames so far."""
         width = self.size[0]
         if self.hfov_deg is None and self._rows:
-            f = solve_focal(np.concatenate(self._rows), width)
+            f = solve_focal(np.concatenate(self._rows), width, self._last_H, self._centre())
             if f is not None:
                 return f, True
         hfov = DEFAULT_HFOV if self.hfov_deg is None else self.hfov_deg
@@ -473,7 +514,7 @@ class PenTracker:
                                   "with --ball")
         Hs = np.array([f.H.ravel() / f.H[2, 2] if f.H is not None else np.full(9, np.nan) for f in self.frames])
         lost_sheet = np.flatnonzero(~np.isfinite(Hs).all(axis=1)).tolist()
-        Hs = bridge(self._still(Hs, max_gap), max_gap, camera="camera", names=names,
+        Hs = bridge(Hs, max_gap, camera="camera", names=names,
                     what=f"the sheet (at least {MIN_MARKERS} of its 4 markers)")
         f_px, measured = self.focal()
         balls = np.full((T, 3), np.nan)
@@ -506,26 +547,9 @@ class PenTracker:
         contact = self._contact(times, height, np.column_stack([on_paper[:, :2], height]))
         tip = np.where(contact[:, None], np.column_stack([on_paper[:, :2], np.zeros(T)]),
                        np.column_stack([centres[:, :2], np.maximum(height, 0.0)]))
-        return PenTrack(times, tip, contact, height, self.layout, f_px, measured, lost_sheet, lost_ball, seen, names)
-
-    def _still(self, Hs: np.ndarray, max_gap: int) -> np.ndarray:
-        """``Hs`` (T, 9) with each run of frames without the sheet longer than ``max_gap`` filled
-        when the sheet did not move across it: its corners in the frames on either side within
-        :data:`STILL_PX` of each other (camera and sheet at rest, so the sheet is where it was,
-        hidden by a hand).  Shorter runs, and runs the sheet moved across, are left to
-        :func:`~hila_lang.perception.extraction.bridge`."""
-        out = Hs.copy()
-        w, h = self.layout.size
-        paper = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1]], float)
-        lost = ~np.isfinite(Hs).all(axis=1)
-        for a, b, gone in _runs(lost):
-            if not gone or b - a <= max_gap or a == 0 or b == len(Hs):
-                continue
-            before, after = (paper @ Hs[k].reshape(3, 3).T for k in (a - 1, b))
-            moved = np.linalg.norm(before[:, :2] / before[:, 2:] - after[:, :2] / after[:, 2:], axis=1).max()
-            if moved <= STILL_PX:
-                out[a:b] = Hs[a - 1]
-        return out
+        remembered = [fr.index for fr in self.frames if fr.remembered]
+        return PenTrack(times, tip, contact, height, self.layout, f_px, measured, lost_sheet, lost_ball, seen,
+                        remembered, names)
 
     def _contact(self, times: np.ndarray, height: np.ndarray, path: np.ndarray) -> np.ndarray:
         """Pen down per frame: the height (median of 5) with hysteresis, short runs dropped, each

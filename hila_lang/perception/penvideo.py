@@ -88,6 +88,9 @@ class PenVideoSpec:
         Diameter of the ball.
     principal_offset_px : (float, float)
         Where the true principal point is, from the image centre.
+    cell : int or None
+        The grid cell the pen draws in (1..9, as :meth:`SheetLayout.features` numbers them);
+        None: chosen by the seed.
     """
 
     seed: int = 0
@@ -109,6 +112,7 @@ class PenVideoSpec:
     ball: str = "green"
     ball_mm: float = 12.0
     principal_offset_px: tuple[float, float] = (6.0, -4.0)
+    cell: int | None = None
 
     def __post_init__(self) -> None:
         if self.ball not in BALL_RGB:
@@ -139,6 +143,8 @@ class PenTruth:
         Frames where the occluder covers the ball.
     marker_hidden : list of int
         Frames where the occluder covers (part of) a marker.
+    cell : int
+        The grid cell the loop was drawn in (on a sheet without grid: the one it would be).
     """
 
     times: np.ndarray
@@ -150,6 +156,7 @@ class PenTruth:
     world_T_camera: np.ndarray
     hidden: list = field(default_factory=list)
     marker_hidden: list = field(default_factory=list)
+    cell: int = 0
 
 
 # -- the pen's motion ----------------------------------------------------------------------------
@@ -172,13 +179,16 @@ def _loop(rng: np.random.Generator, centre: np.ndarray, n: int) -> np.ndarray:
     return np.column_stack([centre[0] + r * np.cos(angle), centre[1] + r * np.sin(angle), np.zeros(n)])
 
 
-def demonstration(spec: PenVideoSpec, layout: SheetLayout) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
-    """The pen's tip sampled at :data:`MOTION_HZ`: (times (N,), tip (N, 3) mm, contact (N,), touch, lift)."""
+def demonstration(spec: PenVideoSpec, layout: SheetLayout):
+    """The pen's tip sampled at :data:`MOTION_HZ`: (times (N,), tip (N, 3) mm, contact (N,), touch,
+    lift, the grid cell drawn in)."""
     rng = np.random.default_rng(spec.seed)
     w, h = layout.size
     feats = layout.features()
+    cell = int(rng.integers(1, 10))
+    if spec.cell is not None:
+        cell = spec.cell
     if layout.grid:
-        cell = int(rng.integers(1, 10))
         corners = np.array([feats[f"cell{cell}.{c}"] for c in ("tl", "tr", "br", "bl")])
         centre = corners.mean(axis=0) + rng.normal(0.0, 2.0, size=2)
     else:
@@ -208,7 +218,7 @@ def demonstration(spec: PenVideoSpec, layout: SheetLayout) -> tuple[np.ndarray, 
     times = np.arange(len(tip)) / hz
     contact = np.zeros(len(tip), bool)
     contact[touch_index:lift_index] = True
-    return times, tip, contact, float(times[touch_index]), float(times[lift_index])
+    return times, tip, contact, float(times[touch_index]), float(times[lift_index]), cell
 
 
 # -- the camera --------------------------------------------------------------------------------
@@ -256,7 +266,7 @@ class PenVideo:
         self.layout = SheetLayout(spec.paper, spec.grid)
         self.camera = camera(spec, self.layout)
         self.big = self.camera.with_size(spec.width * SUPERSAMPLE, spec.height * SUPERSAMPLE, scale=SUPERSAMPLE)
-        t, tip, contact, touch, lift = demonstration(spec, self.layout)
+        t, tip, contact, touch, lift, cell = demonstration(spec, self.layout)
         self._motion = (t, tip)
         frames = int(np.floor(t[-1] * spec.fps)) + 1
         times = np.arange(frames) / spec.fps
@@ -267,7 +277,7 @@ class PenVideo:
         hidden = [i for i in range(frames) if self._occluder_hides_ball(i, times[i], tip_at(t, tip, times[i]))]
         self.truth = PenTruth(times, tip_at(t, tip, times), np.interp(times, t, contact.astype(float)) > 0.5,
                               touch, lift, self.camera.K.copy(), self.camera.world_T_camera.copy(), hidden,
-                              [i for i in range(frames) if self._occluder_on_marker(times[i])])
+                              [i for i in range(frames) if self._occluder_on_marker(times[i])], cell)
         # the sheet on the table, at the supersampled size, without light: albedo (H, W, 3) float
         px_per_mm = 4.0
         sheet = raster(self.layout, px_per_mm).astype(np.float32) / 255.0
