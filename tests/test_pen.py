@@ -306,9 +306,9 @@ def test_a_template_learned_from_the_camera_plays_the_game(learned, tmp_path):
 # -- refusals: nothing written ------------------------------------------------------------------------
 
 def _doctored(video, tmp_path, name, change):
-    """The test video with ``change(index, rgb)`` applied to every frame, as a .y4m."""
+    """The test video's first 60 frames with ``change(index, rgb)`` applied to each, as a .y4m."""
     v, _ = video
-    frames = (change(i, rgb.copy()) for i, (_, rgb) in enumerate(v))
+    frames = (change(i, v.frame(i).copy()) for i in range(60))
     return write_y4m(tmp_path / f"{name}.y4m", frames, v.spec.fps)
 
 

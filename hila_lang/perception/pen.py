@@ -602,17 +602,6 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int, bool]]:
     return [(bounds[k], bounds[k + 1], bool(mask[bounds[k]])) for k in range(len(bounds) - 1)]
 
 
-def _contiguous(idx: np.ndarray, at: int) -> np.ndarray:
-    """The run of consecutive integers in sorted ``idx`` that contains ``at``."""
-    k = int(np.searchsorted(idx, at))
-    a = b = k
-    while a > 0 and idx[a - 1] == idx[a] - 1:
-        a -= 1
-    while b + 1 < len(idx) and idx[b + 1] == idx[b] + 1:
-        b += 1
-    return idx[a:b + 1]
-
-
 def track_video(source, *, ball: str = "green", ball_mm: float = BALL_MM, hfov_deg: float | None = None,
                 fps: float = 30.0, max_gap: int = 3, progress=None) -> PenTrack:
     """Track the pen in a video file or a folder of frames (``fps`` apart) on the sheet.
