@@ -354,6 +354,8 @@ def test_learn_sheet_option_mistakes_are_bad_input(video, tmp_path, capsys):
     out = tmp_path / "t.yaml"
     assert cli.main(["learn", str(path), "--sheet", "--ball", "purple", "-o", str(out)]) == 2
     assert "unknown ball colour 'purple'" in capsys.readouterr().err
+    assert cli.main(["learn", str(path), "--sheet", "--cell", "12", "-o", str(out)]) == 2
+    assert "--cell 12: expected a cell 1 to 9" in capsys.readouterr().err
     assert cli.main(["learn", "demo.csv", "--icps", "x.yaml", "--cell", "5", "-o", str(out)]) == 2
     assert "--cell goes with --sheet" in capsys.readouterr().err
     assert cli.main(["learn", "--sheet", "--from-sim", "-o", str(out)]) == 2

@@ -167,11 +167,14 @@ def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
     import numpy as np
 
+    from ..core.errors import InputError
     from ..core.fileio import atomic_write_text, dump_yaml, ensure_writable
     from ..evaluation.lasa import RATE_HZ, resample_in_time
     from ..osila.demofile import demo_csv, load_icps
     from ..perception.pen import sheet_icps, track_video
 
+    if args.cell is not None and not 1 <= args.cell <= 9:  # before a minute of tracking
+        raise InputError(f"--cell {args.cell}: expected a cell 1 to 9 (1 top left, 9 bottom right as you read the sheet)")
     stem = out.name[:-len(out.suffix)] if out.suffix else out.name
     csv, icps_file = out.with_name(f"{stem}.demo.csv"), out.with_name(f"{stem}.icps.yaml")
     for path in (csv, icps_file):
