@@ -101,6 +101,9 @@ def test_hila_sheet_writes_pdf_or_png_and_refuses_other_names(tmp_path, capsys):
     assert "markers 8, 9, 10, 11" in capsys.readouterr().out
     assert cli.main(["sheet", "--out", str(tmp_path / "s.txt")]) == 2
     assert "expected a .pdf or .png" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["sheet", "--out", str(tmp_path / "s.png"), "--dpi", "nan"])
+    assert stop.value.code == 2 and "expected a finite number >= 72 <= 1200 dots per inch" in capsys.readouterr().err
     assert not (tmp_path / "s.txt").exists()
 
 
@@ -354,8 +357,9 @@ def test_learn_sheet_option_mistakes_are_bad_input(video, tmp_path, capsys):
     out = tmp_path / "t.yaml"
     assert cli.main(["learn", str(path), "--sheet", "--ball", "purple", "-o", str(out)]) == 2
     assert "unknown ball colour 'purple'" in capsys.readouterr().err
-    assert cli.main(["learn", str(path), "--sheet", "--cell", "12", "-o", str(out)]) == 2
-    assert "--cell 12: expected a cell 1 to 9" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["learn", str(path), "--sheet", "--cell", "12", "-o", str(out)])
+    assert stop.value.code == 2 and "expected a whole number from 1 to 9" in capsys.readouterr().err
     assert cli.main(["learn", "demo.csv", "--icps", "x.yaml", "--cell", "5", "-o", str(out)]) == 2
     assert "--cell goes with --sheet" in capsys.readouterr().err
     assert cli.main(["learn", "--sheet", "--from-sim", "-o", str(out)]) == 2

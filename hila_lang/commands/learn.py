@@ -9,7 +9,7 @@ CSV with its pen column and its ICPs, and learned from them as from any CSV.
 
 from __future__ import annotations
 
-from ..core.argtypes import output_path, seed
+from ..core.argtypes import number, output_path, seed, whole
 import argparse
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
@@ -81,14 +81,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     seen.add_argument("--max-gap", type=int, default=3, help="longest marker loss bridged, frames (default 3)")
     pen = parser.add_argument_group("a pen on the printed sheet before one camera (docs/camera.md)")
     pen.add_argument("--sheet", action="store_true", help="DEMO is a video (or folder of frames) of a pen on the sheet")
-    pen.add_argument("--cell", type=int, default=None, metavar="N",
+    pen.add_argument("--cell", type=whole(1, 9, " (1 top left, 9 bottom right as you read the sheet)"), default=None,
+                     metavar="N",
                      help="ICPs tl, tr, br, bl: the corners of the printed grid's cell N (1 top left .. 9)")
     pen.add_argument("--ball", default="green", metavar="COLOUR",
                      help="colour of the ball on the pen's tip: green (default), blue, red, yellow, cyan, magenta")
-    pen.add_argument("--ball-mm", type=float, default=12.0, metavar="MM", help="the ball's diameter (default 12 mm)")
-    pen.add_argument("--hfov", type=float, default=None, metavar="DEG",
+    pen.add_argument("--ball-mm", type=number(2, 60, " mm"), default=12.0, metavar="MM",
+                     help="the ball's diameter (default 12 mm)")
+    pen.add_argument("--hfov", type=number(20, 150, " degrees"), default=None, metavar="DEG",
                      help="the camera's horizontal field of view, if known (else measured from the sheet)")
-    pen.add_argument("--fps", type=float, default=30.0, help="frame rate of a folder of frames (default 30)")
+    pen.add_argument("--fps", type=number(1, 1000), default=30.0, help="frame rate of a folder of frames (default 30)")
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
     parser.add_argument("--contact", default="", help="comma-separated tags that touch the surface")
@@ -168,14 +170,11 @@ def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
     import numpy as np
 
-    from ..core.errors import InputError
     from ..core.fileio import atomic_write_text, dump_yaml, ensure_writable
     from ..evaluation.lasa import RATE_HZ, resample_in_time
     from ..osila.demofile import demo_csv, load_icps
     from ..perception.pen import sheet_icps, track_video
 
-    if args.cell is not None and not 1 <= args.cell <= 9:  # before a minute of tracking
-        raise InputError(f"--cell {args.cell}: expected a cell 1 to 9 (1 top left, 9 bottom right as you read the sheet)")
     stem = out.name[:-len(out.suffix)] if out.suffix else out.name
     csv, icps_file = out.with_name(f"{stem}.demo.csv"), out.with_name(f"{stem}.icps.yaml")
     for path in (csv, icps_file):

@@ -22,10 +22,14 @@ Example: hila sheet --out sheet.pdf --paper letter --grid"""
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--out", required=True, metavar="FILE.pdf|FILE.png", help="the file to write (.pdf or .png)")
+    from ..core.argtypes import number, output_path
+
+    parser.add_argument("--out", required=True, type=output_path, metavar="FILE.pdf|FILE.png",
+                        help="the file to write (.pdf or .png)")
     parser.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper size (default a4)")
     parser.add_argument("--grid", action="store_true", help="also print a 3x3 grid of 60 mm cells")
-    parser.add_argument("--dpi", type=float, default=300.0, help="resolution of a PNG, dots per inch (default 300)")
+    parser.add_argument("--dpi", type=number(72, 1200, " dots per inch"), default=300.0,
+                        help="resolution of a PNG, dots per inch (default 300)")
 
 
 def run(args) -> int:
@@ -33,15 +37,11 @@ def run(args) -> int:
 
     from ..core.errors import InputError
     from ..core.fileio import atomic_write_bytes
-    from ..perception.sheet import MARKER_MM, SheetLayout, pdf_bytes, png_bytes
+    from ..perception.sheet import SheetLayout, pdf_bytes, png_bytes
 
     suffix = Path(args.out).suffix.lower()
     if suffix not in (".pdf", ".png"):
         raise InputError(f"--out {args.out}: expected a .pdf or .png file name, got {suffix or 'no suffix'!r}")
-    if not (72 <= args.dpi <= 1200):
-        raise InputError(f"--dpi {args.dpi:g}: expected 72 to 1200 dots per inch")
-    if suffix == ".png" and args.dpi * MARKER_MM / 25.4 / 6 < 4:  # pragma: no cover - 72 dpi gives 14 px modules
-        raise InputError(f"--dpi {args.dpi:g} is too coarse for the markers")
     layout = SheetLayout(args.paper, args.grid)
     data = pdf_bytes(layout) if suffix == ".pdf" else png_bytes(layout, args.dpi)
     out = atomic_write_bytes(args.out, data)

@@ -5,7 +5,8 @@ increasing; x, y, z in metres or pixels), optionally followed by a ``pen`` colum
 waypoint; blank lines and lines starting with ``#`` are skipped.  ``pen`` records the pen's
 contact with the surface at each waypoint: ``1`` down (touching, inking), ``0`` up -- what a
 drawing's pointer events say (``pointerdown`` / ``pointerup``) and what a camera demonstration
-tracks (``hila learn VIDEO --sheet`` writes it).  ICPs: a YAML mapping
+tracks; ``hila learn`` then cuts where the pen touches and leaves the paper
+(:func:`hila_lang.osila.segmentation.contact_segments`).  ICPs: a YAML mapping
 ``name: [x, y(, z)]``, or a task file's ``icps:`` mapping.
 """
 
