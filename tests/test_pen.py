@@ -327,7 +327,7 @@ def _paint_markers(v, rgb, which):
 @pytest.mark.parametrize("case,message", [
     ("no-markers", "no marker of a hila sheet in any of its"),
     ("no-ball", r"no green ball \(the pen's tip\) in any of its"),
-    ("hidden-sheet", r"the sheet \(at least 3 of its 4 markers\) lost in .* frames; cannot bridge frames \S+#0\.\."),
+    ("hidden-sheet", r"sheet \(at least 3 of its 4 markers\) lost in .* frames; cannot bridge frames \S+#0\.\."),
 ])
 def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(video, tmp_path, case, message):
     v, _ = video

@@ -151,7 +151,7 @@ def bridge(track: np.ndarray, max_gap: int = 3, *, camera: str = "camera", names
         raise InputError(
             f"{what} lost in {int(lost.sum())} of {len(track)} {camera} frames; cannot bridge {shown} "
             f"(gaps of up to {max_gap} frames between two detections are interpolated)",
-            hint="check the marker is in view and lit in those frames, or record again")
+            hint=f"check the {what} is in view and lit in those frames, or record again")
     good = np.flatnonzero(~lost)
     spline = CubicSpline(good, track[good], axis=0)
     track[lost] = spline(np.flatnonzero(lost))

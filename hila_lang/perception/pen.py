@@ -521,7 +521,7 @@ class PenTracker:
         Hs = np.array([f.H.ravel() / f.H[2, 2] if f.H is not None else np.full(9, np.nan) for f in self.frames])
         lost_sheet = np.flatnonzero(~np.isfinite(Hs).all(axis=1)).tolist()
         Hs = bridge(Hs, max_gap, camera="camera", names=names,
-                    what=f"the sheet (at least {MIN_MARKERS} of its 4 markers)")
+                    what=f"sheet (at least {MIN_MARKERS} of its 4 markers)")
         f_px, measured = self.focal()
         balls = np.full((T, 3), np.nan)
         for i, fr in enumerate(self.frames):  # the outlines again, with the focal length of the whole recording
@@ -529,7 +529,7 @@ class PenTracker:
             if fitted is not None:
                 balls[i] = [*fitted[0], fitted[1]]
         lost_ball = np.flatnonzero(~np.isfinite(balls).all(axis=1)).tolist()
-        balls = bridge(balls, max_gap, camera="camera", names=names, what=f"the {self.ball_colour} ball")
+        balls = bridge(balls, max_gap, camera="camera", names=names, what=f"{self.ball_colour} ball")
         times = np.array([f.time for f in self.frames])
         if not (np.diff(times) > 0).all():
             raise InputError(f"{source}: frame times must increase")
