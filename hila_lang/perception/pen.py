@@ -41,7 +41,8 @@ Over the recording (:meth:`PenTracker.finish`):
    ray, so the ball's centre in 3-D and the tip's *height* above the paper.
 6. *Contact: the cap's distance, and the speed dips.*  The pen is down where the tip's height
    (median of 5 frames) is below :data:`CONTACT_MM` (with hysteresis: it is up again above
-   :data:`RELEASE_MM`); runs shorter than :data:`MIN_RUN_S` are dropped.  Height says *whether*
+   :data:`RELEASE_MM`, and then it left when it rose past :data:`CONTACT_MM`); runs shorter
+   than :data:`MIN_RUN_S` are dropped.  Height says *whether*
    the pen touches; *when* it touched and left comes from the hand's speed, which dips where
    it lands and where it takes off: each change is moved, within :data:`SNAP_S`, to the edge of
    the nearest speed dip that faces the air (the first slow frame of a landing, the last slow
@@ -583,13 +584,17 @@ class PenTracker:
         for a, b, val in _runs(down):
             if a == 0:
                 continue
+            if not val:  # a take-off is confirmed above RELEASE_MM; it began when the tip rose past CONTACT_MM
+                while a > 1 and out[a - 2] and h[a - 1] >= CONTACT_MM:
+                    a -= 1
+                out[a:b] = False
             # a change at a: a landing (val True) or a take-off (val False).  The slow frames near
             # it with the ball low are where the pen rests on the paper: a landing moves to the
             # first of them, a take-off to just after the last.
             lo, hi = max(a - window, 0), min(a + window, len(v) - 1)
             seg = v[lo:hi + 1]
             floor = seg.min() + max(SLOW_MM_S, 0.1 * (seg.max() - seg.min()))
-            resting = np.flatnonzero((seg <= floor) & (h[lo:hi + 1] < RELEASE_MM)) + lo
+            resting = np.flatnonzero((seg <= floor) & (h[lo:hi + 1] < CONTACT_MM)) + lo
             if not len(resting):
                 continue
             if val:
