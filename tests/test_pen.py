@@ -364,6 +364,8 @@ def test_learn_sheet_option_mistakes_are_bad_input(video, tmp_path, capsys):
     assert "--cell goes with --sheet" in capsys.readouterr().err
     assert cli.main(["learn", "--sheet", "--from-sim", "-o", str(out)]) == 2
     assert "--sheet learns from one video" in capsys.readouterr().err
+    assert cli.main(["learn", str(path), "--sheet", "--robot", "panda", "-o", str(out)]) == 2
+    assert "(not with --robot/--set)" in capsys.readouterr().err
     assert not out.exists()
 
 

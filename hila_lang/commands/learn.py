@@ -142,7 +142,9 @@ def _source(args: argparse.Namespace) -> str:
 
     if getattr(args, "sheet", False):
         others = [name for name, on in (("--from-sim", args.from_sim), ("--frames", args.frames is not None),
-                                        ("--left/--right", args.left is not None or args.right is not None)) if on]
+                                        ("--left/--right", args.left is not None or args.right is not None),
+                                        ("--keep-recording", args.keep_recording),
+                                        ("--robot/--set", args.robot is not None or args.robot_settings)) if on]
         if args.demo is None or others:
             raise InputError("--sheet learns from one video: hila learn VIDEO --sheet"
                              + (f" (not with {' and '.join(others)})" if others else ""))
