@@ -1,5 +1,7 @@
 """A pen on the printed sheet before one camera (issue 36): the sheet, synthetic videos, the
-tracker, ``hila learn VIDEO --sheet``, and the template it makes playing ``game.hila``."""
+tracker, ``hila learn VIDEO --sheet``, and the template it makes playing ``game.hila``.
+
+The tests that render and track a video are marked slow (tests/conftest.py): ``pytest -m slow``."""
 
 from __future__ import annotations
 
@@ -131,6 +133,7 @@ def test_y4m_is_read_back_by_ffmpeg_frame_for_frame(tmp_path):
     assert not (tmp_path / "odd.y4m").exists()
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_frames_folder_and_video_give_the_same_frames_with_times(tmp_path):
     from hila_lang.perception.recording import iter_frames
 
@@ -197,6 +200,7 @@ def track(video):
     return tracker.finish(), live
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_tracker_finds_the_tip_on_the_paper_within_a_millimetre(video, track):
     v, _ = video
     tr, _ = track
@@ -210,6 +214,7 @@ def test_tracker_finds_the_tip_on_the_paper_within_a_millimetre(video, track):
     assert np.median(np.abs(tr.height[high] - truth.tip[high, 2])) < 6.0
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_tracker_says_when_the_pen_touched_and_left_within_two_frames(video, track):
     v, _ = video
     tr, _ = track
@@ -220,6 +225,7 @@ def test_tracker_says_when_the_pen_touched_and_left_within_two_frames(video, tra
     assert abs(tr.times[changes[1]] - v.truth.lift) <= 2 * dt
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_tracker_frame_by_frame_gives_markers_and_a_live_tip(video, track):
     v, _ = video
     _, live = track
@@ -232,6 +238,7 @@ def test_tracker_frame_by_frame_gives_markers_and_a_live_tip(video, track):
     assert np.median(err) < 1.5
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_hand_over_a_marker_and_the_ball_is_bridged_and_said():
     v = PenVideo(PenVideoSpec(seed=2, cell=5, occluder=True))
     tracker = PenTracker()
@@ -258,6 +265,7 @@ def learned(video, tmp_path_factory):
     return out, r.stdout
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_learn_sheet_writes_the_same_template_as_learn_on_its_csv(learned, tmp_path):
     from hila_lang.osila.demofile import read_demo
 
@@ -274,6 +282,7 @@ def test_learn_sheet_writes_the_same_template_as_learn_on_its_csv(learned, tmp_p
     assert np.allclose(np.diff(demo.times), 0.05) and (demo.path[demo.pen, 2] == 0).all()
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_learn_sheet_path_pen_and_icps_match_the_truth(video, learned):
     from hila_lang.osila.demofile import read_demo
     from hila_lang.osila.template import load_template
@@ -295,6 +304,7 @@ def test_learn_sheet_path_pen_and_icps_match_the_truth(video, learned):
     assert np.linalg.norm(template.icps["hand"] - truth[0]) < 0.015
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_a_template_learned_from_the_camera_plays_the_game(learned, tmp_path):
     out, _ = learned
     shutil.copy(out / "circle.yaml", tmp_path / "circle.yaml")
@@ -329,6 +339,7 @@ def _paint_markers(v, rgb, which):
     ("no-ball", r"no green ball \(the pen's tip\) in any of its"),
     ("hidden-sheet", r"sheet \(at least 3 of its 4 markers\) lost in .* frames; cannot bridge frames \S+#0\.\."),
 ])
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(video, tmp_path, case, message):
     v, _ = video
 
@@ -352,6 +363,7 @@ def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(video, tm
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.slow  # renders and tracks a synthetic video
 def test_learn_sheet_option_mistakes_are_bad_input(video, tmp_path, capsys):
     _, path = video
     out = tmp_path / "t.yaml"
