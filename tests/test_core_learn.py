@@ -12,7 +12,7 @@ import pytest
 from hila_lang.cli import main
 from hila_lang.core.errors import InputError
 from hila_lang.hierarchy.learn import default_tags, learn, learn_files
-from hila_lang.osila.demofile import demo_csv_text, load_icps, read_demo_csv, write_demo_csv, write_icps
+from hila_lang.osila.demofile import demo_csv, load_icps, read_demo_csv, write_demo_csv, write_icps
 from hila_lang.osila.template import load_template, save_template
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,12 +35,12 @@ def test_the_writer_round_trips_through_the_reader_exactly(tmp_path, dim, timed)
 
 
 def test_the_writer_fixes_digits_when_asked_and_refuses_a_ragged_path():
-    text = demo_csv_text([[0.123456789, 1.0, 2.5]], [1 / 3], decimals=3, time_decimals=2)
+    text = demo_csv([[0.123456789, 1.0, 2.5]], [1 / 3], decimals=3, time_decimals=2)
     assert text == "t,x,y,z\n0.33,0.123,1.000,2.500\n"
     with pytest.raises(InputError, match="expected a path"):
-        demo_csv_text(np.zeros((4, 4)))
+        demo_csv(np.zeros((4, 4)))
     with pytest.raises(InputError, match="T times"):
-        demo_csv_text(np.zeros((4, 2)), np.zeros(3))
+        demo_csv(np.zeros((4, 2)), np.zeros(3))
 
 
 def test_default_tags_are_the_commands():

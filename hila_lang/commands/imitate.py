@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     from ..core.errors import InputError
     from ..core.fileio import atomic_write_text, ensure_writable
     from ..hierarchy.generate import generate
-    from ..osila.demofile import demo_csv_text
+    from ..osila.demofile import demo_csv
     from ..osila.template import END, START, load_template
     from ..core.validation import check_int, check_positive
 
@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     piece = gen.pieces[0]
     path = gen.path
-    text = demo_csv_text(path, gen.times)
+    text = demo_csv(path, gen.times)
     out = sys.stdout
     if args.output:
         atomic_write_text(args.output, text)

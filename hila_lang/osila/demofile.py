@@ -1,19 +1,25 @@
 """Demonstration files: a path as CSV and its scene ICPs as YAML, read and written here only.
 
 CSV: a header line ``t,x,y``, ``t,x,y,z``, ``x,y`` or ``x,y,z`` (t in seconds, strictly
-increasing; x, y, z in metres or pixels), then one row per waypoint; blank lines and lines starting
-with ``#`` are skipped.  ICPs: a YAML mapping ``name: [x, y(, z)]``, or a task file's ``icps:``
-mapping.
+increasing; x, y, z in metres or pixels), optionally followed by a ``pen`` column, then one row per
+waypoint; blank lines and lines starting with ``#`` are skipped.  ``pen`` records the pen's
+contact with the surface at each waypoint: ``1`` down (touching, inking), ``0`` up -- what a
+drawing's pointer events say (``pointerdown`` / ``pointerup``) and what a camera demonstration
+tracks; ``hila learn`` then cuts where the pen touches and leaves the paper
+(:func:`hila_lang.osila.segmentation.contact_segments`).  ICPs: a YAML mapping
+``name: [x, y(, z)]``, or a task file's ``icps:`` mapping.
 
-The readers (:func:`read_demo_csv`, :func:`load_icps`) serve ``hila learn`` and ``hila eval``; the
-writers (:func:`demo_csv_text`, :func:`write_demo_csv`, :func:`icps_text`, :func:`write_icps`) serve everything that
-makes such files -- ``hila imitate``'s output, the studio's saved demonstrations, the letters'
-handwriting model, ``hila eval``'s stand-in data set -- so every one is a file the readers take.
+The readers (:func:`read_demo`, :func:`read_demo_csv`, :func:`load_icps`) serve ``hila learn`` and
+``hila eval``; the writers (:func:`demo_csv`, :func:`write_demo_csv`, :func:`icps_text`,
+:func:`write_icps`) serve everything that makes such files -- ``hila imitate``'s output, the
+studio's saved demonstrations, ``hila learn --sheet``'s tracked pen, the letters' handwriting
+model, ``hila eval``'s stand-in data set -- so every one is a file the readers take.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -21,12 +27,31 @@ from ..core.errors import InputError
 from ..core.fileio import atomic_write_text, load_yaml, read_text, yaml_text
 from .template import MAX_COORDINATE, check_coordinates
 
+#: the headers a demonstration CSV may have (each also with a last column ``pen``)
+HEADERS = (["t", "x", "y"], ["t", "x", "y", "z"], ["x", "y"], ["x", "y", "z"])
+
+
+class Demo(NamedTuple):
+    """A demonstration file's contents: ``path`` (T, D), ``times`` (T,) seconds or None, ``pen``
+    (T,) bool (True: the pen touches the surface) or None when the file has no ``pen`` column."""
+
+    path: np.ndarray
+    times: np.ndarray | None
+    pen: np.ndarray | None
+
 
 def read_demo_csv(path: str | Path):
-    """Read a demonstration CSV: returns (path (T, D), times (T,) or None).
+    """Read a demonstration CSV: returns (path (T, D), times (T,) or None) (:func:`read_demo`
+    without the pen)."""
+    demo = read_demo(path)
+    return demo.path, demo.times
+
+
+def read_demo(path: str | Path) -> Demo:
+    """Read a demonstration CSV, its ``pen`` column included when it has one.
 
     Raises InputError naming the file and line for a bad header, a ragged row, a non-number,
-    non-increasing times or no data rows.
+    a pen value other than 0 or 1, non-increasing times or no data rows.
     """
     text = read_text(path, "demonstration CSV")
     rows = []
@@ -38,9 +63,11 @@ def read_demo_csv(path: str | Path):
         raise InputError("demonstration CSV is empty; expected a header 't,x,y[,z]' and rows", file=str(path))
     no, raw, header = rows[0]
     header = [h.lower() for h in header]
-    if header not in (["t", "x", "y"], ["t", "x", "y", "z"], ["x", "y"], ["x", "y", "z"]):
+    has_pen = header[-1:] == ["pen"]
+    if (header[:-1] if has_pen else header) not in HEADERS:
         raise InputError(
-            f"expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z', got {','.join(header)!r}",
+            f"expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z' (each optionally with a last "
+            f"column 'pen'), got {','.join(header)!r}",
             file=str(path), line=no, source_line=raw,
         )
     data = []
@@ -61,7 +88,12 @@ def read_demo_csv(path: str | Path):
                     f"expected a finite number in column {name!r}, got {cell!r}",
                     file=str(path), line=no, source_line=raw,
                 )
-            if name != "t" and abs(v) > MAX_COORDINATE:
+            if name == "pen" and v not in (0.0, 1.0):
+                raise InputError(
+                    f"expected 1 (pen down, touching) or 0 (pen up) in column 'pen', got {cell!r}",
+                    file=str(path), line=no, source_line=raw,
+                )
+            if name not in ("t", "pen") and abs(v) > MAX_COORDINATE:
                 raise InputError(
                     f"expected a coordinate within +-{MAX_COORDINATE:g} in column {name!r}, got {cell!r}",
                     file=str(path), line=no, source_line=raw, hint="a demonstration's units are metres or pixels",
@@ -76,9 +108,12 @@ def read_demo_csv(path: str | Path):
     if not data:
         raise InputError("demonstration CSV has a header but no data rows", file=str(path))
     arr = np.array([v for _, v in data])
+    pen = arr[:, -1] > 0.5 if has_pen else None
+    if has_pen:
+        arr = arr[:, :-1]
     if header[0] == "t":
-        return arr[:, 1:], arr[:, 0]
-    return arr, None
+        return Demo(arr[:, 1:], arr[:, 0], pen)
+    return Demo(arr, None, pen)
 
 
 def load_icps(path: str | Path, dim: int) -> dict:
@@ -98,33 +133,38 @@ def load_icps(path: str | Path, dim: int) -> dict:
     return {str(k): v for k, v in doc.items()}
 
 
-def demo_csv_text(path, times=None, *, decimals: int | None = None, time_decimals: int | None = None) -> str:
-    """The demonstration CSV of ``path`` (T, D) and ``times`` (T,) or None, as :func:`read_demo_csv`
-    reads it: the header ``t,x,y[,z]`` (``x,y[,z]`` without times), one row per waypoint.
+def demo_csv(path, times=None, pen=None, *, decimals: int | None = None, time_decimals: int | None = None) -> str:
+    """The CSV text :func:`read_demo` reads: ``path`` (T, D), optional ``times`` (T,) and ``pen``
+    (T,) bool; the header ``t,x,y[,z][,pen]`` (without ``t`` when there are no times), one row per
+    waypoint.
 
     Floats are written exactly (``repr`` round-trips) unless ``decimals`` (coordinates) and
     ``time_decimals`` (times; default ``decimals``) fix the digits after the point.
     """
     path = np.asarray(path, float)
     times = None if times is None else np.asarray(times, float)
-    if path.ndim != 2 or path.shape[1] not in (2, 3) or (times is not None and times.shape != (len(path),)):
+    pen = None if pen is None else np.asarray(pen, bool)
+    if path.ndim != 2 or path.shape[1] not in (2, 3) or any(a is not None and a.shape != (len(path),)
+                                                             for a in (times, pen)):
         raise InputError(f"expected a path (T, 2 or 3) and T times, got {path.shape} and "
-                         f"{None if times is None else times.shape}")
+                         f"{None if times is None else times.shape}"
+                         + ("" if pen is None else f" and {pen.shape} pen states"))
     time_decimals = decimals if time_decimals is None else time_decimals
 
     def cell(v: float, digits: int | None) -> str:
         return repr(float(v)) if digits is None else f"{v:.{digits}f}"
 
-    rows = [("t," if times is not None else "") + ",".join("xyz"[: path.shape[1]])]
+    header = ["t"] * (times is not None) + ["x", "y", "z"][: path.shape[1]] + ["pen"] * (pen is not None)
+    rows = [",".join(header)]
     for i, p in enumerate(path):
         cells = ([cell(times[i], time_decimals)] if times is not None else []) + [cell(v, decimals) for v in p]
-        rows.append(",".join(cells))
+        rows.append(",".join(cells + ([str(int(pen[i]))] if pen is not None else [])))
     return "\n".join(rows) + "\n"
 
 
-def write_demo_csv(file: str | Path, path, times=None, **digits) -> Path:
-    """Write :func:`demo_csv_text` to ``file`` atomically; ``digits`` as there."""
-    return atomic_write_text(file, demo_csv_text(path, times, **digits))
+def write_demo_csv(file: str | Path, path, times=None, pen=None, **digits) -> Path:
+    """Write :func:`demo_csv` to ``file`` atomically; ``digits`` as there."""
+    return atomic_write_text(file, demo_csv(path, times, pen, **digits))
 
 
 def icps_text(icps: dict, header: str = "") -> str:

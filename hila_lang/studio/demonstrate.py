@@ -185,7 +185,7 @@ def save(folder: Path, req: dict) -> dict:
     """
     from ..hierarchy.learn import learn_files
     from ..language.transformer import usable_as_tag
-    from ..osila.demofile import demo_csv_text, icps_text
+    from ..osila.demofile import demo_csv, icps_text
     from ..osila.template import Segment, check_segments, template_text
 
     name = str(req.get("name", "")).strip()
@@ -203,7 +203,7 @@ def save(folder: Path, req: dict) -> dict:
     contact = [str(t) for t in req.get("contact") or []]
     method, seed = str(req.get("method", "speed")), int(req.get("seed", 0))
     target = inside(folder, f"{name}.yaml")
-    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv_text(path, times),
+    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv(path, times),
                                            f"{name}.icps.yaml": icps_text(icps)})
     k = max(len(tags), 1)
     template = learn_files(str(demo), str(icps_file), name=name, tags=tags, contact=contact, k=k, method=method,

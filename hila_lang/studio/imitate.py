@@ -171,7 +171,7 @@ async def _template(request: Request) -> Response:
 
 
 async def _export(request: Request) -> Response:
-    from ..osila.demofile import demo_csv_text
+    from ..osila.demofile import demo_csv
 
     doc = await read_json(request)
     name = str(doc.get("template", ""))
@@ -179,7 +179,7 @@ async def _export(request: Request) -> Response:
     result = await run_in_threadpool(imitate, t, doc)
     if "error" in result:
         raise InputError(result["error"])
-    return JSONResponse({"csv": demo_csv_text(result["path"], t.times), "hila": snippet(t, doc, Path(name).stem)})
+    return JSONResponse({"csv": demo_csv(result["path"], t.times), "hila": snippet(t, doc, Path(name).stem)})
 
 
 async def _explain(request: Request) -> Response:
