@@ -49,8 +49,8 @@ AT_REST = 5e-5
 #: a stop's one point is reached this long after it is received, seconds (a time of zero makes
 #: some controllers jump to it in one control cycle)
 STOP_TIME = 0.05
-#: how long a stop waits for the controller to acknowledge it, seconds
-STOP_ACK = 0.5
+#: how long a stop waits for the joint states to say the arm rests, seconds
+STOP_WAIT = 1.0
 #: moves kept in :attr:`RosBackend.moves`
 KEEP_MOVES = 1000
 
@@ -198,7 +198,7 @@ class RosBackend:
             states = self.states.recorded(stop=True)
             exc.executed = self._executed(states)
             self.moves.append(Move(plan, sent, states, exc.executed))
-            self._stop(exc)
+            self._stop()
             raise
         states = self.states.recorded(stop=True)
         move = Move(plan, sent, states, self._executed(states))
@@ -245,23 +245,32 @@ class RosBackend:
             f"{_fmt(self.arm.tip(last.positions))}; the move was given up and a stop sent",
             hint="the arm's driver (hila robot-sim, ros2_control) stopped publishing: check it before running again")
 
-    def _stop(self, why: BaseException) -> None:
-        """Send a one-point trajectory holding the newest measured position; say so on stderr."""
-        last = self.states.latest
+    def _stop(self) -> None:
+        """Send a one-point trajectory holding the newest measured position, wait (at most
+        :data:`STOP_WAIT` s) for the joint states to say the arm rests, and say so on stderr."""
+        s = self.states
+        last = s.latest
         if last is None or "node" not in self.__dict__:
             return
         try:
             msg = trajectory_message(self.joints, [STOP_TIME], last.positions[None], np.zeros((1, len(self.joints))))
             self.publisher.publish(msg)
-            from rclpy.duration import Duration
-
-            acked = self.publisher.wait_for_all_acked(Duration(seconds=STOP_ACK))
         except Exception as exc:  # noqa: BLE001 - the move's own error is what the user must see
             print(f"note: sending the stop to {self.controller} failed: {exc}", file=sys.stderr)
             return
-        heard = "" if acked else f" (not acknowledged within {STOP_ACK:g} s)"
-        print(f"stop sent to {self.controller}{heard}: holding the joints measured at {_clock(last.received)}, "
-              f"tool at {_fmt(self.arm.tip(last.positions))}", file=sys.stderr)
+        sent = time.monotonic()
+
+        def resting() -> bool:
+            a, b = s.before, s.latest
+            return (b.received > sent + STOP_TIME and a is not None
+                    and np.linalg.norm(self.arm.tip(a.positions) - self.arm.tip(b.positions)) < AT_REST)
+
+        head = f"stop sent to {self.controller} (hold the joints measured at {_clock(last.received)})"
+        if s.wait(resting, STOP_WAIT):
+            print(f"{head}: the arm rests, the tool at {_fmt(self.arm.tip(s.latest.positions))}", file=sys.stderr)
+        else:
+            print(f"{head}: no joint states said the arm rests within {STOP_WAIT:g} s (the last came at "
+                  f"{_clock(s.latest.received)})", file=sys.stderr)
 
     def _ask(self, plan: JointPlan) -> None:
         """``ros.confirm``: show the move and ask before sending it (``first``: before the first)."""

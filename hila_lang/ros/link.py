@@ -187,6 +187,8 @@ class JointStates:
     def __init__(self, joints) -> None:
         self.joints = tuple(joints)
         self.latest: State | None = None
+        #: the state before :attr:`latest`
+        self.before: State | None = None
         self.mismatch: list[str] | None = None
         self.count = 0
         self._recorded: list[State] | None = None
@@ -204,7 +206,7 @@ class JointStates:
             return
         state = State(received, _seconds(msg.header.stamp), np.array([msg.position[index[j]] for j in self.joints]))
         with self._changed:
-            self.latest = state
+            self.before, self.latest = self.latest, state
             self.count += 1
             if self._recorded is not None:
                 self._recorded.append(state)

@@ -88,6 +88,11 @@ class Workspace:
         return k, float(out[k]), side
 
 
+def _boxed(exc: UnreachableError, workspace: Workspace) -> UnreachableError:
+    exc.hint = f"the box is ros.workspace={workspace.text()} (XMIN,XMAX,YMIN,YMAX,ZMIN,ZMAX); --set it to the arm's"
+    return exc
+
+
 def hermite(times: np.ndarray, positions: np.ndarray, velocities: np.ndarray, t) -> tuple[np.ndarray, np.ndarray]:
     """Cubic Hermite interpolation of knots at ``times`` (M,) with ``positions`` and ``velocities``
     (M, n), as a joint trajectory controller interpolates between points that carry velocities.
@@ -219,8 +224,8 @@ def plan_move(arm, q_start, path, *, pen_down: bool = False, speed: float = TRAV
         out = workspace.outside(planned)
         if out is not None:
             k, far, side = out
-            raise unreachable(planned[k], f"it is {far * 1000:.1f} mm outside the workspace box ({side})", far,
-                              label, where=f" (waypoint {k + 1} of {len(planned)})")
+            raise _boxed(unreachable(planned[k], f"it is {far * 1000:.1f} mm outside the workspace box ({side})", far,
+                                     label, where=f" (waypoint {k + 1} of {len(planned)})"), workspace)
     tips, origin, arc, qs = solve_along(arm.solve, arm.tip, q_start, planned, label)
     keep = np.concatenate([[True], np.diff(arc) > MIN_SEGMENT])
     tips, origin, arc, qs = tips[keep], origin[keep], arc[keep], qs[keep]
@@ -296,8 +301,8 @@ def check_plan(arm, plan: JointPlan, *, speed: float, workspace: Workspace | Non
         out = workspace.outside(tips)
         if out is not None:
             i, far, side = out
-            raise unreachable(tips[i], f"the tool would pass {far * 1000:.1f} mm outside the workspace box ({side}), "
-                                       f"{plan.where(t[i])}", far, plan.label)
+            raise _boxed(unreachable(tips[i], f"the tool would pass {far * 1000:.1f} mm outside the workspace box "
+                                              f"({side}), {plan.where(t[i])}", far, plan.label), workspace)
     i = int(np.argmax(tool_speed))
     if tool_speed[i] > speed * (1.0 + SPEED_SLACK):
         raise HilaRuntimeError(f"refused{where}: the tool would move at {tool_speed[i]:.3f} m/s, over the cap "
