@@ -20,8 +20,9 @@ angles, never from what it sent.
 - No joint state for ``ros.silence`` s during a move (the arm's driver died) ends the move: exit 1,
   the path so far kept, and the message says when the last state came and where the arm was.
 - Ctrl-C, SIGTERM and any failure during a move send a stop first: a one-point trajectory holding
-  the newest measured position (reached in :data:`STOP_TIME` s), then the error goes on its way
-  with the executed part of the move attached (``exc.executed``), so the run saves it
+  the newest measured position (reached in :data:`STOP_TIME` s); the joint states are kept until
+  they say the arm rests (at most :data:`STOP_WAIT` s), then the error goes on its way with the
+  executed part of the move, the stop included, attached (``exc.executed``), so the run saves it
   (:mod:`hila_lang.engine.interpreter`).
 - ``reset_hand`` (``hand at``, a world parking the arm) is a real motion on a real arm: planned,
   checked and confirmed like a move, from wherever the tool is.
@@ -195,10 +196,10 @@ class RosBackend:
             self.publisher.publish(trajectory_message(self.joints, plan.times, plan.positions, plan.velocities))
             self._follow(plan, sent)
         except BaseException as exc:  # Ctrl-C, SIGTERM, the arm's silence, a trajectory not followed
+            self._stop()  # first; the states keep being recorded until the arm rests
             states = self.states.recorded(stop=True)
             exc.executed = self._executed(states)
             self.moves.append(Move(plan, sent, states, exc.executed))
-            self._stop()
             raise
         states = self.states.recorded(stop=True)
         move = Move(plan, sent, states, self._executed(states))
