@@ -39,6 +39,13 @@ def test_the_description_gives_the_icub_chain_limits_and_caps():
         for_robot("icup")
 
 
+def test_batched_forward_kinematics_matches_one_posture_at_a_time():
+    rng = np.random.default_rng(1)
+    qs = rng.uniform(ARM.lower, ARM.upper, size=(50, ARM.dof))
+    one_by_one = np.array([ARM.chain.tip_position(q) for q in qs])
+    assert np.allclose(ARM.tips(qs), one_by_one, atol=1e-12)
+
+
 def test_hermite_matches_scipy_on_seeded_random_knots():
     from scipy.interpolate import CubicHermiteSpline
 

@@ -98,8 +98,7 @@ class KinematicArm:
 
     def tips(self, qs: np.ndarray) -> np.ndarray:
         """The tool tip (M, 3) at each row of ``qs`` (M, n)."""
-        qs = np.asarray(qs, dtype=float).reshape(-1, self.dof)
-        return np.array([self.tip(q) for q in qs]).reshape(-1, 3)
+        return self.chain.tip_positions(qs)
 
     def solve(self, target: np.ndarray, q0: np.ndarray) -> ik.IKResult:
         """IK: the tool tip at ``target`` (3,) (and along :attr:`tool_axis`), warm-started at ``q0``;
