@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+from ..core.argtypes import number
+
 HELP = "a simulated arm behind ROS 2 topics (trajectory controller + /joint_states) for --backend ros"
 DESCRIPTION = """\
 Start the PyBullet arm as a ROS 2 node, the stand-in for a real arm with ros2_control: it follows
@@ -30,34 +32,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the trajectory topic it listens on (default /joint_trajectory_controller/joint_trajectory)")
     parser.add_argument("--states", default="/joint_states", metavar="TOPIC",
                         help="the joint state topic it publishes (default /joint_states)")
-    parser.add_argument("--rate", type=_rate, default=120.0, metavar="HZ",
+    parser.add_argument("--rate", type=number(10.0, 240.0), default=120.0, metavar="HZ",
                         help="joint states per second, 10-240 (default 120; physics runs at 240 Hz)")
     parser.add_argument("--prefix", default="", metavar="TEXT",
                         help="put TEXT before every joint name, as a namespaced driver does (default none)")
     parser.add_argument("--brake", action="append", default=[], metavar="JOINT",
                         help="hold JOINT where it starts whatever it is told (a fault: a trajectory the arm does "
                              "not follow); repeatable")
-    parser.add_argument("--seconds", type=_rate_seconds, default=None, metavar="S",
+    parser.add_argument("--seconds", type=number(0.0, 1e6), default=None, metavar="S",
                         help="stop after S seconds (default: run until Ctrl-C or SIGTERM)")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window (needs a display)")
-
-
-def _rate(text: str) -> float:
-    return _number(text, 10.0, 240.0)
-
-
-def _rate_seconds(text: str) -> float:
-    return _number(text, 0.0, 1e6)
-
-
-def _number(text: str, low: float, high: float) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not low <= value <= high:
-        raise argparse.ArgumentTypeError(f"expected a number from {low:g} to {high:g}, got {text!r}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:
@@ -67,8 +51,9 @@ def run(args: argparse.Namespace) -> int:
     from ..core.interrupts import exit_code
     from ..robot.kinematic_arm import for_robot
     from ..ros import TOPIC
-    from ..ros.simarm import SimulatedArm
     import re
+
+    from ..ros.simarm import SimulatedArm
 
     for flag, topic in (("--controller", args.controller), ("--states", args.states)):
         if not re.fullmatch(TOPIC, topic):

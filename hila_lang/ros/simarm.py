@@ -94,6 +94,7 @@ class SimulatedArm:
         from ..robot.arm import POSITION_GAIN, VELOCITY_GAIN
         from ..robot.kinematic_arm import for_robot
 
+        _, JointTrajectory, _, JointState = ros_modules()  # before the simulation: a missing extra says so at once
         self.log = log or sys.stderr
         self.description = for_robot(robot)
         self.gains = (POSITION_GAIN, VELOCITY_GAIN)
@@ -115,7 +116,6 @@ class SimulatedArm:
             self.received = 0
             self._pending = None
             self._lock = threading.Lock()
-            _, JointTrajectory, _, JointState = ros_modules()
             self.node = RosNode("hila_robot_sim")
             self.publisher = self.node.publisher(JointState, states, sensor=False)
             self.node.subscribe(JointTrajectory, controller, self._on_trajectory)
