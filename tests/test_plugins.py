@@ -51,7 +51,7 @@ def test_every_registered_plugin_implements_its_protocol(tmp_path, world_name, b
     if backend_name == "ros":  # it needs an arm on ROS 2 to be built: tests/test_ros.py builds it against robot-sim
         from hila_lang.ros.backend import RosBackend
 
-        assert conformance(RosBackend, Backend) == []
+        assert conformance(RosBackend.__new__(RosBackend), Backend) == []  # members and signatures, not built
         return
     options = RunOptions(out=tmp_path, stdin=io.StringIO(), stdout=io.StringIO())
     world = winfo.build(options, winfo.parse({s.name: "no" for s in winfo.settings if s.name == "report"}))
