@@ -71,11 +71,26 @@ class RobotSim:
         self._reader.join(timeout=5)
 
 
+#: every ``hila`` process :func:`hila` started (:func:`kill_leftovers` ends those still running)
+STARTED: list[subprocess.Popen] = []
+
+
 def hila(domain: int, *args, stdin=None) -> subprocess.Popen:
     """``hila ARGS`` beside the sim (same domain), output captured."""
-    return subprocess.Popen([sys.executable, "-m", "hila_lang", *map(str, args)], cwd=ROOT, env=ros_env(domain),
+    proc = subprocess.Popen([sys.executable, "-m", "hila_lang", *map(str, args)], cwd=ROOT, env=ros_env(domain),
                             stdin=subprocess.PIPE if stdin is not None else subprocess.DEVNULL,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    STARTED.append(proc)
+    return proc
+
+
+def kill_leftovers() -> None:
+    """Kill the ``hila`` processes a failed test left running."""
+    while STARTED:
+        proc = STARTED.pop()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
 
 
 def finish(proc: subprocess.Popen, stdin: str | None = None, timeout: float = 240) -> tuple[int, str, str]:

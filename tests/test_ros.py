@@ -21,7 +21,7 @@ pytest.importorskip("trajectory_msgs.msg", reason="the 'ros' extra's message pac
 from hila_lang.robot.kinematic_arm import for_robot  # noqa: E402
 from hila_lang.ros.plan import hausdorff  # noqa: E402
 
-from ros_support import Listener, RobotSim, finish, hila, new_domain  # noqa: E402
+from ros_support import Listener, RobotSim, finish, hila, kill_leftovers, new_domain  # noqa: E402
 
 ARM = for_robot("icub")
 SHORT = "tests/programs/ros_reach.hila"
@@ -39,9 +39,12 @@ def sims():
         started.append(sim)
         return sim
 
-    yield start
-    for sim in started:
-        sim.stop()
+    try:
+        yield start
+    finally:
+        kill_leftovers()  # a hila exec a failed assertion left behind
+        for sim in started:
+            sim.stop()
 
 
 def _record(path) -> dict:
