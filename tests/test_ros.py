@@ -7,6 +7,7 @@ mid-move stop the arm where it is.  Every sim is killed by its fixture, even whe
 from __future__ import annotations
 
 import json
+import re
 import signal
 import time
 import zipfile
@@ -142,14 +143,15 @@ def test_the_joint_states_stopping_mid_move_ends_the_run_with_the_trace_saved(si
     killed = time.monotonic()
     code, out, err = finish(proc)
     assert code == 1, err
-    assert time.monotonic() - killed < 5
-    assert "error: no joint states on /joint_states for 0.5" in err and "during a move: the last came at " in err
+    assert time.monotonic() - killed < 10  # ros.silence (0.5 s), the stop's wait (1 s), leaving the graph
+    assert re.search(r"error: no joint states on /joint_states for \d\.\d\d s during a move: the last came at "
+                     r"\d\d:\d\d:\d\d\.\d\d\d, \d+\.\d\d s into the move \(of \d\.\d\d s\)", err), err
     assert "no joint states said the arm rests within 1 s" in err
     assert "s into the move (of " in err and "(in state main/reach)" in err and "Traceback" not in err
     doc = _record(rec)
     assert doc["result"]["status"] == "failed" and doc["result"]["exit"] == 1
     executed = np.array(doc["result"]["executed"])
-    assert len(executed) > 30  # about half a second of states at 120 Hz
+    assert len(executed) > 20  # about half a second of states at 120 Hz
     assert trace.read_text().splitlines()[-1].split()[1] == "main/reach"
     assert "failed: no joint states" in trace.read_text()
 
