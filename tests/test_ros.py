@@ -25,7 +25,7 @@ from hila_lang.ros.plan import hausdorff  # noqa: E402
 from ros_support import Listener, RobotSim, finish, hila, kill_leftovers, new_domain  # noqa: E402
 
 ARM = for_robot("icub")
-SHORT = "tests/programs/ros_reach.hila"
+SHORT = "tests/data/ros/reach.hila"
 #: the Done-when bound: the executed path within 2 mm of the plan
 WITHIN = 0.002
 
@@ -91,7 +91,7 @@ def test_reach_return_runs_on_robot_sim_and_the_executed_path_follows_the_plan(s
 def test_a_tictactoe_move_runs_on_robot_sim(sims, tmp_path):
     sim = sims()
     rec = tmp_path / "ttt.hilarec"
-    code, out, err = finish(hila(sim.domain, "exec", "tests/programs/ttt_move.hila", "--backend", "ros",
+    code, out, err = finish(hila(sim.domain, "exec", "tests/data/ros/ttt_move.hila", "--backend", "ros",
                                  "--set", "report=no", "--record", rec))
     assert code == 0, err
     doc = _record(rec)
