@@ -131,6 +131,9 @@ def main() -> None:
     print(f"{'':28}{'pybullet, in process':34}{'ros, robot-sim in another process'}")
     for name, key in (("command-to-motion (ms)", "latency"), ("  of which planning (ms)", "planning")):
         print(f"{name:28}{_ms([r[key] for r in py]):34}{_ms([r[key] for r in ros])}")
+    after = "  after it (ms)"
+    print(f"{after:28}{_ms([r['latency'] - r['planning'] for r in py]):34}"
+          f"{_ms([r['latency'] - r['planning'] for r in ros])}")
     for name, pick in (("tracking error (mm)", lambda r: r["deviation"]), ("end error (mm)", lambda r: [r["end"]])):
         a = np.concatenate([pick(r) for r in py]) / 1000
         b = np.concatenate([pick(r) for r in ros]) / 1000
