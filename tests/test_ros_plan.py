@@ -219,3 +219,33 @@ def test_lark_older_than_1_is_refused_with_how_to_mend_it(monkeypatch):
         monkeypatch.undo()
         grammar.cache_clear()
     assert grammar() is not None
+
+
+def test_the_part_of_a_move_made_before_it_failed_is_kept_in_the_trace_and_the_recording(tmp_path):
+    import io
+    import json
+    import zipfile
+
+    from hila_lang.plugins.options import RunOptions
+    from hila_lang.session.recording import Recorder, read_record
+    from hila_lang.session.runner import prepare
+
+    interp = prepare("tests/data/ros/reach.hila", RunOptions(stdout=io.StringIO()), "dry")
+    made = np.array([[0.18, -0.25, 0.75], [0.20, -0.23, 0.72], [0.22, -0.22, 0.70]])
+
+    def move(path, *, pen_down=False, label=""):  # a back end that loses its arm part of the way
+        exc = HilaRuntimeError("no joint states on /joint_states for 0.50 s during a move")
+        exc.executed = made
+        raise exc
+
+    interp.backend.move = move
+    recorder = Recorder(interp, tmp_path / "r.hilarec", {"program": "tests/data/ros/reach.hila", "backend": "dry",
+                                                         "seed": 0, "settings": {}})
+    with pytest.raises(HilaRuntimeError) as info:
+        interp.run()
+    failed = interp.trace[-1]
+    assert failed.error and failed.state == "main/reach" and np.array_equal(failed.executed, made)
+    recorder.close(info.value)
+    result = json.loads(zipfile.ZipFile(tmp_path / "r.hilarec").read("record.json"))["result"]
+    assert result["status"] == "failed" and np.allclose(result["executed"], made)
+    assert np.allclose(read_record(tmp_path / "r.hilarec")["result"]["executed"], made)
