@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import HilaRuntimeError
-from ..core.rotation import from_quat, pose, to_quat
+from ..core.rotation import about_z, from_quat, pose, to_quat
 from ..sim.client import quiet_c_output
 from . import ik, model
 
@@ -34,7 +34,7 @@ class Body:
         pb, c = sim.pb, sim.client
         path = model.urdf_path()
         self.urdf = path.read_text()
-        self.world_T_root = model.world_T_root()
+        self.world_T_root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
         with quiet_c_output():
             self.id = pb.loadURDF(str(path), model.ROOT_POSITION, to_quat(self.world_T_root[:3, :3]).tolist(),
                                   useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c)
