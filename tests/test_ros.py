@@ -19,12 +19,13 @@ pytest.importorskip("rclpy", reason="the ROS 2 tests need the 'ros' extra: pip i
                                     "pip install --force-reinstall --no-deps 'lark>=1.1,<2' (.ci/run does both)")
 pytest.importorskip("trajectory_msgs.msg", reason="the 'ros' extra's message packages are not installed")
 
-from hila_lang.robot.kinematic_arm import for_robot  # noqa: E402
+from hila_lang.robot.kinematic_arm import from_spec  # noqa: E402
+from hila_lang.robot.spec import resolve  # noqa: E402
 from hila_lang.ros.plan import hausdorff  # noqa: E402
 
 from ros_support import Listener, RobotSim, finish, hila, kill_leftovers, new_domain  # noqa: E402
 
-ARM = for_robot("icub")
+ARM = from_spec(resolve("icub"))
 SHORT = "tests/data/ros/reach.hila"
 #: the Done-when bound: the executed path within 2 mm of the plan
 WITHIN = 0.002
@@ -86,6 +87,37 @@ def test_reach_return_runs_on_robot_sim_and_the_executed_path_follows_the_plan(s
     assert len(first["executed"]) != len(first["path"])
     # 1 move to 'hand at home', then 10 runs: every one a trajectory the sim took
     assert len([t for t in sim.trajectories() if "points over" in t]) == 11
+
+
+def test_reach_return_runs_on_the_panda_in_robot_sim(sims, tmp_path):
+    """Another arm, from its URDF: both sides take --robot panda; the plan is the Panda's."""
+    sim = sims("--robot", "panda")
+    assert any("panda ready: 7 joints (panda_joint1, panda_joint2," in line for line in sim.lines), sim.lines
+    rec = tmp_path / "rr-panda.hilarec"
+    code, out, err = finish(hila(sim.domain, "exec", "programs/reach_return.hila", "--backend", "ros",
+                                 "--robot", "panda", "--record", rec))
+    assert code == 0, err
+    assert "result: finished: 22 steps, 10 run states" in out
+    doc = _record(rec)
+    _check_follows_plan(doc)
+    assert len([t for t in sim.trajectories() if "points over" in t]) == 11
+    # the trace is the Panda's pen through its own kinematics: it ends where the program sends it
+    last = _run_steps(doc)[-1]
+    assert np.linalg.norm(np.array(last["executed"][-1]) - np.array(last["path"][-1])) < WITHIN
+
+
+def test_the_panda_s_joint_names_against_the_icub_s_are_named(sims):
+    """The sim runs the Panda; hila is given no --robot (the iCub): nothing moves, and the error names
+    both sides' joints and asks whether the robot is the arm's."""
+    sim = sims("--robot", "panda")
+    code, out, err = finish(hila(sim.domain, "exec", SHORT, "--backend", "ros", "--set", "ros.timeout=5"))
+    assert code == 1
+    assert ("error: the joint names in /joint_states do not match the robot's (icub: torso_pitch, torso_roll, "
+            in err and "missing torso_pitch, torso_roll, torso_yaw, r_shoulder_pitch" in err
+            and "/joint_states names panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, "
+                "panda_joint6, panda_joint7" in err), err
+    assert "hint: none of the icub's joints came: is the arm the icub? --robot NAME|PATH" in err
+    assert "Traceback" not in err and not sim.trajectories()
 
 
 def test_a_tictactoe_move_runs_on_robot_sim(sims, tmp_path):
@@ -235,7 +267,7 @@ def test_robot_sim_publishes_joint_states_at_120_hz_and_refuses_bad_options(sims
         listener.close()
     assert rate >= 100, rate
     code, out, err = finish(hila(sim.domain, "robot-sim", "--brake", "r_elbw"))
-    assert code == 2 and "--brake r_elbw: the icub arm has no such joint" in err and "did you mean 'r_elbow'" in err
+    assert code == 2 and "--brake r_elbw: the icub's arm has no such joint" in err and "did you mean 'r_elbow'" in err
 
 
 def test_the_ros_back_end_built_by_the_registry_implements_the_protocol(sims, monkeypatch):
@@ -253,6 +285,7 @@ def test_the_ros_back_end_built_by_the_registry_implements_the_protocol(sims, mo
     backend = info.build(world.scene, RunOptions(stdin=io.StringIO(), stdout=io.StringIO()), info.parse({}))
     try:
         assert conformance(backend, Backend) == [] and backend.name == "ros"
+        assert backend.robot.name == "icub" and backend.arm.joints == ARM.joints  # no --robot: the default robot
         assert all(getattr(backend, name) is None for name in CAPABILITIES)  # no eyes, ink, ..., no going back
         ready = ARM.tip(backend.states.latest.positions)
         assert np.linalg.norm(backend.hand_position() - ready) < 1e-9

@@ -14,13 +14,14 @@ import pytest
 
 from hila_lang.core.errors import HilaError, HilaRuntimeError, UnreachableError
 from hila_lang.robot.arm import ACCELERATION, DRAW_SPEED, TRAVEL_SPEED
-from hila_lang.robot.kinematic_arm import for_robot
+from hila_lang.robot.kinematic_arm import ACCELERATION_CAP, DEFAULT_VELOCITY, from_spec, speed_caps
+from hila_lang.robot.spec import resolve
 from hila_lang.robot.trajectory import trapezoid_profile, trapezoid_times
 from hila_lang.ros.backend import default_workspace
 from hila_lang.ros.plan import (SPEED_SLACK, JointPlan, Workspace, check_plan, hausdorff, hermite, off_path,
                                 plan_move, sample_times, time_joint_path)
 
-ARM = for_robot("icub")
+ARM = from_spec(resolve("icub"))
 #: a posture with the pen 7 cm above the default sheet
 START = ARM.posture_at(np.array([0.30, -0.10, 0.64]))
 BOX = default_workspace(0.571)
@@ -31,12 +32,59 @@ def _line(a, b, n=20):
 
 
 def test_the_description_gives_the_icub_chain_limits_and_caps():
-    assert ARM.joints[:3] == ("torso_pitch", "torso_roll", "torso_yaw") and ARM.dof == 10
+    assert ARM.robot == "icub" and ARM.joints[:3] == ("torso_pitch", "torso_roll", "torso_yaw") and ARM.dof == 10
     assert np.all(ARM.ik_lower > ARM.lower) and np.all(ARM.ik_upper < ARM.upper)
-    assert np.all(ARM.velocity > 0) and np.all(ARM.acceleration > 0)
+    # the iCub URDF's velocities (50000) are placeholders: every joint gets the default cap
+    assert np.all(ARM.velocity == DEFAULT_VELOCITY) and np.all(ARM.acceleration == ACCELERATION_CAP)
     assert START is not None and np.linalg.norm(ARM.tip(START) - [0.30, -0.10, 0.64]) < 1e-4
-    with pytest.raises(HilaError, match="(?s)unknown robot 'icup'.*did you mean 'icub'"):
-        for_robot("icup")
+
+
+def test_speed_caps_keep_a_urdf_velocity_and_replace_a_placeholder():
+    velocity, acceleration = speed_caps([2.175, 2.61, 10.0, 50000.0, 0.0, float("nan"), 6.28])
+    assert velocity.tolist() == [2.175, 2.61, DEFAULT_VELOCITY, DEFAULT_VELOCITY, DEFAULT_VELOCITY,
+                                 DEFAULT_VELOCITY, 6.28]
+    assert acceleration.tolist() == [ACCELERATION_CAP] * 7
+
+
+@pytest.mark.parametrize("name", ["panda", "kuka"])
+def test_the_description_of_an_arm_from_its_urdf_is_its_spec(name):
+    """Joints, limits, IK limits, weights, postures, reach and caps come from the robot's spec,
+    as the PyBullet arm (hila_lang/robot/arm.py) takes them."""
+    from hila_lang.robot.arm import LIMIT_MARGIN
+
+    spec = resolve(name)
+    arm = from_spec(spec)
+    chain = spec.chain()
+    assert arm.robot == name and arm.joints == chain.names and arm.dof == 7
+    assert np.array_equal(arm.lower, chain.lower) and np.array_equal(arm.upper, chain.upper)
+    lo, hi = spec.ik_limits(LIMIT_MARGIN)
+    assert np.array_equal(arm.ik_lower, lo) and np.array_equal(arm.ik_upper, hi)
+    assert np.array_equal(arm.weights, spec.joint_weights()) and arm.reach == spec.reach()
+    assert np.allclose(arm.seed, spec.posture("seed")) and np.allclose(arm.rest, np.clip(spec.posture("rest"), lo, hi))
+    urdf = np.array([spec.limits()[n]["velocity"] for n in arm.joints])
+    if name == "panda":  # its URDF gives the datasheet's velocities: kept
+        assert np.array_equal(arm.velocity, urdf) and set(urdf) == {2.175, 2.61}
+    else:  # pybullet_data's iiwa says 10 rad/s for every joint: a placeholder
+        assert np.all(urdf == 10.0) and np.all(arm.velocity == DEFAULT_VELOCITY)
+    # its pen held vertical 0.10 m above the robot's own sheet, solved from the seed
+    ready = spec.default_surface().to_world(0.0, 0.0) + [0.0, 0.0, 0.10]
+    q = arm.posture_at(ready)
+    assert q is not None and np.linalg.norm(arm.tip(q) - ready) < 1e-4
+
+
+def test_a_panda_move_is_planned_with_the_panda_and_refused_beyond_its_reach():
+    panda = from_spec(resolve("panda"))
+    start = panda.posture_at(np.array([0.30, -0.10, 0.64]))
+    here = panda.tip(start)
+    plan = plan_move(panda, start, _line(here, here + [0.08, 0.05, -0.05]), workspace=BOX, label="reach")
+    assert plan.joints == panda.joints
+    assert off_path(panda.tips(plan.positions), np.vstack([here, here + [0.08, 0.05, -0.05]])).max() < 1.5e-4
+    # 5 cm beyond the Panda's reach ball (1.146 m around (-0.190, -0.090, 0.883)), which the refusal names
+    (cx, cy, cz), radius = panda.reach
+    far = np.array([[cx + radius + 0.05, cy, cz]])
+    with pytest.raises(UnreachableError, match=r"from the arm's base \(-0.190, -0.090, 0.883\), 0.050 m beyond the "
+                                               r"farthest the pen can be \(1.146 m\)"):
+        plan_move(panda, start, far, workspace=None, gap=10.0)
 
 
 def test_batched_forward_kinematics_matches_one_posture_at_a_time():

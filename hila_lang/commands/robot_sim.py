@@ -21,13 +21,23 @@ topic. Then, in another terminal:
 
     hila exec programs/reach_return.hila --backend ros
 
+Both sides must describe the same robot: give hila exec the --robot (and --set robot.KEY) given
+here, e.g. hila robot-sim --robot panda, then hila exec ... --backend ros --robot panda.
+
 Discovery follows ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE (LOCALHOST keeps it on this
 machine). Each trajectory taken, refused or stopped is one line on stderr. Needs the ros extra:
 pip install 'hila-lang[ros]' (docs/real-robot.md)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="icub", metavar="NAME", help="the robot (default icub)")
+    from ..plugins import registry
+
+    parser.add_argument("--robot", default=None, metavar="NAME|PATH",
+                        help="the robot: a name (" + ", ".join(registry.names("robot")) + "; default icub), a spec "
+                             "file (.yaml) or a URDF (.urdf), as hila exec --robot takes it (docs/robots.md)")
+    parser.add_argument("--set", dest="robot_settings", action="append", default=[], metavar="robot.KEY=VALUE",
+                        help="the robot's settings, as hila exec takes them: robot.tip=LINK, "
+                             "robot.packages=DIR[:DIR], robot.base=X,Y,Z, robot.pen=METRES; repeatable")
     parser.add_argument("--controller", default="/joint_trajectory_controller/joint_trajectory", metavar="TOPIC",
                         help="the trajectory topic it listens on (default /joint_trajectory_controller/joint_trajectory)")
     parser.add_argument("--states", default="/joint_states", metavar="TOPIC",
@@ -46,13 +56,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import difflib
+    import re
 
     from ..core.errors import InputError
     from ..core.interrupts import exit_code
-    from ..robot.kinematic_arm import for_robot
+    from ..robot.spec import resolve, robot_pairs
     from ..ros import TOPIC
-    import re
-
     from ..ros.simarm import SimulatedArm
 
     for flag, topic in (("--controller", args.controller), ("--states", args.states)):
@@ -60,13 +69,15 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"{flag} {topic!r} is not a ROS topic name")
     if args.prefix and not re.fullmatch(r"[A-Za-z0-9_/]+", args.prefix):
         raise InputError(f"--prefix {args.prefix!r}: expected letters, digits, _ or /")
-    joints = for_robot(args.robot).joints
+    robot = resolve(args.robot, robot_pairs(args.robot_settings, "hila robot-sim"))
+    joints = robot.chain().names
     for name in args.brake:
         if name not in joints:
             close = difflib.get_close_matches(name, joints, n=1)
-            raise InputError(f"--brake {name}: the {args.robot} arm has no such joint; its joints: {', '.join(joints)}",
+            raise InputError(f"--brake {name}: the {robot.name}'s arm has no such joint; its joints: "
+                             f"{', '.join(joints)}",
                              hint=f"did you mean {close[0]!r}?" if close else None)
-    arm = SimulatedArm(args.robot, controller=args.controller, states=args.states, rate=args.rate,
+    arm = SimulatedArm(robot, controller=args.controller, states=args.states, rate=args.rate,
                        prefix=args.prefix, brakes=args.brake, gui=args.gui)
     try:
         arm.run(args.seconds)

@@ -1,41 +1,53 @@
-"""The arm as a description gives it, with no simulator: what a back end that drives a real arm
-needs to know of the robot -- joint names, forward and inverse kinematics, limits, postures, speed
-caps -- behind one small class, :class:`KinematicArm`.
+"""The arm as its robot description gives it, with no simulator: what a back end that drives a real
+arm needs to know of the robot -- joint names, forward and inverse kinematics, limits, postures,
+speed caps -- behind one small class, :class:`KinematicArm`.
 
 The ROS 2 back end (:mod:`hila_lang.ros`) and its simulated arm (``hila robot-sim``) know the robot
-only through this class.  :func:`for_robot` builds it; today it knows the iCub (the generated URDF
-of :mod:`.model`, the torso + right-arm chain to the pen tip, solved as :mod:`.arm` solves it).
-A robot described by a URDF and a spec (another arm) is a second branch of :func:`for_robot` that
-fills the same fields.
+only through this class.  :func:`from_spec` builds it from any :class:`~.spec.RobotSpec` (the
+iCub, the Panda, the KUKA, a spec file, a bare URDF): the spec's chain to the pen's tip, its IK
+limits (:data:`~.arm.LIMIT_MARGIN` inside the URDF's, within the spec's comfort ranges), joint
+weights, seed and rest postures and reach -- exactly what the PyBullet arm (:mod:`.arm`) plans
+with -- and the speed caps below.
 
-Speed caps.  The iCub URDF's joint velocities (50000) are placeholders, as its efforts are, so
-the iCub's caps are :data:`ICUB_VELOCITY` and :data:`ICUB_ACCELERATION`.  Measured on every move
-of ``programs/reach_return.hila`` and ``programs/game.hila``, timed at the pen speeds (0.15 m/s up,
-0.05 m/s down, 0.5 m/s^2) with no joint cap (:mod:`hila_lang.ros.plan`): the fastest joint turned
-at 0.47 rad/s, so the speed cap of 1 rad/s never slows them; the largest joint acceleration was
-9.3 rad/s^2 (reach_return) and 28.6 rad/s^2 (game), both where a path turns a corner between two
-points 2 mm apart.  The acceleration cap of 10 rad/s^2 leaves reach_return at its pen speeds and
-stretches the game's cornering moves by up to 1.7 (sqrt(28.6 / 10)); both caps stay well below
-what the iCub's arm motors do.
+Speed caps, the rule. A joint's velocity cap is its URDF ``<limit velocity>``, unless that is a
+placeholder: not positive, or above :data:`PLACEHOLDER_VELOCITY` (2 pi rad/s, a turn a second,
+more than twice the Panda's fastest joint, 2.61 rad/s, which its URDF gives as its datasheet
+does); the iCub's URDF says 50000 and pybullet_data's iiwa 10, neither the arm's. A placeholder
+becomes :data:`DEFAULT_VELOCITY` (a genuine figure above 2 pi is capped too: on the safe side; a
+``<limit>`` without one gets :meth:`~.spec.RobotSpec.limits`' 2 rad/s). A URDF gives no
+accelerations, so every joint of every arm gets :data:`ACCELERATION_CAP`, the lowest of the
+Panda's published joint limits (7.5-20 rad/s^2: joint 2).
+
+Measured (``python bench/ros_caps.py``: every move of ``programs/reach_return.hila`` and
+``programs/game.hila`` planned for each robot at the pen speeds, 0.15 m/s up, 0.05 m/s down,
+0.5 m/s^2, with no joint cap):
+
+- fastest joint: iCub 0.47 rad/s, Panda 0.45, KUKA 0.34, so the velocity caps (1 rad/s and
+  more) never slow a shipped program;
+- largest joint acceleration: reach_return iCub 9.3 rad/s^2, Panda 1.7, KUKA 1.3; game 28.6,
+  25.9, 23.4, each where the path turns a corner between two waypoints 2 mm apart (the game's
+  reach, 116-119 degrees; the KUKA's retract).  The cap stretches those moves' timing by
+  sqrt(peak / 7.5): 6 of the game's 11 moves by up to 1.95 (iCub), 1.86 (Panda), 1.77 (KUKA),
+  and 2 of reach_return's 10 on the iCub by up to 1.11.
 
 Frames and units: world frame, metres, radians; ``q`` in the order of :attr:`KinematicArm.joints`.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
-from ..core.errors import InputError
 from . import ik
 
-#: the robots :func:`for_robot` knows
-ROBOTS = ("icub",)
-#: the iCub's joint speed cap, rad/s (torso, then arm), and acceleration cap, rad/s^2
-ICUB_VELOCITY = 1.0
-ICUB_ACCELERATION = 10.0
+#: a URDF joint velocity above this is a placeholder, not the arm's, rad/s
+PLACEHOLDER_VELOCITY = 2 * math.pi
+#: the speed cap of a joint whose URDF velocity is a placeholder, rad/s
+DEFAULT_VELOCITY = 1.0
+#: every joint's acceleration cap (a URDF gives none), rad/s^2
+ACCELERATION_CAP = 7.5
 
 
 @dataclass(frozen=True)
@@ -45,9 +57,7 @@ class KinematicArm:
     Attributes
     ----------
     robot : str
-        Its name (``--robot NAME``).
-    urdf : str
-        The URDF text the chain was read from (a simulator loads the same file).
+        Its name (the spec's).
     chain : ik.KinematicChain
         World to tool tip; its joint names are :attr:`joints`.
     lower, upper : ndarray (n,)
@@ -57,7 +67,7 @@ class KinematicArm:
     weights : ndarray (n,)
         Relative willingness of each joint to move in the IK.
     velocity, acceleration : ndarray (n,)
-        Joint speed caps, rad/s and rad/s^2.
+        Joint speed caps, rad/s and rad/s^2 (:func:`speed_caps`).
     seed : ndarray (n,)
         A posture with the tool in front of the robot, where a first IK starts.
     rest : ndarray (n,)
@@ -66,10 +76,11 @@ class KinematicArm:
         The direction the tool's +z must point, world frame (the pen down), or None: free.
     reach : ((x, y, z), radius)
         A ball holding every point the tool can reach, metres.
+    spec : RobotSpec
+        The description it was built from (a simulator loads the same robot).
     """
 
     robot: str
-    urdf: str
     chain: ik.KinematicChain
     lower: np.ndarray
     upper: np.ndarray
@@ -82,6 +93,7 @@ class KinematicArm:
     rest: np.ndarray
     tool_axis: tuple | None
     reach: tuple
+    spec: object = None
 
     @property
     def joints(self) -> tuple[str, ...]:
@@ -114,30 +126,25 @@ class KinematicArm:
         return result.q if result.converged else None
 
 
-def for_robot(name: str = "icub") -> KinematicArm:
-    """The :class:`KinematicArm` of robot ``name`` (one of :data:`ROBOTS`); an InputError otherwise."""
-    key = str(name).strip().lower()
-    if key not in ROBOTS:
-        import difflib
-
-        close = difflib.get_close_matches(key, ROBOTS, n=1)
-        raise InputError(f"unknown robot {name!r}; known: {', '.join(ROBOTS)}",
-                         hint=f"did you mean {close[0]!r}?" if close else None)
-    return _icub()
+def speed_caps(urdf_velocity) -> tuple[np.ndarray, np.ndarray]:
+    """The joints' caps from their URDF velocities (n,), rad/s (the module docstring's rule):
+    (velocity caps (n,) rad/s, acceleration caps (n,) rad/s^2)."""
+    v = np.asarray(urdf_velocity, dtype=float)
+    placeholder = ~np.isfinite(v) | (v <= 0) | (v > PLACEHOLDER_VELOCITY)
+    return np.where(placeholder, DEFAULT_VELOCITY, v), np.full(len(v), ACCELERATION_CAP)
 
 
-@lru_cache(maxsize=1)
-def _icub() -> KinematicArm:
-    """The iCub's torso + right arm holding the pen (:mod:`.model`, solved as :mod:`.arm` solves it)."""
-    from . import arm, model, reach
+def from_spec(spec) -> KinematicArm:
+    """The :class:`KinematicArm` of the robot ``spec`` (a :class:`~.spec.RobotSpec`: the pen's tip,
+    its IK limits, weights, postures and reach as :class:`~.arm.Arm` plans with them)."""
+    from .arm import LIMIT_MARGIN
 
-    urdf = model.urdf_path().read_text()
-    chain = ik.KinematicChain.from_urdf(urdf, model.PEN_TIP_LINK, model.world_T_root())
-    lo, hi = arm.comfort_limits(chain)
-    n = chain.dof
+    chain = spec.chain()
+    lo, hi = spec.ik_limits(LIMIT_MARGIN)
+    limits = spec.limits()
+    velocity, acceleration = speed_caps([limits[n]["velocity"] for n in chain.names])
     return KinematicArm(
-        robot="icub", urdf=urdf, chain=chain, lower=chain.lower.copy(), upper=chain.upper.copy(),
-        ik_lower=lo, ik_upper=hi, weights=arm.JOINT_WEIGHTS.copy(),
-        velocity=np.full(n, ICUB_VELOCITY), acceleration=np.full(n, ICUB_ACCELERATION),
-        seed=np.clip(arm.SEED_POSTURE, lo, hi), rest=np.clip(arm.REST_POSTURE, lo, hi),
-        tool_axis=(0.0, 0.0, -1.0), reach=(tuple(reach.REACH_CENTRE), float(reach.REACH_RADIUS)))
+        robot=spec.name, chain=chain, lower=chain.lower.copy(), upper=chain.upper.copy(), ik_lower=lo, ik_upper=hi,
+        weights=spec.joint_weights(), velocity=velocity, acceleration=acceleration,
+        seed=np.clip(spec.posture("seed"), lo, hi), rest=np.clip(spec.posture("rest"), lo, hi),
+        tool_axis=(0.0, 0.0, -1.0), reach=spec.reach(), spec=spec)

@@ -114,13 +114,6 @@ _TINY_INERTIAL = (
 _GENERATOR_VERSION = "5"
 
 
-def world_T_root():
-    """Where the root link sits in the world: (4, 4), at :data:`ROOT_POSITION` turned by :data:`ROOT_YAW`."""
-    from ..core.rotation import about_z, pose
-
-    return pose(about_z(ROOT_YAW), ROOT_POSITION)
-
-
 class ModelError(HilaError):
     """The iCub model cannot be found or generated (icub-models missing or broken)."""
 

@@ -21,7 +21,7 @@ pen at most) and refuses a path that begins somewhere else entirely.
 
 from ..plugins.registry import BackendInfo
 from ..plugins.settings import Setting, choice, number, text
-from ..robot import REACH
+from ..robot import PYBULLET
 
 #: a ROS topic name (relative or absolute)
 TOPIC = r"/?[A-Za-z~][A-Za-z0-9_~{}]*(/[A-Za-z0-9_~{}]+)*"
@@ -53,8 +53,6 @@ ROS = BackendInfo(
                 default="/joint_states", metavar="TOPIC"),
         Setting("ros.joints", "the controller's names of the arm's joints, in the chain's order (default: the "
                               "robot description's, from its URDF)", _joints, metavar="NAME,NAME,..."),
-        Setting("ros.robot", "the robot description the arm is planned with", choice("icub"), default="icub",
-                metavar="icub"),
         Setting("ros.speed", "the tool's speed cap, m/s (the pen moves at 0.05 m/s down, 0.15 up, never faster than "
                              "this)", number(0.001, 1.0), default=0.15, metavar="M_PER_S"),
         Setting("ros.workspace", "the box the tool must stay in, metres (default: over the table, from 2 mm under the "
@@ -71,5 +69,7 @@ ROS = BackendInfo(
                                "each, or never", choice("first", "each", "no"), default="no", metavar="first|each|no",
                 flag="--confirm"),
     ),
-    reach=REACH,  # the iCub's, the only description ros.robot knows yet
+    # the default robot's, as the PyBullet back end declares it; a run's --robot is checked against
+    # that robot's reach (hila check: language/worldcheck.py; a move: the spec's, plan.py)
+    reach=PYBULLET.reach,
 )

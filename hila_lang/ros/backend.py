@@ -103,6 +103,9 @@ class RosBackend:
                  timeout: float = 10.0, silence: float = 0.5, tolerance: float = 0.002, gap: float = 0.15,
                  confirm: str = "no", stdin=None, stdout=None) -> None:
         self.arm = arm
+        #: the robot's spec (:class:`~hila_lang.robot.spec.RobotSpec`), as the PyBullet back end has
+        #: it (a world's report names the robot)
+        self.robot = arm.spec
         self.joints = tuple(joints or arm.joints)
         if len(self.joints) != arm.dof:
             raise InputError(f"ros.joints names {len(self.joints)} joints; the {arm.robot}'s arm has {arm.dof} "
@@ -138,7 +141,7 @@ class RosBackend:
             raise HilaRuntimeError(f"no joint states on {self.states_topic} within {timeout:g} s",
                                    hint=self._where_hint(self.states_topic))
         if s.latest is None:
-            raise s.mismatch_error(self.states_topic, f"{self.arm.robot}: {', '.join(self.joints)}")
+            raise s.mismatch_error(self.states_topic, self.arm.robot)
 
     @staticmethod
     def _where_hint(topic: str) -> str:
@@ -304,13 +307,19 @@ WORKSPACE_HEIGHT = 0.40
 
 
 def make_backend(scene, options, settings) -> RosBackend:
-    """Plug-in factory: the ``ros.*`` settings (:data:`hila_lang.ros.ROS`); the workspace box
-    defaults to the table under the world's drawing surface (the default sheet's otherwise)."""
-    from ..robot.kinematic_arm import for_robot
-    from ..robot.workspace import default_surface
+    """Plug-in factory: the run's robot (``options.robot``, a :class:`~hila_lang.robot.spec.RobotSpec`
+    from ``--robot``; None: the default robot) as :func:`~hila_lang.robot.kinematic_arm.from_spec`
+    describes it, and the ``ros.*`` settings (:data:`hila_lang.ros.ROS`); the workspace box
+    defaults to the table under the world's drawing surface (the robot's default sheet otherwise)."""
+    from ..robot.kinematic_arm import from_spec
 
-    arm = for_robot(settings.get("ros.robot") or "icub")
-    surface = scene.surface if scene is not None and scene.surface is not None else default_surface()
+    robot = getattr(options, "robot", None)
+    if robot is None:
+        from ..robot.spec import resolve
+
+        robot = resolve()
+    arm = from_spec(robot)
+    surface = scene.surface if scene is not None and scene.surface is not None else robot.default_surface()
     workspace = settings.get("ros.workspace") or default_workspace(surface.z)
     return RosBackend(arm, joints=settings.get("ros.joints"), controller=settings["ros.controller"],
                       states=settings["ros.states"], speed=settings["ros.speed"], workspace=workspace,

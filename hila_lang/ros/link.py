@@ -237,12 +237,16 @@ class JointStates:
                 self._recorded = None
             return out
 
-    def mismatch_error(self, topic: str, source: str) -> HilaRuntimeError:
-        """The joint names in ``topic`` do not include the arm's: which are missing, what came."""
+    def mismatch_error(self, topic: str, robot: str) -> HilaRuntimeError:
+        """The joint names in ``topic`` do not include the arm's (``robot``'s): which are missing,
+        what came; when none of them came, the hint asks first whether the robot is the arm's."""
         came = self.mismatch or []
         missing = [j for j in self.joints if j not in came]
         shown = ", ".join(came[:12]) + (f", ... ({len(came)} in all)" if len(came) > 12 else "")
+        hint = "give the controller's names with --set ros.joints=NAME,NAME,... (in the robot's chain order)"
+        if len(missing) == len(self.joints):
+            hint = (f"none of the {robot}'s joints came: is the arm the {robot}? --robot NAME|PATH names the robot "
+                    f"hila plans with (hila robot-sim takes the same --robot); if it is, {hint}")
         return HilaRuntimeError(
-            f"the joint names in {topic} do not match the robot's ({source}): missing {', '.join(missing)}; "
-            f"{topic} names {shown or 'no joints'}",
-            hint="give the controller's names with --set ros.joints=NAME,NAME,... (in the robot's chain order)")
+            f"the joint names in {topic} do not match the robot's ({robot}: {', '.join(self.joints)}): missing "
+            f"{', '.join(missing)}; {topic} names {shown or 'no joints'}", hint=hint)

@@ -73,8 +73,10 @@ class SimulatedArm:
 
     Parameters
     ----------
-    robot : str
-        The robot (:func:`hila_lang.robot.kinematic_arm.for_robot`).
+    robot : RobotSpec
+        The robot (:func:`hila_lang.robot.spec.resolve`), loaded as the PyBullet back end loads it
+        and described as the ROS back end plans with it
+        (:func:`hila_lang.robot.kinematic_arm.from_spec`).
     controller, states : str
         The trajectory topic it listens on, the joint state topic it publishes.
     rate : float
@@ -88,21 +90,21 @@ class SimulatedArm:
     log : text stream
     """
 
-    def __init__(self, robot: str = "icub", *, controller: str, states: str, rate: float = STATE_RATE,
+    def __init__(self, robot, *, controller: str, states: str, rate: float = STATE_RATE,
                  prefix: str = "", brakes=(), gui: bool = False, log=None) -> None:
         from ..robot.backend import PyBulletBackend
         from ..robot.arm import POSITION_GAIN, VELOCITY_GAIN
-        from ..robot.kinematic_arm import for_robot
+        from ..robot.kinematic_arm import from_spec
 
         _, JointTrajectory, _, JointState = ros_modules()  # before the simulation: a missing extra says so at once
         self.log = log or sys.stderr
-        self.description = for_robot(robot)
+        self.description = from_spec(robot)
         self.gains = (POSITION_GAIN, VELOCITY_GAIN)
         self.names = [prefix + n for n in self.description.joints]
         self.every = max(1, int(round(PHYSICS_RATE / float(rate))))
         self.dt = 1.0 / PHYSICS_RATE
         self.controller, self.states_topic = controller, states
-        self.sim = PyBulletBackend(gui=gui, arm="ready")  # the scene the PyBullet back end drives
+        self.sim = PyBulletBackend(gui=gui, arm="ready", robot=robot)  # the scene the PyBullet back end drives
         try:
             self.body = self.sim.body
             if tuple(self.body.arm_chain.names) != self.description.joints:
