@@ -16,7 +16,7 @@ The PyBullet back end runs headless as fast as it can; the ROS path runs in real
 paces its physics to the wall clock), so the runs' wall times differ by design and are printed
 for information.  Prints the machine's load average beside the figures.  Needs the ros extra.
 
-    python bench/ros.py [--program programs/reach_return.hila] [--rate 120]
+    python bench/ros.py [--program programs/reach_return.hila] [--robot icub|panda|kuka|PATH] [--rate 120]
 """
 
 from __future__ import annotations
@@ -36,12 +36,12 @@ ROOT = Path(__file__).resolve().parents[1]
 MOVED = 1e-3  # rad
 
 
-def run_pybullet(program: str) -> tuple[list[dict], float]:
+def run_pybullet(program: str, robot: str) -> tuple[list[dict], float]:
     from hila_lang.plugins.options import RunOptions
     from hila_lang.ros.plan import off_path
     from hila_lang.session.runner import finish, prepare
 
-    interp = prepare(program, RunOptions(seed=0, stdout=io.StringIO()), "pybullet")
+    interp = prepare(program, RunOptions(seed=0, stdout=io.StringIO(), settings={"robot": robot}), "pybullet")
     backend, rows = interp.backend, []
     arm = backend.arm
     original = backend.move
@@ -73,11 +73,11 @@ def run_pybullet(program: str) -> tuple[list[dict], float]:
     return rows, wall
 
 
-def run_ros(program: str, rate: float) -> tuple[list[dict], float, tuple[float, float]]:
+def run_ros(program: str, robot: str, rate: float) -> tuple[list[dict], float, tuple[float, float]]:
     domain = random.SystemRandom().randint(1, 100)
     env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": str(domain)}
     os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")})
-    sim = subprocess.Popen([sys.executable, "-m", "hila_lang", "robot-sim", "--rate", str(rate)], cwd=ROOT, env=env,
+    sim = subprocess.Popen([sys.executable, "-m", "hila_lang", "robot-sim", "--robot", robot, "--rate", str(rate)], cwd=ROOT, env=env,
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         line = sim.stderr.readline()
@@ -87,7 +87,7 @@ def run_ros(program: str, rate: float) -> tuple[list[dict], float, tuple[float, 
         from hila_lang.ros.plan import off_path
         from hila_lang.session.runner import finish, prepare
 
-        interp = prepare(program, RunOptions(seed=0, stdout=io.StringIO()), "ros")
+        interp = prepare(program, RunOptions(seed=0, stdout=io.StringIO(), settings={"robot": robot}), "ros")
         backend, rows = interp.backend, []
         original = backend.move
 
@@ -121,13 +121,14 @@ def _ms(values) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--program", default="programs/reach_return.hila")
+    ap.add_argument("--robot", default="icub", help="the robot on both back ends (default icub)")
     ap.add_argument("--rate", type=float, default=120.0, help="robot-sim's joint states per second")
     args = ap.parse_args()
     os.chdir(ROOT)
     load = os.getloadavg()
-    py, py_wall = run_pybullet(args.program)
-    ros, ros_wall, gap99 = run_ros(args.program, args.rate)
-    print(f"{args.program}: {len(py)} moves; load average {load[0]:.2f} {load[1]:.2f} (1 and 5 min), 2 cores")
+    py, py_wall = run_pybullet(args.program, args.robot)
+    ros, ros_wall, gap99 = run_ros(args.program, args.robot, args.rate)
+    print(f"{args.program} on the {args.robot}: {len(py)} moves; load average {load[0]:.2f} {load[1]:.2f} (1 and 5 min), 2 cores")
     print(f"{'':28}{'pybullet, in process':34}{'ros, robot-sim in another process'}")
     for name, key in (("command-to-motion (ms)", "latency"), ("  of which planning (ms)", "planning")):
         print(f"{name:28}{_ms([r[key] for r in py]):34}{_ms([r[key] for r in ros])}")
