@@ -19,6 +19,14 @@ through ``importlib`` too, and checks this list):
 - ``core/``                              errors, validation, file io, shipped resources, logs, Ctrl-C, jit
 
 Each package's docstring names its modules, one line each.
+
+Importing ``hila_lang`` sets one thing for the whole process: the numeric libraries' threads
+(one each by default; ``HILA_THREADS`` changes it; :mod:`hila_lang.core.threads`), before any of
+them loads.
 """
 
+from .core import threads as _threads
+
 __version__ = "0.1.0"
+
+_threads.startup()
