@@ -24,7 +24,13 @@ def ros_env(domain: int) -> dict:
 
 
 def new_domain() -> int:
-    return random.SystemRandom().randint(1, 100)
+    """A random ROS_DOMAIN_ID in 1-100; under pytest-xdist (``-n N``) each worker draws from its own
+    share of that range, so two tests running at once never share a ROS graph."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0")[2:] or 0)
+    share = 100 // max(workers, 1)
+    first = 1 + (worker % max(workers, 1)) * share
+    return random.SystemRandom().randint(first, first + share - 1)
 
 
 class RobotSim:

@@ -15,6 +15,9 @@ import zipfile
 import numpy as np
 import pytest
 
+#: every test starts hila robot-sim (PyBullet and a ROS node) in another process: 3-12 s of CPU each
+pytestmark = pytest.mark.slow
+
 pytest.importorskip("rclpy", reason="the ROS 2 tests need the 'ros' extra: pip install '.[test,ros]' then "
                                     "pip install --force-reinstall --no-deps 'lark>=1.1,<2' (.ci/run does both)")
 pytest.importorskip("trajectory_msgs.msg", reason="the 'ros' extra's message packages are not installed")
