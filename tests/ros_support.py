@@ -121,6 +121,14 @@ class Listener:
     def _on(self, msg) -> None:
         self.samples.append((time.monotonic(), np.array(msg.position)))
 
+    def heard(self, timeout: float = 20.0) -> bool:
+        """Wait until the first joint state comes (discovery between two processes takes longer
+        than a second when the machine is busy); False after ``timeout`` seconds without one."""
+        deadline = time.monotonic() + timeout
+        while not self.samples and time.monotonic() < deadline:
+            time.sleep(0.02)
+        return bool(self.samples)
+
     def over(self, seconds: float) -> np.ndarray:
         """The positions (K, n) heard during the next ``seconds``."""
         start = time.monotonic()
