@@ -11,7 +11,7 @@ through ``importlib`` too, and checks this list):
 - ``engine/``                            the stepping engine: step loop, one executor per state class, scene, trace
 - ``language/``                          the front end: grammar, AST, checker, compiler, the FSM
 - ``robot/``, ``ros/``                   robots from their specs (iCub, Panda, KUKA, any URDF) in PyBullet; the dry back end; the ROS 2 back end and robot-sim
-- ``perception/``                        stereo eyes: calibration, marker tracks, scene matching
+- ``perception/``                        stereo eyes: calibration, marker tracks, scene matching; a pen on a sheet
 - ``sim/``, ``plugins/``                 the simulated scene and camera; the plug-in seam
 - ``hierarchy/``                         HILA: THE step (bind a sub-template, run OSILA), sequences, explain
 - ``recognition/``                       known sub-actions found in a new demonstration

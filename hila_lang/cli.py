@@ -33,6 +33,7 @@ COMMANDS = {
     "compile": "compile_",
     "explain": "explain",
     "learn": "learn",
+    "sheet": "sheet",
     "imitate": "imitate",
     "eval": "eval_",
     "snapshot": "snapshot",
