@@ -173,11 +173,9 @@ def _source(args: argparse.Namespace) -> str:
         raise InputError("--keep-recording goes with --from-sim")
     if source != "--from-sim" and (args.robot is not None or args.robot_settings):
         raise InputError("--robot and --set robot.KEY go with --from-sim (the robot whose eyes watch)")
-    from ..plugins.options import parse_pairs
+    from ..robot.spec import robot_pairs
 
-    stray = [k for k in parse_pairs(args.robot_settings) if not k.startswith("robot.")]
-    if stray:
-        raise InputError(f"hila learn --set takes the robot's settings only (robot.KEY=VALUE), got {stray[0]!r}")
+    robot_pairs(args.robot_settings, "hila learn")
     return source
 
 
@@ -223,9 +221,9 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
         learn_from_sim = info.capability("recorder", "demonstration to record", "--from-sim")
         extra = {}
         if args.robot is not None:  # a recorder that takes the robot (a world's own may not): hila_lang.robot.spec
-            from ..robot.spec import resolve
+            from ..robot.spec import resolve, robot_pairs
 
-            extra["robot"] = resolve(args.robot, _robot_pairs(args))
+            extra["robot"] = resolve(args.robot, robot_pairs(args.robot_settings, "hila learn"))
         who = "the iCub's eye cameras" if args.robot is None else f"the {extra['robot'].name}'s cameras"
         print(f"recording the demonstration through {who} (about a minute) ...", flush=True)
         template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name, method=args.method,
@@ -240,13 +238,6 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     if args.description:
         template.description = args.description
     return template
-
-
-def _robot_pairs(args: argparse.Namespace) -> dict[str, str]:
-    """``--set robot.KEY=VALUE`` of ``hila learn`` (the robot's settings only)."""
-    from ..plugins.options import parse_pairs
-
-    return {k: v for k, v in parse_pairs(args.robot_settings).items() if k.startswith("robot.")}
 
 
 def _library(args: argparse.Namespace):

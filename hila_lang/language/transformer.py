@@ -440,10 +440,20 @@ def grammar():
     """THE lark parser of ``grammar/hila.lark`` (LALR, positions kept), loaded once per process:
     the only ``Lark`` construction in hila (:class:`~hila_lang.language.environment.Environment`
     owns it).  Its parses return AST nodes, not trees (see the comment above); it starts at
-    ``start`` (a program) or ``expr`` (one expression)."""
+    ``start`` (a program) or ``expr`` (one expression).  A ``lark`` module older than 1.0 (the
+    ``lark-parser`` 0.12 that ROS 2's message wheels pull in installs one over lark 1.x) is
+    refused with how to put lark 1.x back."""
+    import lark as lark_module
     from lark import Lark
 
+    from ..core.errors import HilaError
     from ..core.resources import grammar_path
+
+    version = getattr(lark_module, "__version__", "0")
+    if not version.split(".")[0].isdigit() or int(version.split(".")[0]) < 1:
+        raise HilaError(f"hila needs lark 1.x, but the installed 'lark' module is {version} (lark-parser, which "
+                        "ros-rosidl-parser depends on, installs one over it)",
+                        hint="pip install --force-reinstall --no-deps 'lark>=1.1,<2'")
 
     streaming = Streaming()
     lark = Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,

@@ -173,7 +173,9 @@ class Backend(Protocol):
         ``pen_down`` says the segment is meant to touch the paper (drawing): ink is laid only
         where the pen is down and the tip touches the surface.  ``label`` names the FSM state,
         for traces and error messages.  Raises :class:`~hila_lang.core.errors.UnreachableError`
-        when a waypoint cannot be reached.
+        when a waypoint cannot be reached.  A back end that stops part of the way (an error, or
+        Ctrl-C while a real arm moves) may attach the part the hand made to the exception as
+        ``exc.executed`` (T', 3): the run's trace and recording keep it.
         """
         ...
 

@@ -16,6 +16,7 @@
 - :mod:`hila_lang.robot.reach`     the arm's reach without a simulator, the checks of a planned path
 - :mod:`hila_lang.robot.lens`      the eyes' fish-eye lenses and the robot's own calibration of them
 - :mod:`hila_lang.robot.window`    the PyBullet window of a run with ``--gui``
+- :mod:`hila_lang.robot.kinematic_arm` the arm as its description gives it: joints, FK/IK, limits, speed caps
 
 The robot knows a neutral drawing surface (:class:`hila_lang.sim.surface.Surface`): what is
 printed on it is a world's business.  ``DRY`` and ``PYBULLET`` declare the two back ends (entry

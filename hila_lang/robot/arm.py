@@ -48,6 +48,53 @@ VELOCITY_GAIN = 1.0
 SOLVER_ITERATIONS = 20
 
 
+def accept(result: ik.IKResult) -> ik.IKResult:
+    """``result`` with ``converged`` judged by the arm's own thresholds (:data:`IK_ACCEPT_ERROR`,
+    :data:`IK_ACCEPT_TILT`), looser than the solver's stopping tolerances."""
+    converged = result.error <= IK_ACCEPT_ERROR and result.tilt <= IK_ACCEPT_TILT
+    if converged == result.converged:
+        return result
+    return ik.IKResult(result.q, result.position, result.error, result.tilt, result.iterations, converged)
+
+
+def raise_if_unreachable(result: ik.IKResult, point, k: int, total: int, label: str) -> None:
+    """An :class:`UnreachableError` for waypoint ``k`` of ``total`` (``point``) when ``result`` did
+    not converge: how close the pen gets, and its tilt."""
+    if result.converged:
+        return
+    tilt = f", pen tilted {math.degrees(result.tilt):.1f} deg" if result.tilt > IK_ACCEPT_TILT else ""
+    distance = np.linalg.norm(result.position - np.asarray(point, dtype=float))
+    raise unreachable(point, f"the pen gets no closer than {distance * 1000:.1f} mm, to "
+                             f"{_fmt(result.position)}{tilt}", distance, label,
+                      where=f" (waypoint {k + 1} of {total})")
+
+
+def solve_along(solve, tip, q_start: np.ndarray, planned: np.ndarray, label: str = ""):
+    """IK along ``planned`` (T, 3) from the joint angles ``q_start`` (n,): the path prefixed with the
+    tip at ``q_start``, densified to :data:`WAYPOINT_SPACING`, every point solved warm-started from
+    the one before.  ``solve(target, q0) -> IKResult`` (accepted or not), ``tip(q) -> (3,)``.
+
+    Returns ``(dense (M, 3), origin (M,), arc (M,) metres, qs (M, n))``: ``origin[i]`` is the
+    index of the waypoint of ``planned`` that ``dense[i]`` leads to.  Raises
+    :class:`UnreachableError` naming the waypoint on the way to which the IK fails, and how close
+    it got.
+    """
+    dense, origin_index, arc = densify(np.vstack([tip(q_start), planned]), WAYPOINT_SPACING)
+    qs = np.empty((len(dense), len(q_start)))
+    qs[0] = q_start
+    for i in range(1, len(dense)):
+        result = solve(dense[i], qs[i - 1])
+        if not result.converged:
+            # dense[i] lies on the way to waypoint k: report how near to *it* the pen gets
+            k = int(origin_index[i])
+            last = tip(qs[i - 1])
+            if np.linalg.norm(last - planned[k]) < np.linalg.norm(result.position - planned[k]):
+                result = ik.IKResult(qs[i - 1], last, result.error, result.tilt, result.iterations, False)
+            raise_if_unreachable(result, planned[k], k, len(planned), label)
+        qs[i] = result.q
+    return dense, origin_index, arc, qs
+
+
 @dataclass
 class Trace:
     """One executed move.
@@ -127,23 +174,13 @@ class Arm:
         return self.chain.tip_position(self.joint_positions())
 
     def _solve(self, target: np.ndarray, q0: np.ndarray) -> ik.IKResult:
-        result = ik.solve(self.chain, target, q0, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights)
-        converged = result.error <= IK_ACCEPT_ERROR and result.tilt <= IK_ACCEPT_TILT
-        if converged != result.converged:
-            result = ik.IKResult(result.q, result.position, result.error, result.tilt, result.iterations, converged)
-        return result
+        return accept(ik.solve(self.chain, target, q0, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights))
 
     def _check_above_table(self, point: np.ndarray, k: int, total: int, label: str) -> None:
         check_planned(np.asarray(point, dtype=float)[None], self.surface_z, label, self.reach)
 
     def _raise_if_unreachable(self, result: ik.IKResult, point, k: int, total: int, label: str) -> None:
-        if result.converged:
-            return
-        tilt = f", pen tilted {math.degrees(result.tilt):.1f} deg" if result.tilt > IK_ACCEPT_TILT else ""
-        distance = np.linalg.norm(result.position - np.asarray(point, dtype=float))
-        raise unreachable(point, f"the pen gets no closer than {distance * 1000:.1f} mm, to "
-                                 f"{_fmt(result.position)}{tilt}", distance, label,
-                          where=f" (waypoint {k + 1} of {total})")
+        raise_if_unreachable(result, point, k, total, label)
 
     def reset_hand(self, target: np.ndarray) -> np.ndarray:
         """Put the pen tip at ``target`` (3,) at once (no motion, no trace); returns the angles (n,).
@@ -165,22 +202,8 @@ class Arm:
         reached, :class:`HilaRuntimeError` if a joint leaves its limits during execution.
         """
         check_planned(planned, self.surface_z, label, self.reach)  # the reach bound and the paper, as the dry back end checks
-        q_start = self.joint_positions()
-        start = self.chain.tip_position(q_start)
-        dense, origin_index, arc = densify(np.vstack([start, planned]), WAYPOINT_SPACING)
-        qs = np.empty((len(dense), self.chain.dof))
-        qs[0] = q_start
         clock = time.perf_counter()
-        for i in range(1, len(dense)):
-            result = self._solve(dense[i], qs[i - 1])
-            if not result.converged:
-                # dense[i] lies on the way to waypoint k: report how near to *it* the pen gets
-                k = int(origin_index[i])
-                last = self.chain.tip_position(qs[i - 1])
-                if np.linalg.norm(last - planned[k]) < np.linalg.norm(result.position - planned[k]):
-                    result = ik.IKResult(qs[i - 1], last, result.error, result.tilt, result.iterations, False)
-                self._raise_if_unreachable(result, planned[k], k, len(planned), label)
-            qs[i] = result.q
+        dense, _, arc, qs = solve_along(self._solve, self.chain.tip_position, self.joint_positions(), planned, label)
         self.stats["ik_solves"] += len(dense) - 1
         self.stats["ik_seconds"] += time.perf_counter() - clock
         clock = time.perf_counter()

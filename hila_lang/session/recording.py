@@ -9,7 +9,9 @@ finished or failed) that any ZIP tool opens, with
   where the hand started, then one entry per step: state, kind, line, trace text, next state,
   value, the variables it set, the ICPs bound, the planned and the executed path (metres, full
   float precision), OSILA's account of a run state (map, threshold, rounds, constraint pairs
-  added, the constraints and options) and where the hand ended; last, how the run ended;
+  added, the constraints and options) and where the hand ended; last, how the run ended (a
+  failed run: the error, its exit status, the state, and -- when a back end stopped part of the
+  way through a move -- the path the hand made, ``executed``);
 - ``eyes/NNNN.png``: the left eye's image after each run state (``--record-eyes``).
 
 :func:`read_record` reads it back without a simulator (numpy arrays for points and paths);
@@ -168,6 +170,8 @@ class Recorder:
             result = {"status": "finished" if it.done else "stopped"}
         elif isinstance(error, HilaError):
             result = {"status": "failed", "error": str(error), "exit": error.exit_code, "state": it.current}
+            if getattr(error, "executed", None) is not None:  # the part of the move made before it stopped
+                result["executed"] = _array(error.executed)
         else:
             result = {"status": "failed", "error": f"{type(error).__name__}: {error}", "exit": 3, "state": it.current}
         from .. import __version__
@@ -384,6 +388,8 @@ def _validate(doc) -> None:
     if status == "failed":
         _need(result, "error", str, "its 'result'")
         _need(result, "exit", int, "its 'result'")
+        if result.get("executed") is not None:  # the part of the failing move that was made
+            result["executed"] = _points(result["executed"], "its result's 'executed'", "path")
     state = _need(result, "state", (str, type(None)), "its 'result'", optional=True)
     if state is not None and state not in states:
         raise _Damaged(f"its result names state {state!r}, which its FSM does not have")
