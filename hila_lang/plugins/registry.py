@@ -122,6 +122,10 @@ class WorldInfo:
         ``"module:callable"``: reads a demonstration scene's ICPs from recorded frames
         (``hila learn --frames/--left/--right --world NAME``), the ``read_icps`` of
         :func:`hila_lang.perception.learn.template_from_frames`.
+    tracking : bool
+        The world shows the robot its points again while a step runs (its worlds have a
+        ``tracking`` capability, :class:`hila_lang.plugins.protocols.Tracking`): ``hila check``
+        refuses a ``track`` clause in a world that does not declare it.
     """
 
     name: str
@@ -137,6 +141,7 @@ class WorldInfo:
     points: Mapping[str, str] = field(default_factory=dict)
     recorder: str | None = None
     icp_reader: str | None = None
+    tracking: bool = False
 
     def __post_init__(self) -> None:
         from .names import Names
@@ -194,6 +199,10 @@ class BackendInfo:
         A ball (world frame, metres) that holds every point the back end's hand can reach, when
         it moves a robot's arm: ``hila check`` refuses a target bound outside it, at the
         statement that binds it (:mod:`hila_lang.language.worldcheck`).  None: no such bound.
+    streaming : bool
+        Its back ends can change the path they follow while the arm moves (a ``streaming``
+        capability, :class:`hila_lang.plugins.protocols.Streaming`): ``hila check`` refuses a
+        ``track`` clause on a back end that does not declare it.
     """
 
     name: str
@@ -201,6 +210,7 @@ class BackendInfo:
     doc: str
     settings: tuple[Setting, ...] = ()
     reach: tuple | None = None
+    streaming: bool = False
 
     def parse(self, given: dict[str, str]) -> dict[str, Any]:
         return parse_settings(self.settings, given, f"back end {self.name}")
