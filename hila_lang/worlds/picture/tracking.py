@@ -1,0 +1,87 @@
+"""The map moving while the robot draws, and the robot following it: the picture world's ``tracking``.
+
+``--set map.slide=D``, ``map.turn=DEG``, ``map.jump=D`` move the task sheet during the robot's
+pen-down strokes (:class:`hila_lang.sim.motion.SheetMotion`: the referee's side; the bent
+sheet's mesh is moved rigidly in the table's plane at every control step).  A program that
+tracks its match (``run route(m.*) track m``) makes the robot look again at each tick
+(:meth:`PictureTracking.look`): both eyes, its features matched against the demonstration's and
+verified as ``ask matched`` does, its arm left where it is (its own body masked in the images,
+as always).  A feature it does not find again at a look is carried along with those it does
+(:func:`hila_lang.engine.tracking.follow` moves the ICPs it no longer sees with the others).
+The route is scored where its ink lies on the sheet in its final position.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...sim.motion import SheetMotion, moved
+
+
+def pose_of(sheet) -> tuple:
+    """A sheet's pose (x, y, rotation) as :mod:`hila_lang.sim.motion` moves it."""
+    return (float(sheet.center[0]), float(sheet.center[1]), float(sheet.rotation))
+
+
+def body_pose(start: tuple, now: tuple) -> np.ndarray:
+    """The (4, 4) pose of a mesh built in world coordinates at pose ``start`` that moved to ``now``."""
+    a = now[2] - start[2]
+    c, s = math.cos(a), math.sin(a)
+    T = np.eye(4)
+    T[:2, :2] = [[c, -s], [s, c]]
+    T[:2, 3] = np.asarray(now[:2]) - T[:2, :2] @ np.asarray(start[:2])
+    return T
+
+
+class PictureTracking:
+    """The ``tracking`` capability of :class:`~.world.PictureWorld` (see the module docstring)."""
+
+    def __init__(self, world, settings: dict) -> None:
+        self.world = world
+        self.settings = settings
+        self.motion: SheetMotion | None = None
+        self.start = None  # the task sheet's pose when its mesh was built
+
+    def lay(self, sheet) -> None:
+        """The task sheet is laid out (its mesh built at ``sheet``'s pose): its moves start from there."""
+        self.start = pose_of(sheet)
+        self.motion = SheetMotion(self.start, np.random.default_rng([self.world.seed, 34]),
+                                  slide=self.settings["map.slide"], turn=self.settings["map.turn"],
+                                  jump=self.settings["map.jump"])
+
+    @property
+    def moving(self) -> bool:
+        return self.motion is not None and self.motion.active
+
+    def begin(self, state: str, pen_down: bool, seconds: float) -> None:
+        if pen_down and self.motion is not None:
+            self.motion.begin(pose_of(self.world.task), seconds)
+
+    def elapse(self, t: float) -> None:
+        pose = None if self.motion is None else self.motion.pose(t)
+        if pose is None:
+            return
+        from dataclasses import replace
+
+        world = self.world
+        world.task = replace(world.task, center=(pose[0], pose[1]), rotation=pose[2])
+        world.backend.sim.set_pose(world.sheet_body, body_pose(self.start, pose))
+
+    def look(self) -> None:
+        self.world._match(move_arm=False)
+
+    def end(self) -> None:
+        if self.motion is not None:
+            self.motion.end()
+
+    def carried(self, executed: np.ndarray) -> np.ndarray:
+        """The pen samples of the stroke just drawn, where they lie on the sheet now."""
+        from ...sim.motion import carried
+
+        during = [] if self.motion is None else self.motion.during
+        return carried(executed, during, pose_of(self.world.task)) if during else executed
+
+
+__all__ = ["PictureTracking", "body_pose", "moved", "pose_of"]
