@@ -63,8 +63,9 @@ def profile_from(s0: float, v0: float, length: float, speed: float, accel: float
     return out
 
 
-class ArmStream:
-    """The ``streaming`` capability of :class:`~.backend.PyBulletBackend` (module docstring)."""
+class _Stream:
+    """What both streams share: one path at a time, the control step of the arm's loop, the checks
+    of a new path and of where a tail may be replaced from."""
 
     def __init__(self, backend) -> None:
         from .arm import SIM_RATE
@@ -73,14 +74,38 @@ class ArmStream:
         self.dt = 1.0 / SIM_RATE
         self._run: dict | None = None
 
+    def _start(self, path, label: str, surface_z) -> np.ndarray:
+        if self._run is not None:
+            raise HilaRuntimeError("a stream is already running: finish it before beginning another")
+        return _checked(path, label, surface_z)
+
+    def _need(self) -> dict:
+        if self._run is None:
+            raise HilaRuntimeError("no stream is running: begin one first")
+        return self._run
+
+    def _tail(self, run, index: int, tail, surface_z) -> tuple[np.ndarray, int]:
+        """``tail`` checked, and the first waypoint not yet passed (``index`` must not be before it)."""
+        tail = _checked(tail, run["label"], surface_z)
+        passed = self._index(run)
+        if not passed <= int(index) <= len(run["path"]):
+            raise InputError(f"a stream's tail can be replaced from a waypoint not yet passed ({passed} to "
+                             f"{len(run['path'])}), got {index}")
+        return tail, passed
+
+    def stop(self) -> np.ndarray:
+        return np.zeros((0, 3)) if self._run is None else self._close(self._run)
+
+
+class ArmStream(_Stream):
+    """The ``streaming`` capability of :class:`~.backend.PyBulletBackend` (module docstring)."""
+
     # -- the protocol -------------------------------------------------------------------------
     def begin(self, path, *, pen_down: bool = False, label: str = "") -> float:
         from .arm import ACCELERATION, DRAW_SPEED, TRAVEL_SPEED
 
-        if self._run is not None:
-            raise HilaRuntimeError("a stream is already running: finish it before beginning another")
         b = self.b
-        planned = _checked(path, label, b.arm.surface_z)
+        planned = self._start(path, label, b.arm.surface_z)
         if b.view is not None:
             b.view.planned(planned)
         dense, origin, arc, qs = b.arm.plan(planned, label)
@@ -106,11 +131,7 @@ class ArmStream:
 
     def replace(self, index: int, tail) -> None:
         run = self._need()
-        tail = _checked(tail, run["label"], self.b.arm.surface_z)
-        passed = self._index(run)
-        if not passed <= int(index) <= len(run["path"]):
-            raise InputError(f"a stream's tail can be replaced from a waypoint not yet passed ({passed} to "
-                             f"{len(run['path'])}), got {index}")
+        tail, passed = self._tail(run, index, tail, self.b.arm.surface_z)
         from .arm import ACCELERATION, WAYPOINT_SPACING
 
         arc, dense, qs = run["arc"], run["dense"], run["qs"]
@@ -153,18 +174,7 @@ class ArmStream:
             raise
         return self._close(run)
 
-    def stop(self) -> np.ndarray:
-        run = self._run
-        if run is None:
-            return np.zeros((0, 3))
-        return self._close(run)
-
     # -- inside -------------------------------------------------------------------------------
-    def _need(self) -> dict:
-        if self._run is None:
-            raise HilaRuntimeError("no stream is running: begin one first")
-        return self._run
-
     def _progress(self, run) -> StreamProgress:
         return StreamProgress(run["steps"] * self.dt, self._index(run), run["k"] >= len(run["profile"]))
 
@@ -248,22 +258,13 @@ class ArmStream:
         return executed
 
 
-class DryStream:
+class DryStream(_Stream):
     """The ``streaming`` capability of :class:`~.dry.DryBackend` (module docstring)."""
-
-    def __init__(self, backend) -> None:
-        from .arm import SIM_RATE
-
-        self.b = backend
-        self.dt = 1.0 / SIM_RATE
-        self._run: dict | None = None
 
     def begin(self, path, *, pen_down: bool = False, label: str = "") -> float:
         from .arm import DRAW_SPEED, TRAVEL_SPEED
 
-        if self._run is not None:
-            raise HilaRuntimeError("a stream is already running: finish it before beginning another")
-        planned = _checked(path, label, self.b.surface_z)
+        planned = self._start(path, label, self.b.surface_z)
         self._run = {"path": planned, "followed": [], "pen_down": bool(pen_down), "label": label, "steps": 0,
                      "speed": DRAW_SPEED if pen_down else TRAVEL_SPEED}
         self._lay(self._run, self.b.hand_position(), planned, 0)
@@ -280,11 +281,6 @@ class DryStream:
         run["points"], run["first"] = points, first
         run["arc"] = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
         run["s"] = 0.0
-
-    def _need(self) -> dict:
-        if self._run is None:
-            raise HilaRuntimeError("no stream is running: begin one first")
-        return self._run
 
     def _index(self, run) -> int:
         passed = int(np.searchsorted(run["arc"][1:], run["s"] + 1e-12, side="right"))
@@ -318,11 +314,7 @@ class DryStream:
 
     def replace(self, index: int, tail) -> None:
         run = self._need()
-        tail = _checked(tail, run["label"], self.b.surface_z)
-        passed = self._index(run)
-        if not passed <= int(index) <= len(run["path"]):
-            raise InputError(f"a stream's tail can be replaced from a waypoint not yet passed ({passed} to "
-                             f"{len(run['path'])}), got {index}")
+        tail, passed = self._tail(run, index, tail, self.b.surface_z)
         here = self._here(run)
         if not run["followed"] or np.linalg.norm(run["followed"][-1] - here) > 0:
             run["followed"].append(here)  # where the hand was when the tail changed
@@ -343,9 +335,6 @@ class DryStream:
             self.stop()
             raise
         return self._close(run)
-
-    def stop(self) -> np.ndarray:
-        return np.zeros((0, 3)) if self._run is None else self._close(self._run)
 
     def _close(self, run) -> np.ndarray:
         self._run = None
