@@ -13,10 +13,14 @@ clock:
 2. the ICPs bound through a tracked name (:func:`tracked_icps`) are compared with the points the
    current plan was warped onto; when one moved more than ``threshold``, the step is warped again
    by the same HILA step (:func:`hila_lang.hierarchy.step.hila_step`: OSILA on the same
-   sub-template and the same ICPs, the tracked ones where they are now).  The step's ``start``
-   (where the hand was when it began: the first ink of a stroke) moves with the tracked points
-   (the similarity that takes their old places to the new ones, :func:`motion`), so the shape is
-   re-warped whole in the moved scene and not pulled back to where the sheet was;
+   sub-template and the same ICPs, the tracked ones where they are now).  The tracked points are
+   taken to move as one object (a sheet, a board, a map): the similarity that takes their places
+   in the plan to their perceived ones (:func:`motion`, least squares) places them all, so one
+   point seen a little off does not bend the warp and one not seen moves with the rest (a
+   deformation of the object itself is not followed; two objects that move apart are two
+   tracked runs).  The step's ``start`` (where the hand was when it began: the first ink of a
+   stroke) moves with them, so the shape is re-warped whole in the moved scene and not pulled
+   back to where the sheet was;
 3. the rest of the new plan, from the template point the arm has not reached yet, replaces the
    stream's tail, blended in from the pen's *measured* position (the robot's own joints) over
    ``blend`` metres of path with a minimum-jerk weight (:func:`blend_in`);
@@ -51,6 +55,10 @@ START = "start"
 LIFT_HEIGHT = 0.01
 #: the blend is sampled at most this far apart, metres, so the arm follows its curve and not a chord
 BLEND_SPACING = 0.0005
+#: a look counts when it sees at least this share of the tracked points the plan has: the move of
+#: the rest is told from those seen (in the picture world, with the arm in view, some looks found 1-3
+#: of 15 features, and the similarity of 1-3 points, a few mm off each, turned the route by 11 cm)
+MIN_SEEN = 0.5
 
 
 @dataclass
@@ -240,8 +248,13 @@ class _Follower:
         ctx = run.ctx
         self.run, self.st, self.template, self.step = run, st, template, step
         self.backend, self.spec, self.pen = ctx.backend, st.track, bool(st.pen_down)
-        self.options = ctx.osila_options
-        self.binding = dict(binding)  # what the current plan was warped onto
+        # a re-warp decides as the first plan did: the same threshold, the ICP pairs it kept (one
+        # it rejected as an outlier stays out) and no screening again, so a point perceived a little
+        # differently does not change which pairs the warp goes through
+        result = step.result
+        self.options = {**ctx.osila_options, "reject": "none", "threshold": float(result.threshold)}
+        rejected = [] if result.pairs is None else [step.icps.names[int(i)] for i in result.pairs.rejected]
+        self.binding = {k: None if k in rejected else v for k, v in binding.items()}  # what the plan was warped onto
         self.names = tracked_icps(st, template) if self.spec is not None else []
         self.plan = {k: binding.get(k) for k in self.names}
         #: the step's start (the hand where it began) moves with the tracked points
@@ -283,6 +296,9 @@ class _Follower:
             chosen = screen(np.array([self.plan[n] for n in both]), np.array([now[n] for n in both]))
             for i in chosen.rejected:
                 now[both[int(i)]] = None
+        planned = sum(v is not None for v in self.plan.values())
+        if sum(v is not None for v in now.values()) < MIN_SEEN * planned:
+            return dict.fromkeys(self.names)  # too little seen to say how the rest moved: this look does not count
         return now
 
     def replan(self, progress, now: dict, here: np.ndarray, k: int, stamp: float, moved: float, which: str) -> None:
@@ -291,9 +307,9 @@ class _Follower:
         spec, names = self.spec, self.names
         kept = [n for n in names if self.plan.get(n) is not None and now.get(n) is not None]
         move = motion(np.array([self.plan[n] for n in kept]), np.array([now[n] for n in kept]))
-        # a tracked ICP not seen at this look is carried along with those that are
-        now = {n: now[n] if now.get(n) is not None else None if self.plan.get(n) is None else move(self.plan[n])
-               for n in names}
+        # the tracked points move as one object: each where the similarity of their perceived moves
+        # puts it (one seen badly does not bend the warp; one not seen is carried along)
+        now = {n: None if self.plan.get(n) is None else move(self.plan[n]) for n in names}
         task = dict(self.binding)
         task.update(now)
         self.start = None if self.start is None else move(self.start)
