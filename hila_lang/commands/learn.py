@@ -7,6 +7,7 @@ or a recording made in simulation (``--from-sim``).
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path, seed
 import argparse
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
@@ -66,17 +67,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--method", choices=("speed", "kmeans", "changepoint", "equal"), default="speed",
                         help="segmentation: speed (default: cut at the deepest dips in speed, where the hand "
                              "slows between strokes), kmeans (the paper's: k-means on position and time), "
-                             "changepoint (ruptures on the velocity; needs ruptures), equal (equal lengths)")
-    parser.add_argument("--seed", type=int, default=0, help="k-means seed (default 0)")
+                             "changepoint (change points of the velocity), equal (equal lengths)")
+    parser.add_argument("--seed", type=seed, default=0, help="k-means seed (default 0)")
     parser.add_argument("--name", default=None, help="template name (default: the output file's stem)")
     parser.add_argument("--description", default=None, help="provenance text stored in the template")
     known = parser.add_argument_group("recognition of known parts (docs/recognition.md)")
     known.add_argument("--library", metavar="DIR", help="find DIR's templates and sub-templates in the demonstration")
-    known.add_argument("--report", metavar="FILE.json", help="with --library: write the parts found as JSON")
+    known.add_argument("--report", type=output_path, metavar="FILE.json", help="with --library: write the parts found as JSON")
     known.add_argument("--stream", action="store_true",
                        help="with --library: feed the demonstration point by point and say each known part as soon as "
                             "it is found (online recognition); the final answer is the offline one")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.yaml", help="template file to write")
+    parser.add_argument("-o", "--output", type=output_path, required=True, metavar="OUT.yaml", help="template file to write")
 
 
 def _split(text: str | None, option: str = "--tags") -> list[str]:
