@@ -82,7 +82,8 @@ class Replan:
     lifted : bool
         The pen was lifted and put down where its ink stopped.
     points : dict
-        The tracked ICPs as perceived: name -> (3,).
+        The tracked ICPs where the re-plan put them (the similarity of their perceived moves):
+        name -> (3,).
     tail : ndarray, shape (N, 3)
         What replaced the path from ``index`` on.
     """

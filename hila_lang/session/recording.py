@@ -11,7 +11,7 @@ finished or failed) that any ZIP tool opens, with
   float precision), OSILA's account of a run state (map, threshold, rounds, constraint pairs
   added, the constraints and options), where the hand ended, and for a streamed run (``track``)
   its re-plans (time, how far the tracked points moved, where the new plan took over, the blend,
-  whether the pen lifted, the points as perceived and the new tail); last, how the run ended;
+  whether the pen lifted, where the tracked points were taken to be and the new tail); last, how the run ended;
 - ``eyes/NNNN.png``: the left eye's image after each run state (``--record-eyes``).
 
 :func:`read_record` reads it back without a simulator (numpy arrays for points and paths);
