@@ -40,11 +40,16 @@ from .reach import check_planned
 from .trajectory import densify, trapezoid_profile
 
 
-def _checked(path, label: str, surface_z) -> np.ndarray:
+def _checked(path, label: str, surface_z, reach=None) -> np.ndarray:
+    """``path`` as a (T, 3) array, refused as the back end's move refuses it: its reach bound
+    (``reach``; None: the iCub's) and the paper."""
     arr = check_path(path, "path")
     if arr.shape[1] != 3:
         raise InputError(f"expected a path of shape (T, 3) with T >= 1, got {arr.shape}")
-    check_planned(arr, surface_z, label)
+    if reach is None:
+        check_planned(arr, surface_z, label)
+    else:
+        check_planned(arr, surface_z, label, reach)
     return arr
 
 
@@ -74,10 +79,14 @@ class _Stream:
         self.dt = 1.0 / SIM_RATE
         self._run: dict | None = None
 
+    def _reach(self):
+        """The arm's reach bound (``((x, y, z), radius)``), or None for the iCub's."""
+        return getattr(getattr(self.b, "arm", self.b), "reach", None)
+
     def _start(self, path, label: str, surface_z) -> np.ndarray:
         if self._run is not None:
             raise HilaRuntimeError("a stream is already running: finish it before beginning another")
-        return _checked(path, label, surface_z)
+        return _checked(path, label, surface_z, self._reach())
 
     def _need(self) -> dict:
         if self._run is None:
@@ -86,7 +95,7 @@ class _Stream:
 
     def _tail(self, run, index: int, tail, surface_z) -> tuple[np.ndarray, int]:
         """``tail`` checked, and the first waypoint not yet passed (``index`` must not be before it)."""
-        tail = _checked(tail, run["label"], surface_z)
+        tail = _checked(tail, run["label"], surface_z, self._reach())
         passed = self._index(run)
         if not passed <= int(index) <= len(run["path"]):
             raise InputError(f"a stream's tail can be replaced from a waypoint not yet passed ({passed} to "
