@@ -8,15 +8,15 @@ its own calibration and poses, its table estimate and the grid it last saw.
 :class:`SheetTracker` -- the robot's glance.  While the pen is down the arm hides much of the
 grid (the right arm crosses the left eye's view), so reading the whole board
 (:func:`.reading.read_board`) is not possible; the robot instead registers what it sees of the
-grid against the grid it knows.  One left-eye image (the right one when the left sees too
-little) is rectified onto the table plane (:func:`.reading.rectify`), the grid's ink pixels are
+grid against the grid it knows.  One eye's image (the left one first; the other when the first
+sees too little of the grid, and then whichever saw more goes first) is rectified onto the table plane (:func:`.reading.rectify`), the grid's ink pixels are
 picked as the reader picks them (dark, neutral, thin strokes; the robot's own body is not masked:
 :meth:`SheetTracker.ink` says why), and the planar rigid motion
 (a turn about the grid's centre and a shift) that lays the known grid lines (four segments) onto
-them is found: first the motion is refined from where the grid was last (point-to-line
-Gauss-Newton with a gate of :data:`GATE`), and when too few pixels fall near the lines (a jump
-of the sheet) a search over shifts up to :data:`SEARCH` and turns up to :data:`SEARCH_TURN`
-finds the best overlap first.  A glance counts only with at least :data:`MIN_INLIERS` pixels near
+them is found: refined from where the grid was last (point-to-line Gauss-Newton on the pixels
+within :data:`GATE` of a line, Cauchy-weighted: a robot's dark edges near a line pull little),
+and when too few pixels fall near the lines there (a jump of the sheet) a search over shifts up
+to :data:`SEARCH` and turns up to :data:`SEARCH_TURN` finds the best overlap first.  A glance counts only with at least :data:`MIN_INLIERS` pixels near
 lines of both directions; otherwise the robot keeps what it knew (and the glance says so).
 
 :class:`TicTacToeTracking` wires both sides to the engine (:mod:`hila_lang.engine.tracking`):
@@ -38,15 +38,19 @@ from ...core.errors import InputError
 #: pixels farther than this from every grid line do not pull the fit, metres
 GATE = 0.004
 #: a glance needs at least this many grid-ink pixels near the lines, and a quarter as many near
-#: each of the two directions of lines
-MIN_INLIERS = 120
+#: each of the two directions of lines (the iCub's left eye sees 500-2300 while it draws; a Panda's
+#: rig camera half hidden by the arm about 140-300, and fits on so few went centimetres wrong)
+MIN_INLIERS = 200
+#: an eye's glance is taken without trying the other eye when this many pixels lie near the lines
+GOOD_INLIERS = 400
 #: the search when the sheet moved too far for the refinement: shifts up to this (metres, 2 mm
 #: steps) and turns up to this (degrees, 1 degree steps) from where the grid was
 SEARCH = 0.04
 SEARCH_TURN = 4.0
 #: the rectified view's pixel, metres
 RESOLUTION = 0.001
-#: the eyes a glance tries, in turn (the right arm draws: it hides less from the left eye)
+#: the eyes a glance tries, in turn (the iCub's right arm draws: it hides less from the left eye);
+#: the one that saw better goes first at the next glance
 EYES = ("left", "right")
 
 
@@ -62,18 +66,24 @@ class SheetTracker:
     """
 
     def __init__(self, corners: dict, surface_z: float) -> None:
+        self.z = float(surface_z)
+        self._frame({cell: {n: np.asarray(p, dtype=float).copy() for n, p in names.items()}
+                     for cell, names in corners.items()})
+        self.glances: list[dict] = []
+        self.eyes_order = EYES
+
+    def _frame(self, corners: dict) -> None:
+        """Know the grid as ``corners``: its centre, spacing and axes (``right`` along a row,
+        ``far`` across: a right- or left-handed pair, as the corners name them)."""
+        self.corners = corners
         c5 = corners[5]
         self.centre = np.mean([c5[n] for n in ("tl", "tr", "br", "bl")], axis=0)
         right = c5["tr"] - c5["tl"]
         self.spacing = float(np.linalg.norm(right[:2]))
         self.right = right[:2] / self.spacing
-        self.far = np.array([-self.right[1], self.right[0]])  # the robot's right turned back a quarter
+        self.far = np.array([-self.right[1], self.right[0]])
         if np.dot(self.far, (c5["tl"] - c5["bl"])[:2]) < 0:
             self.far = -self.far
-        self.z = float(surface_z)
-        self.corners = {cell: {n: np.asarray(p, dtype=float).copy() for n, p in names.items()}
-                        for cell, names in corners.items()}
-        self.glances: list[dict] = []
 
     # -- the grid in its own frame -------------------------------------------------------------
     def _local(self, xy: np.ndarray) -> np.ndarray:
@@ -125,11 +135,11 @@ class SheetTracker:
         if len(m0) < MIN_INLIERS:
             return None
         phi, tau = 0.0, np.zeros(2)
-        if self._inliers(m0, phi, tau)[0] < 0.6 * len(m0):
+        count, weak = self._inliers(m0, phi, tau)
+        if count < MIN_INLIERS or weak < MIN_INLIERS / 4:  # the grid is not where it was: look for it
             phi, tau = self._search(m0)
-        for gate in (3 * GATE, GATE, GATE):
-            for _ in range(6):
-                phi, tau = self._refine(m0, phi, tau, gate)
+        for _ in range(12):
+            phi, tau = self._refine(m0, phi, tau, GATE)
         count, weak = self._inliers(m0, phi, tau)
         if count < MIN_INLIERS or weak < MIN_INLIERS / 4:
             return None
@@ -181,7 +191,8 @@ class SheetTracker:
         normal[np.arange(len(p)), kind] = 1.0
         q = p - tau  # the turn acts before the shift: d(R(phi) m)/d(phi) = (-q_v, q_u)
         J = np.column_stack([normal[:, 0] * -q[:, 1] + normal[:, 1] * q[:, 0], normal])
-        step, *_ = np.linalg.lstsq(J, -r, rcond=None)
+        w = 1.0 / (1.0 + (r / (0.5 * GATE)) ** 2)  # Cauchy weights: a stray dark pixel near a line pulls little
+        step, *_ = np.linalg.lstsq(J * w[:, None], -r * w, rcond=None)
         return phi + float(step[0]), tau + step[1:]
 
     def glance(self, eyes) -> dict | None:
@@ -189,14 +200,18 @@ class SheetTracker:
         :attr:`corners`), or None (then :attr:`corners` are what it knew)."""
         clock = time.perf_counter()
         note = {"seen": False}
-        found = None
-        for eye in EYES:  # the right eye only when the arm hides the grid from the left one
+        found, eye = None, None
+        for which in self.eyes_order:  # the other eye only when this one sees too little of the grid
             try:
-                found = self.register(self.ink(eyes.camera_image(eye)))
+                fit = self.register(self.ink(eyes.camera_image(which)))
             except InputError as exc:
-                note["why"] = str(exc).splitlines()[0]
-            if found is not None:
+                fit, note["why"] = None, str(exc).splitlines()[0]
+            if fit is not None and (found is None or fit[2] > found[2]):
+                found, eye = fit, which
+            if found is not None and found[2] >= GOOD_INLIERS:
                 break
+        if eye is not None and eye != self.eyes_order[0]:
+            self.eyes_order = (eye,) + tuple(e for e in self.eyes_order if e != eye)  # it saw better: first next time
         if found is not None:
             phi, tau, count, weak = found
             # the ink moved by the inverse of the point transform: x -> R(-phi) (x - tau)
@@ -208,11 +223,7 @@ class SheetTracker:
                 xy_new = self.centre[:2] + axes @ np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
                 return np.array([xy_new[0], xy_new[1], point[2]])
 
-            self.corners = {cell: {n: moved(p) for n, p in names.items()} for cell, names in self.corners.items()}
-            new_centre = moved(self.centre)
-            turn = np.array([[c, -s], [s, c]])
-            self.right, self.far = turn @ self.right, turn @ self.far
-            self.centre = new_centre
+            self._frame({cell: {n: moved(p) for n, p in names.items()} for cell, names in self.corners.items()})
             note = {"seen": True, "inliers": count, "weakest": weak,
                     "turn_deg": round(math.degrees(-phi), 3), "shift_mm": round(1000 * float(np.linalg.norm(tau)), 3),
                     "eye": eye}
