@@ -121,6 +121,7 @@ main { mark(board.cell4) }
 """
 
 
+@pytest.mark.slow
 def test_a_circle_drawn_while_the_sheet_slides_and_turns(tmp_path):
     """The issue's scene on the iCub: the sheet slides 3 cm and turns 10 degrees while the pen is
     down; tracked, the circle lands in its cell on the sheet where it ends up; untracked (the same
