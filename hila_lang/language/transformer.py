@@ -107,10 +107,18 @@ class ToAst(Transformer):
         kind, value, radius = ch
         return A.Constraint(str(kind), value, radius, _pos(meta))
 
+    def track_option(self, meta, ch):
+        kind, number = ch
+        return A.TrackOption(str(kind), float(number), _pos(meta))
+
+    def track(self, meta, ch):
+        names = tuple(c for c in ch if isinstance(c, A.Name))
+        return A.Track(names, tuple(c for c in ch if isinstance(c, A.TrackOption)), _pos(meta))
+
     def run_stmt(self, meta, ch):
-        ref, bindings, pen, *constraints = ch
+        ref, bindings, pen, *constraints, track = ch
         template, tag = ref.parts[0], (".".join(ref.parts[1:]) or None)
-        return A.RunStmt(template, tag, bindings or (), pen, _pos(meta), ref.pos, tuple(constraints))
+        return A.RunStmt(template, tag, bindings or (), pen, _pos(meta), ref.pos, tuple(constraints), track)
 
     def call_stmt(self, meta, ch):
         name, args, *constraints = ch

@@ -9,9 +9,11 @@ finished or failed) that any ZIP tool opens, with
   where the hand started, then one entry per step: state, kind, line, trace text, next state,
   value, the variables it set, the ICPs bound, the planned and the executed path (metres, full
   float precision), OSILA's account of a run state (map, threshold, rounds, constraint pairs
-  added, the constraints and options) and where the hand ended; last, how the run ended (a
-  failed run: the error, its exit status, the state, and -- when a back end stopped part of the
-  way through a move -- the path the hand made, ``executed``);
+  added, the constraints and options), where the hand ended, and for a streamed run (``track``)
+  its re-plans (time, how far the tracked points moved, where the new plan took over, the blend,
+  whether the pen lifted, where the tracked points were taken to be and the new tail); last, how
+  the run ended (a failed run: the error, its exit status, the state, and -- when a back end
+  stopped part of the way through a move -- the path the hand made, ``executed``);
 - ``eyes/NNNN.png``: the left eye's image after each run state (``--record-eyes``).
 
 :func:`read_record` reads it back without a simulator (numpy arrays for points and paths);
@@ -145,6 +147,8 @@ class Recorder:
         }
         if entry.step_result is not None:
             record["osila"] = osila_record(entry.step_result)
+        if entry.replans is not None:
+            record["replans"] = [r.to_dict() for r in entry.replans]
         if self.eyes and entry.kind == "run":
             record["eye"] = self.eye_image(entry.step)
         self.steps.append(record)
