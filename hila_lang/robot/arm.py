@@ -216,7 +216,7 @@ class Arm:
         """
         check_planned(planned, self.surface_z, label, self.reach)  # the reach bound and the paper, as the dry back end checks
         clock = time.perf_counter()
-        dense, _, arc, qs = solve_along(self._solve, self.chain.tip_position, self.joint_positions(), planned, label)
+        dense, origin_index, arc, qs = solve_along(self._solve, self.chain.tip_position, self.joint_positions(), planned, label)
         self.stats["ik_solves"] += len(dense) - 1
         self.stats["ik_seconds"] += time.perf_counter() - clock
         return dense, origin_index, arc, qs

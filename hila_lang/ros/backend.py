@@ -98,6 +98,7 @@ class RosBackend:
     view = None
     lighting = None
     snapshots = None
+    streaming = None  # a track clause re-plans while the arm moves: not over a trajectory controller yet
 
     def __init__(self, arm, *, joints=None, controller: str, states: str, speed: float, workspace: Workspace | None,
                  timeout: float = 10.0, silence: float = 0.5, tolerance: float = 0.002, gap: float = 0.15,
