@@ -65,7 +65,7 @@ def test_the_window_is_framed_before_the_robot_loads_and_the_simulation_steps(mo
     windows = []
 
     class StandIn:  # the window itself needs a real one (its projection); here only when it is made
-        def __init__(self, sim, surface):
+        def __init__(self, sim, surface, robot=None):  # robot: what it frames of the arm (window.robot_points)
             windows.append(surface)
 
         def executed_point(self, point):
@@ -123,6 +123,7 @@ def test_the_arm_paces_at_speed_n(monkeypatch):
         robot.close()
 
 
+@pytest.mark.slow
 def test_under_xvfb_the_window_never_shows_the_robot_unframed():
     """A screenshot every second while the back end loads and after: each shows either nothing (the
     window does not draw while the robot loads) or the robot exactly where the framing puts it."""

@@ -51,6 +51,7 @@ def installed(tmp_path_factory):
     return site, elsewhere, hila
 
 
+@pytest.mark.slow
 def test_the_package_carries_its_templates_programs_and_grammar(installed):
     site, _, _ = installed
     package = site / "hila_lang"
@@ -58,8 +59,16 @@ def test_the_package_carries_its_templates_programs_and_grammar(installed):
     assert {p.name for p in (package / "programs").glob("*.hila")} == {p.name for p in (ROOT / "programs").glob("*.hila")}
     assert {p.name for p in (package / "primitives").glob("*.yaml")} == {p.name for p in (ROOT / "primitives").glob("*.yaml")}
     assert len(list((package / "primitives" / "letters").glob("*.yaml"))) == 26
+    assert {p.name for p in (package / "robot" / "robots").glob("*.yaml")} == {"panda.yaml", "kuka.yaml"}
 
 
+def test_the_shipped_robots_are_found_from_any_folder(installed):
+    _, _, hila = installed
+    probe = hila("check", "game.hila", "--robot", "kuka")  # the spec read from the installed package
+    assert probe.returncode == 0, probe.stderr
+
+
+@pytest.mark.slow
 def test_the_shipped_game_runs_from_any_folder(installed):
     site, elsewhere, hila = installed
     out = hila("exec", "game.hila", "--backend", "dry", "--quiet", "--out", "g")

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from hila_lang.core.errors import HilaError
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
-from hila_lang.language.parser import decode_source
+from hila_lang.language.source import decode_source
 from hila_lang.language.transformer import parse_program
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -111,6 +111,7 @@ def test_non_utf8_bytes_inside_a_program():
             front_end(data[:cut] + b"\xc3\x28\xff" + data[cut:])
 
 
+@pytest.mark.slow
 def test_one_megabyte_program():
     body = "    wait tick\n" * (1_000_000 // 14)
     text = "main {\n" + body + "\n  wait tock\n  }\n}\n"  # one '}' too many at the very end

@@ -172,6 +172,11 @@ def program(folder: Path, template: Path) -> Path:
     return out
 
 
+def line_of(program: Path, text: str) -> int:
+    """The line of ``program`` that holds ``text`` (the shipped game's lines move as it grows)."""
+    return next(i for i, line in enumerate(program.read_text().splitlines(), 1) if text in line)
+
+
 def learn_drawn(folder: Path, mark: str, style: str = "careful", seed: int = 0) -> Path:
     demo, icps = write_demonstration(folder, mark, draw_mark(mark, style, seed=seed))
     out = folder / f"{mark}.yaml"
@@ -186,7 +191,8 @@ def test_a_mark_like_the_cross_is_refused_by_hila_check_at_the_run_that_draws_it
     capsys.readouterr()
     assert main(["check", str(game)]) == 2
     err = capsys.readouterr().err
-    assert "game.hila:28:9: error: the robot's mark (circle.draw) is too like the opponent's cross" in err
+    at = f"game.hila:{line_of(game, 'run circle.draw(')}:9"
+    assert f"{at}: error: the robot's mark (circle.draw) is too like the opponent's cross" in err
     assert "run circle.draw(c.*, hand = none, start = none)" in err and "hint: teach the robot a mark" in err
     assert main(["exec", str(game), "--backend", "dry"]) == 2  # nothing is played
     game = program(tmp_path, learn_drawn(tmp_path, "triangle", "quick"))
@@ -263,7 +269,7 @@ def test_the_shipped_game_plays_a_drawn_mark_whose_retract_heads_elsewhere(tmp_p
     capsys.readouterr()
     assert main(["check", str(old)]) == 0
     err = capsys.readouterr().err
-    assert f"{old}:44:32: warning: ICP 'hand' of 'circle.retract' is bound here, but its path never comes near " \
+    assert f"{old}:{line_of(old, 'run circle.retract(')}:32: warning: ICP 'hand' of 'circle.retract' is bound here, but its path never comes near " \
            "'hand' in the template" in err
     assert main(["exec", str(old), "--backend", "dry", "--seed", "1", "--set", "report=no"]) == 1
     assert "mm below the paper" in capsys.readouterr().err

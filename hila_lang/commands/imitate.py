@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     from ..core.errors import InputError
     from ..core.fileio import atomic_write_text, ensure_writable
     from ..hierarchy.generate import generate
+    from ..osila.demofile import demo_csv
     from ..osila.template import END, START, load_template
     from ..core.validation import check_int, check_positive
 
@@ -120,9 +121,9 @@ def run(args: argparse.Namespace) -> int:
         options["smoothing"] = check_positive(args.smoothing, "--smoothing", allow_zero=True)
     if args.timing is not None:
         options["timing"] = check_positive(args.timing, "--timing", allow_zero=True)
-    from ..plugins.options import check_osila_ranges
+    from ..plugins.options import check_osila_options
 
-    check_osila_ranges(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
+    options = check_osila_options(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
     try:
         gen = generate(
             [step], task["icps"], forced={0: task["forced"]} if task["forced"] is not None else None,
@@ -133,9 +134,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     piece = gen.pieces[0]
     path = gen.path
-    from ..osila.demofile import demo_csv_text
-
-    text = demo_csv_text(path, gen.times)
+    text = demo_csv(path, gen.times)
     out = sys.stdout
     if args.output:
         atomic_write_text(args.output, text)

@@ -1,13 +1,17 @@
 """``hila learn``: one demonstration -> a segmented template YAML.
 
-The demonstration comes from a CSV path plus its ICPs, or is seen through the iCub's stereo
-cameras (:mod:`hila_lang.perception.learn`): recorded frames (``--frames``, ``--left/--right``)
-or a recording made in simulation (``--from-sim``).
+The demonstration comes from a CSV path plus its ICPs (learned by
+:func:`hila_lang.hierarchy.learn.learn_files`, the function the studio and the letters world call
+too), or is seen through the iCub's stereo cameras (:mod:`hila_lang.perception.learn`): recorded
+frames (``--frames``, ``--left/--right``) or a recording made in simulation (``--from-sim``), or is
+a pen on the printed sheet before one camera (``VIDEO --sheet``, :mod:`hila_lang.perception.pen`):
+tracked, written as a demonstration CSV with its pen column and its ICPs, and learned from them as
+from any CSV.
 """
 
 from __future__ import annotations
 
-from ..core.argtypes import output_path, seed
+from ..core.argtypes import number, output_path, seed, whole
 import argparse
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
@@ -20,7 +24,10 @@ Sources (one of):
                               eye cameras, then learn it by perception (about a minute)
   --frames REC                a recording folder (left/, right/, calibration/, cameras.yaml)
   --left L --right R          left and right frames: image folders or video files
-The last three learn in the world --world names (default tictactoe): the world declares how its
+  VIDEO --sheet               a pen with a coloured ball on its tip drawing on the sheet 'hila sheet'
+                              prints, filmed by one camera (a video file or a folder of frames):
+                              see docs/camera.md and "a pen on the printed sheet" below
+--from-sim, --frames and --left/--right learn in the world --world names (default tictactoe): the world declares how its
 demonstration is recorded and how its scene's ICPs are read (WorldInfo.recorder, .icp_reader).
 
 DEMO.csv: a header line, then one row per waypoint.  Header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z'
@@ -49,7 +56,20 @@ were made; known parts are copied from the library (with provenance in the descr
 rest become new segments (tagged new1, new2, ... or by --tags, one per new part).  --report
 FILE.json writes every part: {"segments": [{"start", "end", "template", "tag", "distance"}]}.
 See docs/recognition.md.
-Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml"""
+Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml
+
+A pen on the printed sheet (VIDEO --sheet): the sheet's markers give the paper's plane, the ball
+gives the tip and, from its apparent size, its height: the pen is down where the tip is on the
+paper, the moments it lands and leaves from the dips in the hand's speed.  The path is in the
+sheet's frame (metres from its bottom-left corner: x right, y up the page, z off the paper),
+resampled at 20 Hz, and written beside OUT.yaml as OUT.demo.csv (t,x,y,z,pen) with its ICPs as
+OUT.icps.yaml; the template is learned from those two files exactly as 'hila learn OUT.demo.csv
+--icps OUT.icps.yaml' would.  ICPs: the corners of the printed grid's cell --cell N, or --icps
+FILE (sheet frame, metres), or by default the corner markers' centres (tl, tr, br, bl); 'hand'
+is where the pen starts unless the ICPs name it.  A video without the sheet's markers, without
+the ball, or where the sheet is hidden longer than --max-gap frames is refused (exit 2) and
+nothing is written.
+Example: hila learn pen.mp4 --sheet --cell 5 -k 3 --tags reach,draw,retract --contact draw -o circle.yaml"""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -58,6 +78,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     seen = parser.add_argument_group("learning by perception (stereo eye cameras)")
     seen.add_argument("--from-sim", action="store_true", help="record the demonstration in PyBullet and learn it by perception")
     seen.add_argument("--keep-recording", metavar="DIR", help="with --from-sim: keep the recorded frames in DIR")
+    parser.add_argument("--robot", metavar="NAME|PATH", default=None,
+                        help="with --from-sim: the robot whose eyes watch (icub, panda, kuka, a spec .yaml or a "
+                             ".urdf; default icub): the iCub's head or the arm's stereo rig (docs/robots.md)")
+    parser.add_argument("--set", dest="robot_settings", action="append", default=[], metavar="robot.KEY=VALUE",
+                        help="with --robot PATH.urdf: robot.tip=LINK, robot.packages=DIR[:DIR]")
     seen.add_argument("--frames", metavar="REC", help="a recording folder (left/, right/, calibration/, cameras.yaml)")
     seen.add_argument("--left", metavar="L", help="left frames: an image folder or a video file")
     seen.add_argument("--right", metavar="R", help="right frames: an image folder or a video file")
@@ -69,6 +94,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="the world whose demonstration is recorded (--from-sim) or whose scene ICPs are read "
                            "in the frames (default tictactoe, the only one shipped that has them)")
     seen.add_argument("--max-gap", type=int, default=3, help="longest marker loss bridged, frames (default 3)")
+    pen = parser.add_argument_group("a pen on the printed sheet before one camera (docs/camera.md)")
+    pen.add_argument("--sheet", action="store_true", help="DEMO is a video (or folder of frames) of a pen on the sheet")
+    pen.add_argument("--cell", type=whole(1, 9, " (1 top left, 9 bottom right as you read the sheet)"), default=None,
+                     metavar="N",
+                     help="ICPs tl, tr, br, bl: the corners of the printed grid's cell N (1 top left .. 9)")
+    pen.add_argument("--ball", default="green", metavar="COLOUR",
+                     help="colour of the ball on the pen's tip: green (default), blue, red, yellow, cyan, magenta")
+    pen.add_argument("--ball-mm", type=number(2, 60, " mm"), default=12.0, metavar="MM",
+                     help="the ball's diameter (default 12 mm)")
+    pen.add_argument("--hfov", type=number(20, 150, " degrees"), default=None, metavar="DEG",
+                     help="the camera's horizontal field of view, if known (else measured from the sheet)")
+    pen.add_argument("--fps", type=number(1, 1000), default=30.0, help="frame rate of a folder of frames (default 30)")
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
     parser.add_argument("--contact", default="", help="comma-separated tags that touch the surface")
@@ -118,6 +155,17 @@ def _source(args: argparse.Namespace) -> str:
     """Which demonstration source the arguments name; exactly one is allowed."""
     from ..core.errors import InputError
 
+    if getattr(args, "sheet", False):
+        others = [name for name, on in (("--from-sim", args.from_sim), ("--frames", args.frames is not None),
+                                        ("--left/--right", args.left is not None or args.right is not None),
+                                        ("--keep-recording", args.keep_recording),
+                                        ("--robot/--set", args.robot is not None or args.robot_settings)) if on]
+        if args.demo is None or others:
+            raise InputError("--sheet learns from one video: hila learn VIDEO --sheet"
+                             + (f" (not with {' and '.join(others)})" if others else ""))
+        return "--sheet"
+    if getattr(args, "cell", None) is not None:
+        raise InputError("--cell goes with --sheet (the printed grid's cell)")
     given = [name for name, on in (
         ("DEMO.csv", args.demo is not None),
         ("--from-sim", args.from_sim),
@@ -136,7 +184,44 @@ def _source(args: argparse.Namespace) -> str:
         raise InputError("expected both --left and --right frames")
     if source != "--from-sim" and args.keep_recording:
         raise InputError("--keep-recording goes with --from-sim")
+    if source != "--from-sim" and (args.robot is not None or args.robot_settings):
+        raise InputError("--robot and --set robot.KEY go with --from-sim (the robot whose eyes watch)")
+    from ..robot.spec import robot_pairs
+
+    robot_pairs(args.robot_settings, "hila learn")
     return source
+
+
+def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
+    """Track the pen in the video ``args.demo`` (:mod:`hila_lang.perception.pen`), write
+    OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
+    import numpy as np
+
+    from ..core.fileio import atomic_write_text, ensure_writable
+    from ..evaluation.lasa import RATE_HZ, resample_in_time
+    from ..osila.demofile import demo_csv, load_icps, write_icps
+    from ..perception.pen import sheet_icps, track_video
+
+    stem = out.name[:-len(out.suffix)] if out.suffix else out.name
+    csv, icps_file = out.with_name(f"{stem}.demo.csv"), out.with_name(f"{stem}.icps.yaml")
+    for path in (csv, icps_file):
+        ensure_writable(path)
+    given = load_icps(args.icps, 3) if args.icps else None
+    print(f"tracking the pen in {args.demo} ...", flush=True)
+    track = track_video(args.demo, ball=args.ball, ball_mm=args.ball_mm, hfov_deg=args.hfov, fps=args.fps,
+                        max_gap=args.max_gap, progress=lambda n: print(f"  {n} frames", flush=True))
+    icps = given if given is not None else sheet_icps(track.layout, args.cell)
+    path = resample_in_time(track.times, np.column_stack([track.tip / 1000.0, track.contact]), RATE_HZ)
+    pen = path[:, 3] > 0.5
+    path = np.where(pen[:, None], np.column_stack([path[:, :2], np.zeros(len(path))]), path[:, :3])
+    icps = {**icps, "hand": path[0]} if "hand" not in icps else icps
+    print(f"  {track.summary()}")
+    atomic_write_text(csv, f"# tracked by hila learn --sheet from {args.demo}: {track.summary()}\n"
+                           "# sheet frame, metres: x right, y up the page, z off the paper; pen 1 = on the paper\n"
+                      + demo_csv(path, np.arange(len(path)) / RATE_HZ, pen))
+    write_icps(icps_file, icps,
+               header=f"ICPs of {csv.name}: the {track.layout.name} sheet's frame, metres")
+    return str(csv), str(icps_file)
 
 
 def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
@@ -147,9 +232,15 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     info = registry.world(args.world)
     if source == "--from-sim":
         learn_from_sim = info.capability("recorder", "demonstration to record", "--from-sim")
-        print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
+        extra = {}
+        if args.robot is not None:  # a recorder that takes the robot (a world's own may not): hila_lang.robot.spec
+            from ..robot.spec import resolve, robot_pairs
+
+            extra["robot"] = resolve(args.robot, robot_pairs(args.robot_settings, "hila learn"))
+        who = "the iCub's eye cameras" if args.robot is None else f"the {extra['robot'].name}'s cameras"
+        print(f"recording the demonstration through {who} (about a minute) ...", flush=True)
         template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name, method=args.method,
-                                  recording_dir=args.keep_recording)
+                                  recording_dir=args.keep_recording, **extra)
     else:
         left, right = (args.frames, None) if source == "--frames" else (args.left, args.right)
         demonstration_icps = info.capability("icp_reader", "reader of a demonstration's ICPs", source)
@@ -231,69 +322,28 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
     return out
 
 
-def _cuts(text: str | None, k: int, T: int) -> list[int] | None:
-    """``--cuts A,B,...``: k - 1 increasing sample indices, each leaving two samples or more per tag."""
+def _cuts(text: str | None) -> list[int] | None:
+    """``--cuts A,B,...`` as sample indices (checked against k and the path by
+    :func:`hila_lang.hierarchy.learn.check_cuts`)."""
     from ..core.errors import InputError
 
     if text is None:
         return None
     try:
-        cuts = [int(c) for c in text.split(",")]
+        return [int(c) for c in text.split(",")]
     except ValueError:
         raise InputError(f"--cuts {text}: expected sample indices separated by commas, e.g. --cuts 25,57") from None
-    if len(cuts) != k - 1:
-        raise InputError(f"--cuts {text}: expected {k - 1} cut(s) for k = {k} segments, got {len(cuts)}")
-    bounds = [0, *cuts, T]
-    for a, b in zip(bounds, bounds[1:]):
-        if b - a < 2:
-            raise InputError(f"--cuts {text}: expected increasing cuts that leave every tag 2 samples or more of "
-                             f"the {T}, got a tag [{a}, {b})")
-    return cuts
-
-
-def _segmented(template, k: int, tags: list[str], contact: list[str], args, pen):
-    """``template`` cut by ``--cuts`` or by the method (``contact`` by default when the pen is
-    recorded); with the pen recorded and no ``--contact``, the tags mostly pen-down touch."""
-    import numpy as np
-
-    from ..core.errors import InputError
-    from ..osila.segmentation import describe, segment_template
-    from ..osila.template import Segment
-
-    cuts = _cuts(args.cuts, k, len(template.path))
-    if cuts is None:
-        method = args.method or ("contact" if pen is not None else "speed")
-        try:
-            out = segment_template(template, k, tags, method=method, seed=args.seed, contact=contact, pen=pen)
-        except InputError as exc:
-            exc.file = exc.file or str(args.demo)
-            raise
-        out.description += f" {describe(method, k)}"
-        return out
-    if args.method is not None:
-        raise InputError("--cuts and --method both say where to cut: give one")
-    bounds = [0, *cuts, len(template.path)]
-    if not contact and pen is not None:
-        contact = [tag for tag, a, b in zip(tags, bounds, bounds[1:]) if 2 * np.sum(pen[a:b]) > b - a]
-    template.segments = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
-    template.description += f" Cut by hand at samples {', '.join(map(str, cuts))} (--cuts; k = {k})."
-    return template
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..osila.demofile import load_icps, read_demo
     from ..core.errors import InputError
     from ..core.fileio import ensure_writable
-    from ..osila.template import Template, save_template
+    from ..hierarchy.learn import default_tags, learn_files
+    from ..osila.template import save_template
 
     source = _source(args)
-    tags = _split(args.tags)
+    k, tags = default_tags(_split(args.tags), args.k)
     contact = _split(args.contact, "--contact")
-    k = args.k if args.k is not None else max(len(tags), 1)
-    if k < 1:
-        raise InputError(f"expected -k >= 1, got {k}")
-    if not tags and k > 1:
-        tags = [f"s{i + 1}" for i in range(k)]
     library = _library(args)  # a bad library stops before anything is made or written
     out = ensure_writable(args.output)  # before the work: learning by perception takes a minute
     report = ensure_writable(args.report) if args.report else None
@@ -302,27 +352,17 @@ def run(args: argparse.Namespace) -> int:
         (tags_new, tags), (contact_new, contact), k = (tags, []), (contact, []), 1
         if args.cuts is not None:
             raise InputError("--cuts does not go with --library: the parts are what the library recognises")
+    if source == "--sheet":
+        args.demo, args.icps = _from_sheet(args, out)
+        source = "DEMO.csv"
     if source != "DEMO.csv":
         if args.cuts is not None:
             raise InputError(f"--cuts goes with DEMO.csv; {source} is cut by --method")
         args.method = args.method or "speed"
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:
-        demo = read_demo(args.demo)
-        icps = load_icps(args.icps, demo.path.shape[1])
-        try:
-            template = Template(name, demo.path, icps, times=demo.times,
-                                description=f"learned from {args.demo} ({len(demo.path)} points) with ICPs from "
-                                            f"{args.icps}.")
-        except InputError as exc:
-            exc.file = exc.file or str(args.demo)
-            raise
-        if tags:
-            template = _segmented(template, k, tags, contact, args, demo.pen)
-        elif contact or args.cuts is not None:
-            raise InputError(f"{'--contact' if contact else '--cuts'} needs segments: give --tags (and -k)")
-        if args.description:
-            template.description = args.description
+        template = learn_files(args.demo, args.icps, name=name, tags=tags, contact=contact, k=k, method=args.method,
+                               seed=args.seed, description=args.description or None, cuts=_cuts(args.cuts))
     if library is not None:
         template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)

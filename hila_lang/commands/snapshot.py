@@ -54,8 +54,6 @@ def run(args: argparse.Namespace) -> int:
         )
     if not 64 <= args.size <= 2048:
         raise InputError(f"--size must be 64..2048 pixels, got {args.size}")
-    if args.seed < 0:
-        raise InputError(f"--seed must be >= 0, got {args.seed}")
     scene = Grid.game()
     cell = scene.grid_size / 3
     with PyBulletBackend(scene.paper(), gui=args.gui, arm="ready") as robot:

@@ -1,4 +1,4 @@
-"""OSILA: one-shot imitation of a template path in a new scene (DESIGN.md §1).
+"""OSILA: one-shot imitation of a template path in a new scene (docs/design.md §2.2).
 
 :func:`imitate` is the contract: re-estimate which part of the template passes an ICP that lies
 on its path (:mod:`.timing`), warp the template with a thin plate spline fitted on paired ICPs
@@ -25,6 +25,7 @@ One line each:
 - ``route``         the minimum-energy route through the candidates
 - ``adjust``        plan adjustment until forced waypoints and obstacles hold
 - ``bordered``      the warp's inverses grown from round to round while the pairs only grow
+- ``warm``          every kernel compiled into numba's cache at once (the first run's background process)
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (DESIGN.md §1.3).
+"""Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (docs/design.md §2.2).
 
 First, ICPs whose template point lies on the template path (a boundary, a point at a time
 fraction) are re-timed (:mod:`.timing`): which part of the template passes them is estimated

@@ -5,7 +5,9 @@ Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
 above the paper's centre (:func:`hila_lang.robot.workspace.ready_point`); a program's
 ``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
 It has no eyes, no ink, no overview camera, no lights and no window (those capabilities are None);
-its ``snapshots`` copy where the hand is and cut the list of moves back.
+its ``snapshots`` copy where the hand is and cut the list of moves back; its ``streaming``
+(:class:`~hila_lang.robot.streaming.DryStream`) follows a path whose tail changes, at the arm's
+pen speeds, deterministically (the ``track`` clause).
 
 It checks what PyBullet's arm checks of a planned path before it moves
 (:func:`hila_lang.robot.reach.check_planned`): every waypoint within the arm's kinematic reach
@@ -37,15 +39,20 @@ class DryBackend:
     view = None
     lighting = None
 
-    def __init__(self, start=(0.0, 0.0, 0.0), surface_z: float | None = None) -> None:
+    def __init__(self, start=(0.0, 0.0, 0.0), surface_z: float | None = None, reach=None) -> None:
         from ..plugins.snapshots import AttributeSnapshots
 
         #: the paper's height, metres (None: no paper, no table check)
         self.surface_z = surface_z
+        #: the robot's reach bound ((x, y, z), radius) (:meth:`~.spec.RobotSpec.reach`; None: the iCub's)
+        self.reach = reach
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
         #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.core.bounded.BoundedLog`)
         self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
         self.snapshots = AttributeSnapshots(self, ("_hand",), append_only=("moves",))
+        from .streaming import DryStream
+
+        self.streaming = DryStream(self)
 
     def hand_position(self) -> np.ndarray:
         return self._hand.copy()
@@ -63,7 +70,10 @@ class DryBackend:
             raise InputError(f"expected a path of shape (T, 3), got {arr.shape}")
         from .reach import check_planned
 
-        check_planned(arr, self.surface_z, label)
+        if self.reach is None:
+            check_planned(arr, self.surface_z, label)
+        else:
+            check_planned(arr, self.surface_z, label, self.reach)
         self.moves.append((label, arr.copy(), bool(pen_down)))
         self._hand = arr[-1].copy()
         return arr.copy()
@@ -73,11 +83,15 @@ class DryBackend:
 
 
 def make_backend(scene, options, settings) -> DryBackend:
-    """Plug-in factory (see :mod:`hila_lang.plugins.registry`)."""
+    """Plug-in factory (see :mod:`hila_lang.plugins.registry`); the robot's reach and sheet come
+    from ``options.robot`` (a :class:`~.spec.RobotSpec`; None: the iCub's)."""
     from .workspace import default_surface, ready_point
 
+    robot = getattr(options, "robot", None)
     home = None if scene is None else scene.home
     if home is None:
         home = settings.get("hand")
-    surface = scene.surface if scene is not None and scene.surface is not None else default_surface()
-    return DryBackend(home if home is not None else ready_point(surface), surface_z=surface.z)
+    surface = scene.surface if scene is not None and scene.surface is not None else \
+        (robot.default_surface() if robot is not None else default_surface())
+    return DryBackend(home if home is not None else ready_point(surface), surface_z=surface.z,
+                      reach=None if robot is None else robot.reach())

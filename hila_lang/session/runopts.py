@@ -46,6 +46,10 @@ def add_setting_arguments(parser) -> None:
     for flag, (name, owners) in sorted(_aliases().items()):
         parser.add_argument(flag, dest=f"alias:{name}", default=None, metavar=name.upper(),
                             help=f"same as --set {name}=VALUE ({'; '.join(owners)})")
+    parser.add_argument("--robot", dest="alias:robot", default=None, metavar="NAME|PATH",
+                        help="the robot: a name (" + ", ".join(registry.names("robot")) + "; default icub), "
+                             "a spec file (.yaml) or a URDF (.urdf, with --set robot.tip=LINK); same as "
+                             "--set robot=NAME (docs/robots.md)")
     parser.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
                         help="a setting of the world, the back end or OSILA (osila.threshold=0.002); "
                              "repeatable; the settings are listed below")
@@ -69,6 +73,9 @@ def settings_help() -> str:
                 lines.append("    (no settings)")
     from ..plugins.options import OSILA_SETTABLE  # not hila_lang.osila: 'hila --help' imports no numpy
 
+    lines.extend(textwrap.wrap("the robot (--robot NAME|PATH): robot.tip=LINK (the flange), robot.packages=DIR[:DIR] "
+                               "(package:// meshes), robot.base=X,Y,Z, robot.pen=METRES (docs/robots.md)",
+                               96, initial_indent="  ", subsequent_indent="    "))
     settable = ", ".join(f"osila.{name}" for name in OSILA_SETTABLE)
     lines.extend(textwrap.wrap(f"OSILA: {settable} (see 'hila imitate --help')",
                                96, initial_indent="  ", subsequent_indent="    "))

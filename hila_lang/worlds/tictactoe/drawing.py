@@ -233,14 +233,10 @@ def draw_mark(mark: str = "triangle", style: str = "careful", seed: int = 0, cel
 def write_demonstration(folder, name: str, drawing: Drawing) -> tuple[Path, Path]:
     """Write ``NAME.demo.csv`` (``t,x,y,z,pen``) and ``NAME.icps.yaml`` into ``folder``; returns
     both paths (for ``hila learn``)."""
-    import yaml
-
-    from ...core.fileio import atomic_write_text
-    from ...osila.demofile import demo_csv_text
+    from ...osila.demofile import write_demo_csv, write_icps
 
     folder = Path(folder)
     demo, icps = folder / f"{name}.demo.csv", folder / f"{name}.icps.yaml"
-    atomic_write_text(demo, demo_csv_text(drawing.path, drawing.times, pen=drawing.pen))
-    atomic_write_text(icps, yaml.safe_dump({k: [float(v) for v in p] for k, p in drawing.icps.items()},
-                                           sort_keys=False, default_flow_style=None))
+    write_demo_csv(demo, drawing.path, drawing.times, drawing.pen)
+    write_icps(icps, drawing.icps)
     return demo, icps
