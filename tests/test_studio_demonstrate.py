@@ -38,10 +38,11 @@ def test_lift_rises_and_falls_at_45_degrees_no_higher_than_the_cap():
 def test_samples_become_a_20_hz_path_with_own_time_stamps():
     samples = [{"x": 0.001 * i, "y": 0.0, "t": 1000.0 + 10 * i, "down": 10 <= i < 50} for i in range(101)]
     samples.insert(5, dict(samples[5]))  # a repeated time stamp is dropped
-    path, times = demonstrate.demonstration_path(samples, None)
+    path, times, pen = demonstrate.demonstration_path(samples, None)
     assert path.shape == (21, 2) and np.allclose(times, np.arange(21) / 20)
+    assert pen.tolist() == [2 <= i < 10 for i in range(21)]  # the pointer's down state, resampled with it
     assert np.isclose(path[-1, 0], 0.1) and np.isclose(path[10, 0], 0.05)
-    path3, _ = demonstrate.demonstration_path(samples, 0.2, 0.13)
+    path3, _, _ = demonstrate.demonstration_path(samples, 0.2, 0.13)
     assert path3.shape == (21, 3) and path3[0, 2] > 0.2 and np.isclose(path3[4, 2], 0.2)
     with pytest.raises(InputError, match="at least 2 pointer samples"):
         demonstrate.demonstration_path(samples[:1], None)
@@ -62,18 +63,86 @@ def test_save_is_hila_learn_and_moved_cuts_replace_the_segments(tmp_path):
                         str(tmp_path / "swipe.icps.yaml"), "-k", "2", "--tags", "a1,a2", "--contact", "a2",
                         "-o", str(tmp_path / "cli.yaml"), "--name", "swipe"], capture_output=True, text=True)
     assert r.returncode == 0 and (tmp_path / "cli.yaml").read_text() == learned
+    assert _run_shown(out["command"], tmp_path) == learned  # the command shown writes the same file
     proposed = out["segments"][1]["start"]
     moved = demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7]))
     assert moved["segments"][1]["start"] == proposed + 7
+    saved = (tmp_path / "swipe.yaml").read_text()
     tpl = load_template(tmp_path / "swipe.yaml")
     assert [(s.start, s.stop, s.contact) for s in tpl.segments] == [(0, proposed + 7, False), (proposed + 7, 60, True)]
-    assert "moved by hand" in tpl.description
+    assert f"Cut by hand at samples {proposed + 7}" in tpl.description
+    # the command shown for hand-moved cuts says them (--cuts) and writes the saved file byte for byte
+    assert f"--cuts {proposed + 7}" in moved["command"] and "--method" not in moved["command"]
+    assert _run_shown(moved["command"], tmp_path) == saved
     with pytest.raises(InputError, match="letter or '_'"):
         demonstrate.save(tmp_path, dict(req, name="../x"))
     opened = demonstrate.open_source(tmp_path, "csv", "swipe.demo.csv")  # its ICPs come from beside it
     assert opened["name"] == "swipe" and opened["icps"] == req["icps"] and np.allclose(opened["path"], path)
     with pytest.raises(InputError, match="goes up a folder"):
         demonstrate.open_source(tmp_path, "template", "../swipe.yaml")
+
+
+def _run_shown(command: str, folder) -> str:
+    """Run the ``hila learn ...`` line the page shows, into another file; returns what it wrote."""
+    import shlex
+
+    argv = shlex.split(command)
+    assert argv[:2] == ["hila", "learn"]
+    out = argv.index("-o") + 1
+    argv[out] = str(folder / "shown.yaml")
+    from hila_lang.cli import main
+
+    assert main([*argv[1:], "--name", "swipe"]) == 0  # in process: the same code as the command
+    return (folder / "shown.yaml").read_text()
+
+
+def test_a_drawing_is_cut_where_the_pen_touches_and_leaves_the_paper(tmp_path):
+    """The page records the pen; the proposal and the saved template cut at its changes
+    (``--method contact``, ``hila learn``'s default for a CSV with a ``pen`` column), not at the
+    deepest speed dips, which put the draw segment across most of the pen-up retract (issue 30)."""
+    from hila_lang.osila.template import load_template
+
+    t = np.arange(0, 4000, 10.0)  # 4 s of pointer samples, 100 Hz
+    s = t / 4000
+    x, y = 0.2 * s, 0.05 * np.sin(12 * s)  # one smooth move: the speed never dips where the pen changes
+    down = (s >= 0.3) & (s < 0.55)
+    samples = [dict(x=float(a), y=float(b), t=float(c), down=bool(d)) for a, b, c, d in zip(x, y, t, down)]
+    doc = demonstrate.demonstration(dict(samples=samples, z=None, k=3))
+    pen = np.array(doc["pen"])
+    on, off = int(np.argmax(pen)), len(pen) - int(np.argmax(pen[::-1]))
+    assert doc["method"] == "contact" and doc["cuts"] == [on, off]
+    speed = demonstrate.demonstration(dict(samples=samples, z=None, k=3, method="speed"))
+    assert speed["cuts"] != doc["cuts"]  # the speed dips are elsewhere: the test tells the methods apart
+    out = demonstrate.save(tmp_path, dict(name="swipe", path=doc["path"], times=doc["times"], pen=doc["pen"],
+                                          icps={"a": [0, 0]}, tags=["reach", "draw", "retract"], contact=["draw"],
+                                          cuts=doc["cuts"]))
+    assert [(s["start"], s["stop"]) for s in out["segments"]] == [(0, on), (on, off), (off, len(pen))]
+    assert "--method contact" in out["command"] and "--cuts" not in out["command"]
+    assert (tmp_path / "swipe.demo.csv").read_text().splitlines()[0] == "t,x,y,pen"
+    assert _run_shown(out["command"], tmp_path) == (tmp_path / "swipe.yaml").read_text()
+    assert load_template(tmp_path / "swipe.yaml").segments[1].contact
+    with pytest.raises(InputError, match="'pen' as"):
+        demonstrate.demonstration(dict(path=doc["path"], times=doc["times"], pen=[1, 0], k=3))
+
+
+def test_an_uploaded_picture_is_scaled_to_fit_and_the_scene_list_shows_scenes_only(tmp_path):
+    """A large photo is shown no larger than the sheet (its Save stays in view), its plane still
+    the picture's own (0.25 mm a picture pixel, what the picture world reads a route in); the
+    Scene list offers the folder's own pictures, not the PNGs a run wrote in its output folder."""
+    from hila_lang.core.fileio import write_png
+
+    write_png(tmp_path / "photo.png", np.zeros((1500, 2000, 3), np.uint8))
+    (tmp_path / "runs" / "game").mkdir(parents=True)
+    write_png(tmp_path / "runs" / "game" / "eye.png", np.zeros((10, 10, 3), np.uint8))
+    doc = demonstrate.scene("upload:photo.png", tmp_path)
+    assert doc["width"] <= demonstrate.SHOWN_MAX[0] and doc["height"] <= demonstrate.SHOWN_MAX[1]
+    assert abs(doc["width"] / doc["height"] - 2000 / 1500) < 0.01
+    H = np.array(doc["H"])
+    centre = H @ [1000 * demonstrate.SHEET_M_PER_PX, 750 * demonstrate.SHEET_M_PER_PX, 1.0]
+    assert np.allclose(centre[:2] / centre[2], [doc["width"] / 2, doc["height"] / 2], atol=0.5)
+    assert doc["picture"] == dict(file="photo.png", width=2000, height=1500, m_per_px=demonstrate.SHEET_M_PER_PX)
+    names = [s["name"] for s in demonstrate.scenes(tmp_path)]
+    assert "upload:photo.png" in names and not any("eye.png" in n for n in names) and names[0] == "blank"
 
 
 def test_open_a_lasa_shape():

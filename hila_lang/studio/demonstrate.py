@@ -47,6 +47,10 @@ from .security import inside
 #: canvas is an A4 sheet's width (0.21 m)
 SHEET_M_PER_PX = 0.00025
 SHEET_SIZE = (840, 600)
+#: an uploaded picture is shown no larger than this (width, height; pixels): the sheet's width and a
+#: height that leaves the cuts and Save on a 1000-pixel-high window
+SHOWN_MAX = (840, 640)
+PICTURES = (".png", ".jpg", ".jpeg")
 
 
 def _sheet_H(height: int) -> np.ndarray:
@@ -55,13 +59,18 @@ def _sheet_H(height: int) -> np.ndarray:
     return np.array([[s, 0.0, 0.0], [0.0, -s, float(height)], [0.0, 0.0, 1.0]])
 
 
-def scenes() -> list[dict]:
-    """What the page offers to draw on: ``[{name, label}]``, a blank sheet and every world's scene."""
+def scenes(folder: Path | None = None) -> list[dict]:
+    """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene and
+    the pictures in ``folder`` itself (where an upload goes) -- not those in its subfolders, which
+    are what runs wrote (a game's eye.png, top.png, ...)."""
     from ..plugins import registry
 
+    pictures = [] if folder is None else [
+        dict(name=f"upload:{f}", label=f"picture {f}") for f in files.listing(folder)
+        if "/" not in f and f.lower().endswith(PICTURES)]
     return [dict(name="blank", label="blank sheet")] + [
         dict(name=f"world:{info.name}", label=info.studio.scene_label or info.name)
-        for info in registry.declarations("world") if info.studio is not None and info.studio.scene]
+        for info in registry.declarations("world") if info.studio is not None and info.studio.scene] + pictures
 
 
 def _world_scene(name: str):
@@ -91,8 +100,11 @@ def scene(name: str, folder: Path) -> dict:
         from ..core.images import read_picture
 
         h, w = read_picture(inside(folder, name[len("upload:"):]), "uploaded image").shape[:2]
-        return dict(name=name, image=f"/api/raw?path={name[7:]}", width=w, height=h, H=_sheet_H(h).tolist(),
-                    z=None, features=[], lift=None)
+        f = min(1.0, SHOWN_MAX[0] / w, SHOWN_MAX[1] / h)  # scaled to fit; the plane stays the picture's own
+        H = np.diag([f, f, 1.0]) @ _sheet_H(h)
+        return dict(name=name, image=f"/api/raw?path={name[7:]}", width=max(1, round(w * f)),
+                    height=max(1, round(h * f)), H=H.tolist(), z=None, features=[], lift=None,
+                    picture=dict(file=name[len("upload:"):], width=w, height=h, m_per_px=SHEET_M_PER_PX))
     raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
 
 
@@ -102,9 +114,12 @@ def scene_image(name: str) -> bytes:
     return _world_scene(name[len("world:"):]).png
 
 
-def demonstration_path(samples: list, z: float | None, lift_max: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Pointer samples -> (path (T, D), times (T,) seconds from 0), resampled at 20 Hz; on the plane
-    at height ``z`` (None: 2-D) pen-up samples are lifted (:func:`lift`) up to ``lift_max``.
+def demonstration_path(samples: list, z: float | None,
+                       lift_max: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pointer samples -> (path (T, D), times (T,) seconds from 0, pen (T,) bool), resampled at
+    20 Hz; on the plane at height ``z`` (None: 2-D) pen-up samples are lifted (:func:`lift`) up to
+    ``lift_max``.  ``pen`` is the pointer's down state resampled (down where the nearest moments
+    are mostly down): what ``hila learn`` cuts by (``--method contact``).
 
     Samples whose time stamp does not increase are dropped (a coalesced duplicate);
     fewer than 2 left is an InputError.
@@ -131,32 +146,45 @@ def demonstration_path(samples: list, z: float | None, lift_max: float | None = 
     down = np.array([r[3] for r in kept])
     t = (arr[:, 0] - arr[0, 0]) / 1000.0
     pts = arr[:, 1:] if z is None else lift(arr[:, 1:], down, float(z), float(lift_max))
-    path = resample_in_time(t, pts, RATE_HZ)
-    return path, np.arange(len(path)) / RATE_HZ
+    both = resample_in_time(t, np.column_stack([pts, down.astype(float)]), RATE_HZ)
+    return both[:, :-1], np.arange(len(both)) / RATE_HZ, both[:, -1] > 0.5
 
 
-def proposal(path, times, k: int, method: str, seed: int = 0) -> dict:
+def _pen(doc: dict, n: int) -> np.ndarray | None:
+    """The request's recorded pen (``pen``: T booleans), or None."""
+    pen = doc.get("pen")
+    if pen is None:
+        return None
+    if not isinstance(pen, list) or len(pen) != n or not all(isinstance(v, (bool, int)) for v in pen):
+        raise InputError(f"expected 'pen' as {n} booleans (the pen down at each point), got {str(pen)[:60]}")
+    return np.asarray(pen, bool)
+
+
+def proposal(path, times, k: int, method: str, seed: int = 0, pen=None) -> dict:
     """The cuts hila proposes (``hila learn``'s :func:`hila_lang.osila.segmentation.segments`) and the
-    hand's speed under the path."""
+    hand's speed under the path; ``method`` ``contact`` cuts by the recorded ``pen``."""
     from ..osila.segmentation import segments, speed
 
     path = np.asarray(path, float)
     times = np.asarray(times, float)
-    ranges = segments(path, int(k), method, times=times, seed=int(seed))
+    ranges = segments(path, int(k), method, times=times, seed=int(seed), pen=pen)
     return dict(cuts=[int(a) for a, _ in ranges[1:]], speed=[float(v) for v in speed(path, times)])
 
 
 def save(folder: Path, req: dict) -> dict:
-    """Write ``NAME.demo.csv`` and ``NAME.icps.yaml``, learn them as ``hila learn`` does and write
-    ``NAME.yaml`` in ``folder``; returns ``{template, demo, icps, command, segments}``.
+    """Write ``NAME.demo.csv`` (with the pen, when recorded) and ``NAME.icps.yaml``, learn them as
+    ``hila learn`` does and write ``NAME.yaml`` in ``folder``; returns ``{template, demo, icps,
+    command, segments}``: ``command`` is the ``hila learn`` line that writes the same template
+    byte for byte -- with ``--cuts A,B`` when the person moved the method's cuts.
 
-    ``req``: ``name``, ``path`` (T, D), ``times`` (T,), ``icps`` {name: point}, ``tags``
-    (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
+    ``req``: ``name``, ``path`` (T, D), ``times`` (T,), optional ``pen`` (T,), ``icps`` {name:
+    point}, ``tags`` (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1
+    indices).
     """
     from ..hierarchy.learn import learn_files
     from ..language.transformer import usable_as_tag
     from ..osila.demofile import demo_csv, icps_text
-    from ..osila.template import Segment, check_segments, template_text
+    from ..osila.template import template_text
 
     name = str(req.get("name", "")).strip()
     if not usable_as_tag(name):
@@ -166,29 +194,28 @@ def save(folder: Path, req: dict) -> dict:
     times = np.asarray(req.get("times"), float)
     if path.ndim != 2 or path.shape[1] not in (2, 3) or len(times) != len(path):
         raise InputError(f"expected a path (T, 2 or 3) with T times, got {path.shape} and {times.shape}")
+    pen = _pen(req, len(path))
     icps = req.get("icps") or {}
     if not icps:
         raise InputError("place at least one ICP (click on the scene) before saving")
     tags = [str(t) for t in req.get("tags") or []]
     contact = [str(t) for t in req.get("contact") or []]
-    method, seed = str(req.get("method", "speed")), int(req.get("seed", 0))
+    method, seed = str(req.get("method", "contact" if pen is not None else "speed")), int(req.get("seed", 0))
     target = inside(folder, f"{name}.yaml")
-    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv(path, times),
+    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv(path, times, pen),
                                            f"{name}.icps.yaml": icps_text(icps)})
     k = max(len(tags), 1)
-    template = learn_files(str(demo), str(icps_file), name=name, tags=tags, contact=contact, k=k, method=method,
-                           seed=seed)
-    argv = [str(demo), "--icps", str(icps_file), "-k", str(k), "--method", method, "--seed", str(seed),
-            "-o", str(target)] + (["--tags", ",".join(tags)] if tags else []) + \
+    common = dict(name=name, tags=tags, contact=contact, k=k, seed=seed)
+    template = learn_files(str(demo), str(icps_file), method=method, **common)
+    cuts = None if req.get("cuts") is None or not tags else [int(c) for c in req["cuts"]]
+    if cuts == [s.start for s in template.segments[1:]]:
+        cuts = None  # the method's own cuts: the command says the method
+    if cuts is not None:
+        template = learn_files(str(demo), str(icps_file), cuts=cuts, **common)
+    argv = [str(demo), "--icps", str(icps_file), "-k", str(k)] + \
+        (["--cuts", ",".join(map(str, cuts))] if cuts is not None else ["--method", method]) + \
+        ["--seed", str(seed), "-o", str(target)] + (["--tags", ",".join(tags)] if tags else []) + \
         (["--contact", ",".join(contact)] if contact else [])
-    cuts = req.get("cuts")
-    proposed = [s.start for s in template.segments[1:]]
-    if cuts is not None and tags and [int(c) for c in cuts] != proposed:
-        bounds = [0, *[int(c) for c in cuts], len(path)]
-        segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
-        check_segments(segs, len(path), "cuts")
-        template.segments = segs
-        template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
     files.write(folder, {target.name: template_text(template)})
     return dict(template=target.name, demo=demo.name, icps=icps_file.name, command="hila learn " + " ".join(argv),
                 segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments])
@@ -203,14 +230,15 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
 
         return template_json(load_template(inside(folder, name)))
     if kind == "csv":
-        from ..osila.demofile import load_icps, read_demo_csv
+        from ..osila.demofile import load_icps, read_demo
 
         file = inside(folder, name)
-        path, times = read_demo_csv(file)
+        path, times, pen = read_demo(file)
         side = file.with_name(file.name.replace(".demo.csv", "").replace(".csv", "") + ".icps.yaml")
         icps = load_icps(side, path.shape[1]) if side.exists() else {}
         return dict(name=file.stem.replace(".demo", ""), path=path.tolist(),
                     times=None if times is None else times.tolist(), icps=icps, segments=[],
+                    pen=None if pen is None else pen.tolist(),
                     description=f"from {name}", dim=int(path.shape[1]))
     if kind == "lasa":
         from ..evaluation import lasa
@@ -225,15 +253,19 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
 
 
 def demonstration(doc: dict) -> dict:
-    """``{samples, z, lift}`` (pointer samples on a scene) or ``{path, times}`` -> the path, its
-    times, the hand's speed and the cuts proposed for ``k`` segments by ``method``."""
+    """``{samples, z, lift}`` (pointer samples on a scene) or ``{path, times[, pen]}`` -> the path,
+    its times and pen, the hand's speed and the cuts proposed for ``k`` segments by ``method``
+    (default: ``contact`` -- where the pen touches and leaves the paper -- when the pen is
+    recorded, as ``hila learn`` does)."""
     if "samples" in doc:
-        path, times = demonstration_path(doc["samples"], doc.get("z"), doc.get("lift"))
+        path, times, pen = demonstration_path(doc["samples"], doc.get("z"), doc.get("lift"))
     else:
         path = np.asarray(doc["path"], float)
         times = np.asarray(doc["times"] if doc.get("times") is not None else np.arange(len(path)) * 0.05)
-    out = dict(path=path.tolist(), times=times.tolist())
-    out.update(proposal(path, times, int(doc.get("k", 3)), doc.get("method", "speed"), doc.get("seed", 0)))
+        pen = _pen(doc, len(path))
+    method = doc.get("method") or ("contact" if pen is not None else "speed")
+    out = dict(path=path.tolist(), times=times.tolist(), pen=None if pen is None else pen.tolist(), method=method)
+    out.update(proposal(path, times, int(doc.get("k", 3)), method, doc.get("seed", 0), pen))
     return out
 
 
@@ -241,7 +273,7 @@ def demonstration(doc: dict) -> dict:
 
 
 async def _scenes(request: Request) -> Response:
-    return JSONResponse(await run_in_threadpool(scenes))
+    return JSONResponse(await run_in_threadpool(scenes, studio_of(request).folder))
 
 
 async def _scene(request: Request) -> Response:

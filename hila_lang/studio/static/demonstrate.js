@@ -21,7 +21,7 @@ export const html = `
   <div class="toolbar">
     <label>Segments <input id="seg-tags" size="22" value="reach,draw,retract" data-testid="segment-tags"></label>
     <label>contact <input id="seg-contact" size="10" value="draw" data-testid="segment-contact"></label>
-    <label>cuts by <select id="seg-method" data-testid="segment-method"><option value="speed">speed dips</option><option value="kmeans">k-means</option><option value="changepoint">change points</option></select></label>
+    <label>cuts by <select id="seg-method" data-testid="segment-method"><option value="contact">pen down/up</option><option value="speed">speed dips</option><option value="kmeans">k-means</option><option value="changepoint">change points</option></select></label>
     <button id="propose" data-testid="propose-cuts">Propose cuts</button>
     <span class="muted">drag a cut on the speed plot to move it</span>
   </div>
@@ -33,7 +33,7 @@ export const html = `
   </div>`;
 
 // the page's state: the scene (H: plane -> pixels), the pointer samples, the learned path, its cuts, the ICPs
-export const state = { samples: [], icps: {}, recording: false, done: false, scenes: [] };
+export const state = { samples: [], icps: {}, recording: false, done: false, scenes: [], pen: null };
 const D = state;
 
 const mode = () => document.querySelector('input[name="demo-mode"]:checked').value;
@@ -49,9 +49,20 @@ async function loadScene(name) {
   clear();
 }
 function clear() {
-  D.samples = []; D.icps = {}; D.path = null; D.times = null; D.cuts = []; D.speed = null; D.recording = false; D.done = false;
-  $("save-status").textContent = ""; $("icp-name").value = "p1"; draw(); drawSpeed();
+  D.samples = []; D.icps = {}; D.path = null; D.times = null; D.pen = null; D.cuts = []; D.speed = null; D.recording = false;
+  D.done = false; D.saved = undefined; $("icp-name").value = "p1"; draw(); drawSpeed(); guide();
 }
+// the line under Save: an error or a result until the next change, then what to do next
+function say(text) { $("save-status").textContent = text; $("save-status").dataset.kind = text.startsWith("error") ? "error" : "result"; }
+export function nextStep() {
+  const n = Object.keys(D.icps).length;
+  if (!D.path) return D.recording ? "drawing… (lift the pen and move off the picture, or click Finish drawing)" :
+    "draw a demonstration: move in from the side, press and draw, lift, move out";
+  const drawn = `${D.path.length} points at 20 Hz (${D.times[D.times.length - 1].toFixed(2)} s)`;
+  if (!n) return drawn + "; now place the ICPs (Place ICPs, then click the picture)";
+  return `${drawn}; ${n} ICP${n > 1 ? "s" : ""} placed (${Object.keys(D.icps).join(", ")}); name the segments and Save`;
+}
+function guide() { $("save-status").textContent = nextStep(); $("save-status").dataset.kind = "guide"; }
 const planeAt = (u, v) => applyH(D.Hinv, u, v);
 
 function draw() {
@@ -85,7 +96,7 @@ function draw() {
   for (const [name, p] of Object.entries(D.icps)) {
     const [u, v] = applyH(D.H, p[0], p[1]);
     handle(layer, "demo-icp-" + name, "", name, u, v, (x, y) => { const q = planeAt(x, y); p[0] = q[0]; p[1] = q[1]; },
-      draw, () => { delete D.icps[name]; draw(); });
+      draw, () => { delete D.icps[name]; draw(); guide(); });
   }
 }
 function listIcps() {   // rename (keeps the order) and remove
@@ -97,7 +108,7 @@ function listIcps() {   // rename (keeps the order) and remove
       if (!to || to in D.icps) { input.value = name; return; }
       D.icps = Object.fromEntries(Object.entries(D.icps).map(([k, v]) => [k === name ? to : k, v])); draw(); });
     del.textContent = "×"; del.title = "remove " + name; del.dataset.testid = "remove-icp-" + name;
-    del.onclick = () => { delete D.icps[name]; draw(); };
+    del.onclick = () => { delete D.icps[name]; draw(); guide(); };
     const at = document.createElement("span"); at.className = "muted";
     at.textContent = " (" + D.icps[name].map((v) => v.toFixed(3)).join(", ") + ")";
     row.append(input, del, at); box.appendChild(row);
@@ -112,7 +123,7 @@ function sample(e) {
 function pointer(e) {
   if (mode() !== "draw" || D.done || !D.scene) return;
   if (e.type === "pointerdown") try { $("demo-canvas").setPointerCapture(e.pointerId); } catch (err) { /* a synthesized pointer */ }
-  if (!D.recording) { if (D.source) return; D.recording = true; D.samples = []; }
+  if (!D.recording) { if (D.source) return; D.recording = true; D.samples = []; guide(); }
   const many = e.type === "pointermove" && e.getCoalescedEvents ? e.getCoalescedEvents() : [];
   for (const ev of many.length ? many : [e]) D.samples.push(sample(ev));
   if (e.type === "pointerdown" || e.type === "pointerup") D.samples[D.samples.length - 1].down = e.type === "pointerdown";
@@ -122,16 +133,16 @@ async function finishDrawing() {
   if (!D.recording) return;
   D.recording = false; D.done = true;
   try {
-    const r = await post("/api/demonstration", { samples: D.samples, z: D.scene.z, lift: D.scene.lift, k: tags().length || 1, method: $("seg-method").value });
-    Object.assign(D, { path: r.path, times: r.times, cuts: r.cuts, speed: r.speed });
-    $("save-status").textContent = `${r.path.length} points at 20 Hz (${r.times[r.times.length - 1].toFixed(2)} s); now place the ICPs`;
-  } catch (err) { $("save-status").textContent = "error: " + err.message; D.done = false; }
+    const r = await post("/api/demonstration", { samples: D.samples, z: D.scene.z, lift: D.scene.lift, k: tags().length || 1 });
+    Object.assign(D, { path: r.path, times: r.times, pen: r.pen, cuts: r.cuts, speed: r.speed });
+    $("seg-method").value = r.method; guide();
+  } catch (err) { say("error: " + err.message); D.done = false; }
   draw(); drawSpeed();
 }
 function placeIcp(e) {
   if (mode() !== "icp" || !D.scene) return;
   const name = $("icp-name").value.trim();
-  if (!name) { $("save-status").textContent = "give the ICP a name first"; return; }
+  if (!name) { say("error: give the ICP a name first"); return; }
   let best = null, bestD = 14;     // snap to a scene's feature, or the path's start or end
   const offers = [...D.scene.features.map((f) => f.point)];
   if (D.path) offers.push(D.path[0], D.path[D.path.length - 1]);
@@ -141,7 +152,7 @@ function placeIcp(e) {
   const dim = D.path ? D.path[0].length : (D.scene.z === null ? 2 : 3);
   D.icps[name] = best ? best.slice(0, dim) : (dim === 3 ? [x, y, D.scene.z ?? 0] : [x, y]);
   const m = name.match(/^(.*?)(\d+)$/); $("icp-name").value = m ? m[1] + (+m[2] + 1) : name + "2";
-  draw();
+  draw(); guide();
 }
 
 async function openSource() {
@@ -151,16 +162,20 @@ async function openSource() {
   D.scene = { name: "open", width: c.width, height: c.height, z: null, features: [] };
   D.image = null; D.H = fitH([...t.path, ...Object.values(t.icps)], c.width, c.height); D.Hinv = inv3(D.H);
   D.samples = []; D.recording = false; D.done = true; D.source = v;
-  D.path = t.path; D.times = t.times || t.path.map((_, i) => i * 0.05); D.icps = t.icps;
+  D.path = t.path; D.times = t.times || t.path.map((_, i) => i * 0.05); D.icps = t.icps; D.pen = t.pen || null;
   if (t.segments.length) { $("seg-tags").value = t.segments.map((s) => s.tag).join(",");
     $("seg-contact").value = t.segments.filter((s) => s.contact).map((s) => s.tag).join(","); }
   $("template-name").value = t.name.replace(/[^A-Za-z0-9_]/g, "_");
-  await propose(t.segments.length ? t.segments.slice(1).map((s) => s.start) : null);
+  if (!D.pen && $("seg-method").value === "contact") $("seg-method").value = "speed";   // no pen recorded
+  await propose(t.segments.length ? t.segments.slice(1).map((s) => s.start) : null); guide();
 }
 async function propose(keep) {
   if (!D.path) return;
-  const r = await post("/api/demonstration", { path: D.path, times: D.times, k: tags().length || 1, method: $("seg-method").value });
-  D.speed = r.speed; D.cuts = keep || r.cuts; draw(); drawSpeed();
+  try {
+    const r = await post("/api/demonstration", { path: D.path, times: D.times, pen: D.pen, k: tags().length || 1, method: $("seg-method").value });
+    D.speed = r.speed; D.proposed = r.cuts; D.cuts = keep || r.cuts;
+  } catch (err) { say("error: " + err.message); }
+  draw(); drawSpeed();
 }
 
 // the speed plot: x = sample index, cuts drawn red and dragged
@@ -198,22 +213,22 @@ function dragCuts() {
 }
 
 async function save() {
-  if (!D.path) { $("save-status").textContent = "draw a demonstration first"; return; }
+  if (!D.path) { say("error: draw a demonstration first"); return; }
   const tg = tags();
   if (D.cuts.length !== Math.max(tg.length - 1, 0)) await propose(null);
   try {
-    const r = await post("/api/save", { name: $("template-name").value.trim(), path: D.path, times: D.times, icps: D.icps,
-      tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts });
-    $("save-status").textContent = `saved ${r.template} (${r.segments.map((s) => s.tag + " " + s.start + "-" + s.stop).join(", ")}) = ${r.command}`;
+    const r = await post("/api/save", { name: $("template-name").value.trim(), path: D.path, times: D.times, pen: D.pen,
+      icps: D.icps, tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts });
+    say(`saved ${r.template} (${r.segments.map((s) => s.tag + " " + s.start + "-" + s.stop).join(", ")}) = ${r.command}`);
     D.saved = r; refreshFiles();
-  } catch (err) { $("save-status").textContent = "error: " + err.message; }
+  } catch (err) { say("error: " + err.message); }
 }
 
 async function upload(e) {
   const f = e.target.files[0]; if (!f) return;
   try { await api("/api/upload?path=" + encodeURIComponent(f.name), { method: "POST", body: f });
     await refreshFiles(); $("scene").value = "upload:" + f.name; await loadScene("upload:" + f.name);
-  } catch (err) { $("save-status").textContent = "error: " + err.message; }
+  } catch (err) { say("error: " + err.message); }
 }
 
 export async function mount() {
@@ -243,6 +258,6 @@ export async function files(list) {
   fill($("open-source"), [...yaml.map((f) => ["template:" + f, "template " + f]),
     ...list.filter((f) => f.endsWith(".csv")).map((f) => ["csv:" + f, "CSV " + f]),
     ...lasa.map((n) => ["lasa:" + n, "LASA " + n])], '<option value="">template / CSV / LASA…</option>');
-  fill($("scene"), [...D.scenes.map((s) => [s.name, s.label]),
-    ...list.filter((f) => /\.(png|jpe?g)$/i.test(f)).map((f) => ["upload:" + f, "picture " + f])]);
+  D.scenes = await api("/api/scenes");   // the pictures the folder holds itself, not what runs wrote
+  fill($("scene"), D.scenes.map((s) => [s.name, s.label]));
 }
