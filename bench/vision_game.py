@@ -8,6 +8,7 @@ Run from the checkout::
     python bench/vision_game.py --only harsh --rounds 8   # beyond the issue's battery (below)
     python bench/vision_game.py --marks triangle,tick,square,star,A,scribble   # a person's own marks
     python bench/vision_game.py --marks triangle,tick,square --only still --opponent both   # issue 30
+    python bench/vision_game.py --marks mine/triangle.yaml --only still --opponent both   # a template you made
 
 Every game is ``programs/game.hila`` on the PyBullet iCub (in this process, one PyBullet client per
 game), seed = the game's number, the opponent random and minimax in turn and starting every
@@ -31,7 +32,9 @@ other mark -- ``triangle``, ``tick``, ``square``, ``star``, ``A`` (a capital let
 ``seed % 4``: careful, quick, shaky, small), learned with ``hila learn`` (cut where the pen
 touched and left the paper) and saved as ``circle.yaml`` beside a copy of ``programs/game.hila``
 -- the docs' recipe for playing your own mark -- and the game plays that.  Every mark plays
-every condition.  ``--opponent both`` plays each seed against random and minimax (default: in
+every condition.  A mark given as a template file (``NAME.yaml``, e.g. one saved in hila
+studio's Demonstrate page, or by ``tests/test_own_mark_studio.py``) is that template, saved as
+``circle.yaml`` beside the copy of ``game.hila``.  ``--opponent both`` plays each seed against random and minimax (default: in
 turn, as above).
 
 Progress goes to stderr, one line per game.  The last line, on stdout, sums it up: games
@@ -83,6 +86,11 @@ def program_for(mark: str, seed: int, folder: Path) -> tuple[Path, str]:
 
     if mark == "circle":
         return PROGRAM, "shipped"
+    folder.mkdir(parents=True, exist_ok=True)
+    if mark.endswith(".yaml"):  # a template made elsewhere (hila studio): the docs' recipe as it is
+        (folder / "circle.yaml").write_bytes(Path(mark).read_bytes())
+        (folder / "game.hila").write_text(PROGRAM.read_text())
+        return folder / "game.hila", "made"
     style = list(STYLES)[seed % len(STYLES)]
     folder.mkdir(parents=True, exist_ok=True)
     demo, icps = write_demonstration(folder, mark, draw_mark(mark, style, seed=seed))
@@ -101,7 +109,7 @@ def play(seed: int, condition: str, out: Path, mark: str = "circle", opponent: s
     from hila_lang.session.runner import finish, prepare
     from hila_lang.plugins.options import RunOptions
 
-    program, style = program_for(mark, seed, out.parent / f"{mark}-seed{seed}")
+    program, style = program_for(mark, seed, out.parent / f"{Path(mark).stem}-seed{seed}")
     settings = {"opponent": opponent or ("random", "minimax")[seed % 2],
                 "first": "opponent" if seed % 3 == 2 else "robot", **{**CONDITIONS, **EXTRA}[condition]}
     options = RunOptions(seed=seed, out=out, settings=settings, stdin=io.StringIO(), stdout=io.StringIO())
@@ -138,7 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--first-seed", type=int, default=0, help="seed of the first game (default 0)")
     parser.add_argument("--marks", default="circle",
                         help="the robot's marks, comma-separated: circle (the shipped template), triangle, tick, square, "
-                             "star, a capital letter, scribble (drawn by the seeded pointer model; default circle)")
+                             "star, a capital letter, scribble (drawn by the seeded pointer model; default circle), "
+                             "or a template file NAME.yaml (e.g. saved in hila studio)")
     parser.add_argument("--opponent", choices=("alternate", "both", "random", "minimax"), default="alternate",
                         help="alternate (default: random on even seeds, minimax on odd), both (each seed against "
                              "each), or one of them")
@@ -153,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
             for condition in conditions:
                 for mark in args.marks.split(","):
                     for opponent in opponents:
-                        g = play(seed, condition, Path(tmp) / f"g{seed}-{mark}-{opponent}", mark, opponent)
+                        g = play(seed, condition, Path(tmp) / f"g{seed}-{Path(mark).stem}-{opponent}", mark, opponent)
                         games.append(g)
                         report_game(g)
                 seed += 1

@@ -86,3 +86,73 @@ def test_drag_an_icp_and_read_osilas_new_path(page, studio, tmp_path):
                        cwd=studio.folder)
     assert r.returncode == 0, r.stdout + r.stderr + snippet
     page.screenshot(path=tmp_path / "imitate.png")
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_a_small_mark_is_fitted_zoomed_panned_and_its_labels_kept_apart(page, studio, tmp_path):
+    """A person's mark drawn in one cell, with the hand's start some 12 cm away (issue 30 item 8):
+    the page opens zoomed to the mark (as hila show draws it again), in hila show's orientation
+    (the paper as the robot sees it), its ICP handles rings that leave the ink visible, their
+    labels apart; Fit all, the wheel and a drag change the view as a person expects."""
+    from hila_lang.cli import main
+    from hila_lang.worlds.tictactoe.drawing import draw_mark, write_demonstration
+
+    demo, icps = write_demonstration(tmp_path, "mark", draw_mark("triangle", "small", seed=2))
+    assert main(["learn", str(demo), "--icps", str(icps), "-k", "3", "--tags", "reach,draw,retract",
+                 "--contact", "draw", "-o", str(studio.folder / "mark.yaml")]) == 0
+    page.reload()
+    page.wait_for_function("window.hilaStudio && window.hilaStudio.imitate")
+    page.get_by_test_id("tab-imitate").click()
+    page.get_by_test_id("imitate-template").select_option("mark.yaml")
+    page.wait_for_function("window.hilaStudio.imitate.path && window.hilaStudio.imitate.shown >= 1")
+    I = page.evaluate("window.hilaStudio.imitate")
+    assert I["fit"] == "mark"
+    t = I["t"]
+    draw = next(s for s in t["segments"] if s["contact"])
+    mark = np.array(t["path"][draw["start"]:draw["stop"]])
+
+    def px(H, points):
+        return np.array([plane_to_pixel(page, H, p) for p in points])
+
+    canvas = page.get_by_test_id("imitate-canvas").bounding_box()
+    on = px(I["H"], mark)
+    assert np.ptp(on, axis=0).max() > 0.25 * min(canvas["width"], canvas["height"])  # the mark and its cell fill it
+    # hila show's orientation: farther from the robot (+x) is up, its right (-y) is to the right
+    x0 = mark.mean(axis=0)
+    (u0, v0), (_, v1), (u2, _) = px(I["H"], [x0, x0 + [0.01, 0, 0], x0 - [0, 0.01, 0]])
+    assert v1 < v0 - 5 and u2 > u0 + 5
+    # the handles are rings (the ink under them stays visible) and no label covers another or a handle
+    handles = page.locator("#imitate-handles .handle.ring")
+    assert handles.count() == len(t["icps"])
+    assert handles.first.evaluate("e => getComputedStyle(e).backgroundColor") == "rgba(0, 0, 0, 0)"
+    boxes = [lb.bounding_box() for lb in page.locator("#imitate-handles .handle label").all()]
+    rings = [h.bounding_box() for h in handles.all()]
+    visible = [b for b in boxes if canvas["x"] <= b["x"] <= canvas["x"] + canvas["width"]
+               and canvas["y"] <= b["y"] <= canvas["y"] + canvas["height"]]
+    page.screenshot(path=tmp_path / "imitate-mark.png")
+    assert len(visible) >= 4, boxes  # the cell's corners
+
+    def apart(a, b):
+        return (a["x"] + a["width"] <= b["x"] or b["x"] + b["width"] <= a["x"] or a["y"] + a["height"] <= b["y"]
+                or b["y"] + b["height"] <= a["y"])
+
+    assert all(apart(a, b) for i, a in enumerate(visible) for b in visible[i + 1:]), visible
+    assert all(apart(a, r) for a in visible for r in rings)
+    page.screenshot(path=tmp_path / "imitate-mark.png")
+    # Fit all shows the whole path: the mark is smaller; the wheel zooms about the pointer; a drag pans
+    page.get_by_test_id("fit-all").click()
+    H_all = page.evaluate("window.hilaStudio.imitate.H")
+    assert page.evaluate("window.hilaStudio.imitate.fit") == "all"
+    assert np.ptp(px(H_all, mark), axis=0).max() < 0.5 * np.ptp(on, axis=0).max()
+    u, v = px(H_all, [x0])[0]
+    page.mouse.move(canvas["x"] + u, canvas["y"] + v)
+    page.mouse.wheel(0, -300)
+    page.wait_for_function(f"window.hilaStudio.imitate.H[0][1] !== {H_all[0][1]}")
+    H_zoom = page.evaluate("window.hilaStudio.imitate.H")
+    assert np.allclose(px(H_zoom, [x0])[0], [u, v], atol=1.0)  # the point under the pointer stays
+    assert np.ptp(px(H_zoom, mark), axis=0).max() > 1.5 * np.ptp(px(H_all, mark), axis=0).max()
+    page.mouse.move(canvas["x"] + 20, canvas["y"] + 40)
+    page.mouse.down()
+    page.mouse.move(canvas["x"] + 50, canvas["y"] + 60, steps=5)
+    page.mouse.up()
+    assert np.allclose(px(page.evaluate("window.hilaStudio.imitate.H"), [x0])[0], [u + 30, v + 20], atol=1.0)

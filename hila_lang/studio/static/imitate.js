@@ -11,11 +11,13 @@ export const html = `
     <label>radius (mm) <input id="avoid-radius" type="number" value="10" min="1" style="width: 4.5em"></label>
     <label><input type="checkbox" id="show-controls" data-testid="show-controls"> controls (TPS, similarity, DMP)</label>
     <span id="unbound"></span>
+    <button id="fit-mark" data-testid="fit-mark" title="zoom to the pen-down part (the mark) and its ICPs">Fit mark</button>
+    <button id="fit-all" data-testid="fit-all" title="the whole path and every ICP">Fit all</button>
     <button id="export" data-testid="export">Export CSV + .hila</button>
     <button id="explain" data-testid="explain">Explain</button>
   </div>
   <div class="row">
-    <div class="stage"><canvas id="imitate-canvas" data-testid="imitate-canvas" width="760" height="560"></canvas><div id="imitate-handles" class="handles"></div></div>
+    <div class="stage" style="overflow: hidden"><canvas id="imitate-canvas" data-testid="imitate-canvas" width="760" height="560"></canvas><div id="imitate-handles" class="handles"></div></div>
     <div class="side">
       <div class="legend"><span class="sw tmpl"></span>demonstration <span class="sw osila"></span>OSILA
         <span class="sw tps"></span>TPS <span class="sw sim"></span>similarity <span class="sw dmp"></span>DMP</div>
@@ -28,7 +30,7 @@ export const html = `
 
 // the page's state: the template (t), its task scene (task ICPs, their names, via, avoid), the
 // last path OSILA sent (seq: the last scene sent, shown: the last answered); H: plane -> pixels
-export const state = { seq: 0, shown: 0, via: [], avoid: [], task: {}, names: {}, mode: null };
+export const state = { seq: 0, shown: 0, via: [], avoid: [], task: {}, names: {}, mode: null, fit: "all" };
 const I = state;
 const CONTROL_COLOURS = { tps: "#8e24aa", similarity: "#43a047", "dmp-aligned": "#ef6c00" };
 
@@ -48,9 +50,71 @@ async function openTemplate() {
   I.name = $("imitate-template").value; if (!I.name) return;
   I.t = await api("/api/template?path=" + encodeURIComponent(I.name));
   I.task = JSON.parse(JSON.stringify(I.t.icps)); I.names = {}; I.via = []; I.avoid = []; I.path = null;
-  const c = $("imitate-canvas");
-  I.H = fitH([...I.t.path, ...Object.values(I.t.icps)], c.width, c.height, 90); I.Hinv = inv3(I.H);
-  draw(); request();
+  // a small mark far from where the hand starts opens zoomed to it (as hila show draws it again, zoomed)
+  fit(markPoints() && extent(markPoints()) < extent(I.t.path) / 3 ? "mark" : "all");
+  request();
+}
+
+// ---- the view: the paper as the robot sees it (as hila show and --plot draw it: for a 3-D path
+// farther from the robot (+x) up and its right (-y) to the right; a 2-D drawing x right, y up),
+// fitted to what is chosen, then zoomed (wheel) and panned (drag) by the person
+const VIEW3 = [[0, -1, 0], [1, 0, 0], [0, 0, 1]];   // plane (x, y) -> (right, up) = (-y, x)
+const mul = (A, B) => A.map((row) => B[0].map((_, j) => row.reduce((s, v, k) => s + v * B[k][j], 0)));
+const paper = () => (I.t && I.t.dim === 3 ? VIEW3 : [[1, 0, 0], [0, 1, 0], [0, 0, 1]]);
+export const viewOf = (p) => applyH(paper(), p[0], p[1]);
+const extent = (pts) => Math.max(...[0, 1].map((d) => Math.max(...pts.map((p) => p[d])) - Math.min(...pts.map((p) => p[d]))));
+function markPoints() {   // the pen-down part of the template (its contact segments), or null
+  const down = (I.t.segments || []).filter((s) => s.contact);
+  const pts = down.flatMap((s) => I.t.path.slice(s.start, s.stop));
+  return pts.length > 1 ? pts : null;
+}
+function fit(what) {
+  const c = $("imitate-canvas"), mark = markPoints();
+  let pts = [...I.t.path, ...Object.values(I.t.icps)];
+  if (what === "mark" && mark) {   // the mark and the ICPs near it (a cell's corners), not the far hand
+    const r = extent(mark);   // the ICPs near the mark: those within twice the nearest one's distance
+    const cx = mark.reduce((s, p) => s + p[0], 0) / mark.length, cy = mark.reduce((s, p) => s + p[1], 0) / mark.length;
+    const icps = Object.values(I.t.icps), d = icps.map((p) => Math.hypot(p[0] - cx, p[1] - cy));
+    const near = Math.max(2 * r, 2 * Math.min(...d));   // a cell's corners, not a hand 10 cm away
+    pts = [...mark, ...icps.filter((_, i) => d[i] <= near)];
+  }
+  I.fit = what === "mark" && mark ? "mark" : "all";
+  I.H = mul(fitH(pts.map(viewOf), c.width, c.height, 60), paper()); I.Hinv = inv3(I.H);
+  draw();
+}
+function zoom(e) {   // the wheel zooms about the pointer
+  if (!I.t) return;
+  e.preventDefault();
+  const k = Math.exp(-e.deltaY / 500), u = e.offsetX, v = e.offsetY;
+  I.H = mul([[k, 0, u - k * u], [0, k, v - k * v], [0, 0, 1]], I.H); I.Hinv = inv3(I.H); draw();
+}
+function pan() {   // drag the picture (away from the handles) to move it
+  const c = $("imitate-canvas"); let from = null, moved = false;
+  c.addEventListener("pointerdown", (e) => { if (!I.t || I.mode) return; from = [e.offsetX, e.offsetY]; moved = false; });
+  c.addEventListener("pointermove", (e) => { if (!from) return;
+    const du = e.offsetX - from[0], dv = e.offsetY - from[1]; if (Math.abs(du) + Math.abs(dv) < 2) return;
+    moved = true; from = [e.offsetX, e.offsetY];
+    I.H = mul([[1, 0, du], [0, 1, dv], [0, 0, 1]], I.H); I.Hinv = inv3(I.H); draw(); });
+  c.addEventListener("pointerup", () => { from = null; });
+}
+const scaleOf = (H) => Math.hypot(H[0][0], H[1][0]);   // pixels a metre (the view turns the plane)
+// labels placed apart: each at the first of eight places around its handle (then twice as far)
+// whose box overlaps no label or handle placed before (as hila show's --plot places them)
+function placeLabels(layer) {
+  const taken = [...layer.querySelectorAll(".handle")].map((h) => { const r = h.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; });
+  const overlap = (a, b) => Math.max(0, Math.min(a[2], b[2]) - Math.max(a[0], b[0])) * Math.max(0, Math.min(a[3], b[3]) - Math.max(a[1], b[1]));
+  for (const label of layer.querySelectorAll(".handle label")) {
+    const h = label.parentElement.getBoundingClientRect(), w = label.offsetWidth, ht = label.offsetHeight;
+    let best = null, bestO = Infinity;
+    for (const k of [1, 2, 3]) for (const [dx, dy] of [[1, -1], [1, 1], [-1, -1], [-1, 1], [0, -1.4], [0, 1.4], [1.4, 0], [-1.4, 0]]) {
+      const x = dx > 0 ? h.right + 2 * k : dx < 0 ? h.left - w - 2 * k : (h.left + h.right - w) / 2;
+      const y = dy > 0 ? h.bottom + 2 * k + (k - 1) * 6 : dy < 0 ? h.top - ht - 2 * k - (k - 1) * 6 : (h.top + h.bottom - ht) / 2;
+      const box = [x, y, x + w, y + ht], o = taken.reduce((s, b) => s + overlap(box, b), 0);
+      if (o < bestO) { best = box; bestO = o; }
+      if (o === 0) break;
+    }
+    label.style.left = (best[0] - h.left) + "px"; label.style.top = (best[1] - h.top) + "px"; taken.push(best);
+  }
 }
 
 function draw() {
@@ -58,21 +122,25 @@ function draw() {
   ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, c.width, c.height);
   if (!I.t) return;
   ctx.fillStyle = "#777"; ctx.font = "12px sans-serif";
-  ctx.fillText(I.t.dim === 3 ? "seen from above (x right, y up); heights are kept while you drag" : "x right, y up", 8, 16);
+  ctx.fillText(I.t.dim === 3 ? "the paper as the robot sees it: farther up, its right to the right; heights are kept while you drag"
+    : "x right, y up", 8, 16);
+  ctx.fillText("wheel: zoom, drag: pan", 8, c.height - 8);
   polyline(ctx, I.t.path, I.H, "#bbb", 2, [5, 4]);
   if (I.controls) for (const [k, p] of Object.entries(I.controls)) polyline(ctx, p, I.H, CONTROL_COLOURS[k] || "#999", 1.5);
   polyline(ctx, I.path, I.H, "#1565c0", 3);
-  for (const a of I.avoid) { const [u, v] = applyH(I.H, a.centre[0], a.centre[1]), r = a.radius * I.H[0][0];
+  for (const a of I.avoid) { const [u, v] = applyH(I.H, a.centre[0], a.centre[1]), r = a.radius * scaleOf(I.H);
     ctx.beginPath(); ctx.fillStyle = "rgba(239,108,0,.2)"; ctx.arc(u, v, Math.abs(r), 0, 7); ctx.fill(); }
   for (const [k, p] of Object.entries(I.t.icps)) { const [u, v] = applyH(I.H, p[0], p[1]);
-    ctx.fillStyle = "#aaa"; ctx.fillRect(u - 3, v - 3, 6, 6); ctx.fillText(k, u + 5, v + 12); }
+    ctx.fillStyle = "#aaa"; ctx.fillRect(u - 3, v - 3, 6, 6);
+    const q = I.task[k] && applyH(I.H, I.task[k][0], I.task[k][1]);   // named by its handle while it is there
+    if (!q || Math.hypot(q[0] - u, q[1] - v) > 12) ctx.fillText(k, u + 5, v + 12); }
   const layer = $("imitate-handles"); if (layer.dataset.dragging) return;   // the handle being dragged stays
   layer.innerHTML = "";
   const dragTo = (p) => (x, y) => { const q = applyH(I.Hinv, x, y); p[0] = q[0]; p[1] = q[1]; request(); };
   for (const [name, p] of Object.entries(I.task)) {
     const [u, v] = applyH(I.H, p[0], p[1]);
     const shown = I.names[name] && I.names[name] !== name ? name + " = " + I.names[name] : name;
-    handle(layer, "icp-" + name, "", shown, u, v, dragTo(p), draw, () => { delete I.task[name]; draw(); request(); });
+    handle(layer, "icp-" + name, "ring", shown, u, v, dragTo(p), draw, () => { delete I.task[name]; draw(); request(); });
   }
   // the task scene's point names (what an exported program calls them): rename here
   const names = $("imitate-names"); names.innerHTML = "";
@@ -87,7 +155,8 @@ function draw() {
     handle(layer, "via-" + (i + 1), "via", "via " + (i + 1), u, v, dragTo(p), draw, () => { I.via.splice(i, 1); draw(); request(); }); });
   I.avoid.forEach((a, i) => { const [u, v] = applyH(I.H, a.centre[0], a.centre[1]);
     const el = handle(layer, "avoid-" + (i + 1), "avoid", "avoid " + (i + 1), u, v, dragTo(a.centre), draw, () => { I.avoid.splice(i, 1); draw(); request(); });
-    const r = Math.abs(a.radius * I.H[0][0]) * 2; el.style.width = r + "px"; el.style.height = r + "px"; });
+    const r = Math.abs(a.radius * scaleOf(I.H)) * 2; el.style.width = r + "px"; el.style.height = r + "px"; });
+  placeLabels(layer);
   const un = $("unbound"); un.innerHTML = "";
   for (const k of Object.keys(I.t.icps).filter((k) => !(k in I.task))) {
     const b = document.createElement("button"); b.textContent = "+ " + k; b.dataset.testid = "add-icp-" + k;
@@ -126,6 +195,10 @@ export async function mount() {
   $("add-via").addEventListener("click", () => arm("via"));
   $("add-avoid").addEventListener("click", () => arm("avoid"));
   $("imitate-canvas").addEventListener("click", place);
+  $("imitate-canvas").addEventListener("wheel", zoom, { passive: false });
+  pan();
+  $("fit-mark").addEventListener("click", () => I.t && fit("mark"));
+  $("fit-all").addEventListener("click", () => I.t && fit("all"));
   $("show-controls").addEventListener("change", request);
   $("export").addEventListener("click", exportScene);
   $("explain").addEventListener("click", explain);
