@@ -61,8 +61,9 @@ OSILA_RANGES: dict[str, tuple[float, float, str]] = {
     "timing": (0, 1e6, "a weight"),
     "stretch": (1, 1e6, "a ratio of route lengths"),
 }
-#: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but ``pin``,
-#: each step's own), named here so ``--help`` need not import OSILA; a test keeps it in step
+#: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but those of
+#: one step's own pairs, ``hila_lang.osila.PER_STEP``: ``pin`` and ``task_times``), named here so
+#: ``--help`` need not import OSILA; a test keeps it in step
 OSILA_SETTABLE = (*OSILA_RANGES, "reject")
 #: most candidate offsets around a waypoint, shells x directions (see :data:`OSILA_RANGES`)
 MAX_CANDIDATES = 2000
@@ -99,7 +100,7 @@ def osila_options(settings: dict[str, str]) -> dict:
     import yaml
 
     from ..core.errors import InputError
-    from ..osila import OPTIONS, imitate
+    from ..osila import OPTIONS, PER_STEP, imitate
 
     out = {}
     for key, text in settings.items():
@@ -110,8 +111,11 @@ def osila_options(settings: dict[str, str]) -> dict:
             raise InputError("--set osila.pin: a pin fixes stamps of one path; each step pins its own bound "
                              "start and end, so a pin cannot be set for a whole run",
                              hint="bind the sub-template's 'start' or 'end' ICP in the program instead")
+        if name == "task_times":
+            raise InputError("--set osila.task_times: task times belong to one step's ICP pairs (when the task "
+                             "passes each), so they cannot be set for a whole run")
         if name not in OPTIONS:
-            settable = [o for o in OPTIONS if o != "pin"]
+            settable = [o for o in OPTIONS if o not in PER_STEP]
             close = difflib.get_close_matches(name, settable, n=1)
             raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(settable)}",
                              hint=f"did you mean 'osila.{close[0]}'?" if close else None)
