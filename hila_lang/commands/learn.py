@@ -39,13 +39,15 @@ hold (each template and its tagged sub-templates), wherever, however big, turned
 were made; known parts are copied from the library (with provenance in the description), the
 rest become new segments (tagged new1, new2, ... or by --tags, one per new part).  --report
 FILE.json writes every part: {"segments": [{"start", "end", "template", "tag", "distance"}]}.
-See docs/recognition.md.
+Without --icps a CSV demonstration's own ends are its ICPs (start, end; said when used): recognition
+needs only the path.  See docs/recognition.md.
 Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml"""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("demo", metavar="DEMO.csv", nargs="?", help="demonstrated path (header t,x,y[,z] or x,y[,z])")
-    parser.add_argument("--icps", metavar="ICPS.yaml", help="scene ICPs of DEMO.csv: name: [x, y, z]")
+    parser.add_argument("--icps", metavar="ICPS.yaml", help="scene ICPs of DEMO.csv: name: [x, y, z] (with --library: "
+                                                            "default its own ends, start and end)")
     seen = parser.add_argument_group("learning by perception (stereo eye cameras)")
     seen.add_argument("--from-sim", action="store_true", help="record the demonstration in PyBullet and learn it by perception")
     seen.add_argument("--keep-recording", metavar="DIR", help="with --from-sim: keep the recorded frames in DIR")
@@ -114,8 +116,9 @@ def _source(args: argparse.Namespace) -> str:
         got = "none" if not given else " and ".join(given)
         raise InputError(f"expected one demonstration source (DEMO.csv, --from-sim, --frames or --left/--right), got {got}")
     source = given[0]
-    if source == "DEMO.csv" and args.icps is None:
-        raise InputError("DEMO.csv needs its scene ICPs: add --icps ICPS.yaml")
+    if source == "DEMO.csv" and args.icps is None and args.library is None:
+        raise InputError("DEMO.csv needs its scene ICPs: add --icps ICPS.yaml",
+                         hint="with --library the demonstration's own ends serve (start, end)")
     if source != "DEMO.csv" and args.icps is not None:
         raise InputError(f"--icps goes with DEMO.csv; {source} finds the ICPs in the images")
     if source == "--left/--right" and (args.left is None or args.right is None):
@@ -217,13 +220,17 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
     return out
 
 
+def _point(p) -> str:
+    return "(" + ", ".join(f"{float(v):.4g}" for v in p) + ")"
+
+
 def run(args: argparse.Namespace) -> int:
     from ..osila.demofile import load_icps, read_demo_csv
     from ..core.errors import InputError
     from ..core.fileio import ensure_writable
     from ..osila.segmentation import segment_template
     from ..osila.segmentation import describe
-    from ..osila.template import Template, save_template
+    from ..osila.template import END, START, Template, save_template
 
     source = _source(args)
     tags = _split(args.tags)
@@ -243,8 +250,14 @@ def run(args: argparse.Namespace) -> int:
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:
         demo, times = read_demo_csv(args.demo)
-        icps = load_icps(args.icps, demo.shape[1])
-        description = args.description or (f"learned from {args.demo} ({len(demo)} points) with ICPs from {args.icps}."
+        if args.icps is None:  # only with --library (_source): recognition needs no scene, only the path
+            icps = {START: demo[0].copy(), END: demo[-1].copy()}
+            given = "its own ends as ICPs (start, end; no --icps)"
+            print(f"no --icps: the demonstration's own ends are its ICPs: start {_point(demo[0])}, end {_point(demo[-1])}")
+        else:
+            icps = load_icps(args.icps, demo.shape[1])
+            given = f"ICPs from {args.icps}"
+        description = args.description or (f"learned from {args.demo} ({len(demo)} points) with {given}."
                                            + (f" {describe(args.method, k)}" if tags else ""))
         try:
             template = Template(name, demo, icps, times=times, description=description)
