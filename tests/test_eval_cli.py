@@ -259,7 +259,7 @@ def test_out_must_be_a_folder(hila, tmp_path):
 
 @pytest.mark.parametrize("argv, message", [
     (["--jobs", "0"], "expected --jobs >= 1 or -1"),
-    (["--trials-per-setup", "0"], "expected an integer >= 1, got 0"),
+    (["--trials-per-setup", "0"], "expected a whole number from 1 to 1000, got 0"),
     (["--threshold", "-1"], "expected a finite number >= 0"),
     (["--timing", "-0.1"], "expected a finite number >= 0"),
     (["--jobs", "2", "--dask", "tcp://x:1"], "not allowed with argument"),

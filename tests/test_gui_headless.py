@@ -65,7 +65,7 @@ def test_the_window_is_framed_before_the_robot_loads_and_the_simulation_steps(mo
     windows = []
 
     class StandIn:  # the window itself needs a real one (its projection); here only when it is made
-        def __init__(self, sim, surface):
+        def __init__(self, sim, surface, robot=None):  # robot: what it frames of the arm (window.robot_points)
             windows.append(surface)
 
         def executed_point(self, point):

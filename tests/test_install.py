@@ -58,6 +58,13 @@ def test_the_package_carries_its_templates_programs_and_grammar(installed):
     assert {p.name for p in (package / "programs").glob("*.hila")} == {p.name for p in (ROOT / "programs").glob("*.hila")}
     assert {p.name for p in (package / "primitives").glob("*.yaml")} == {p.name for p in (ROOT / "primitives").glob("*.yaml")}
     assert len(list((package / "primitives" / "letters").glob("*.yaml"))) == 26
+    assert {p.name for p in (package / "robot" / "robots").glob("*.yaml")} == {"panda.yaml", "kuka.yaml"}
+
+
+def test_the_shipped_robots_are_found_from_any_folder(installed):
+    _, _, hila = installed
+    probe = hila("check", "game.hila", "--robot", "kuka")  # the spec read from the installed package
+    assert probe.returncode == 0, probe.stderr
 
 
 def test_the_shipped_game_runs_from_any_folder(installed):

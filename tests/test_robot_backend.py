@@ -337,8 +337,10 @@ def test_snapshot_command_writes_two_pngs(tmp_path, capsys):
     assert ((rgb[:, :, 2] - rgb[:, :, 0]) > 60).sum() > 50
     with pytest.raises(InputError, match="--cell must be 1..9"):
         run_snapshot("--out", str(tmp_path), "--cell", "12")
-    with pytest.raises(InputError, match="--seed must be >= 0"):
+    with pytest.raises(SystemExit) as refused:  # argparse's type, as for every command's --seed
         run_snapshot("--out", str(tmp_path), "--seed", "-3")
+    assert refused.value.code == 2
+    assert "argument --seed: expected a whole number >= 0, got -3" in capsys.readouterr().err
 
 
 def test_nothing_but_the_paths_reaches_the_console(tmp_path):

@@ -298,6 +298,20 @@ def test_open_a_recording_and_scrub(page, studio, tmp_path):
     page.screenshot(path=tmp_path / "recording.png")
 
 
+def test_the_robot_menu_runs_the_chosen_arm(page, studio, tmp_path):
+    """The Run page's robot choice (issue 33) reaches the run: the Panda moves, and the 3-D view shows it."""
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.get_by_test_id("backend").select_option("pybullet")
+    page.get_by_test_id("robot-choice").select_option("panda")
+    page.get_by_test_id("opponent").select_option("minimax")
+    page.get_by_test_id("start").click()
+    _wait_status(page, "s.robot && s.steps === 0 && s.arm === 'panda'", timeout=120000)
+    assert page.get_by_test_id("robot-view").get_attribute("src").startswith("data:image/png")
+    page.screenshot(path=tmp_path / "run-panda.png")
+    page.get_by_test_id("stop").click()
+
+
 def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
     page.get_by_test_id("tab-run").click()
     page.get_by_test_id("program-select").select_option("game.hila")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path
 HELP = "compile a .hila program to its state machine (text, dot, json) or dump its AST"
 DESCRIPTION = (
     "Compile a program to its explicit finite state machine. --format ast stops after parsing "
@@ -12,7 +13,7 @@ DESCRIPTION = (
 def add_arguments(parser) -> None:
     parser.add_argument("program", help="the .hila program")
     parser.add_argument("--format", choices=("text", "dot", "json", "ast"), default="text")
-    parser.add_argument("-o", "--output", default=None, help="write to this file instead of stdout")
+    parser.add_argument("-o", "--output", type=output_path, default=None, help="write to this file instead of stdout")
 
 
 def render(path: str, fmt: str) -> str:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
+
+from ..core.argtypes import TRIALS_PER_SETUP_MAX, number, output_path, seed, whole
 
 HELP = "evaluate OSILA against controls, baselines and its own ablation on the same constraints"
 DESCRIPTION = """\
@@ -52,34 +55,10 @@ DEFAULT_METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned",
 PEERS = ("dmp", "dmp-aligned", "promp", "promp+retime")
 
 
-def _integer(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-
-
-def _positive_int(text: str) -> int:
-    value = _integer(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
-    return value
-
-
 def _jobs(text: str) -> int:
-    value = _integer(text)
-    if value < 1 and value != -1:
-        raise argparse.ArgumentTypeError(f"expected --jobs >= 1 or -1 (all cores), got {value}")
-    return value
-
-
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value >= 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
+    value = whole(-1)(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError("expected --jobs >= 1 or -1 (all cores), got 0")
     return value
 
 
@@ -96,7 +75,7 @@ def _methods(text: str) -> tuple[str, ...]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", default="eval-results", metavar="DIR",
+    parser.add_argument("--out", type=output_path, default="eval-results", metavar="DIR",
                         help="folder for tables.txt, pairs.csv, results.json, heatmaps (default: eval-results)")
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--jobs", type=_jobs, default=1, metavar="N",
@@ -117,14 +96,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "; dmp, dmp-aligned and promp need pip install 'hila-lang[peers]'); 'hila' adds the "
                              "per-segment hierarchical generator (paper protocol)")
     parser.add_argument("--hila", action="store_true", help="shorthand: add the method 'hila'")
-    parser.add_argument("--trials-per-setup", type=_positive_int, default=None, metavar="N",
-                        help="stand-in only: trials per set-up (default 15, as in the paper)")
-    parser.add_argument("--seed", type=int, default=0, help="stand-in only: dataset seed (default 0)")
-    parser.add_argument("--threshold", type=_non_negative, default=None, metavar="D",
+    parser.add_argument("--trials-per-setup", type=whole(1, TRIALS_PER_SETUP_MAX), default=None, metavar="N",
+                        help=f"stand-in only: trials per set-up (default 15, as in the paper; at most {TRIALS_PER_SETUP_MAX})")
+    parser.add_argument("--seed", type=seed, default=0, help="stand-in only: dataset seed (default 0)")
+    parser.add_argument("--threshold", type=number(0), default=None, metavar="D",
                         help="OSILA distortion threshold in path units (default: 2 px for the stand-in as "
                              "in the paper; OSILA's own default, 2 sigma of the template's position noise, "
                              "otherwise)")
-    parser.add_argument("--timing", type=_non_negative, default=None, metavar="S",
+    parser.add_argument("--timing", type=number(0), default=None, metavar="S",
                         help="OSILA's prior spread of when the task passes an ICP on the template path, a "
                              "fraction of the duration (default 0.03; 0 keeps the template's timing); the +retime "
                              "baselines use it too.  Only pairs that carry the task's time are re-timed (paper, "
@@ -192,7 +171,7 @@ def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     from ..core.fileio import OutputFolder
-    from ..core.interrupts import joblib_workers_ignoring_sigint
+    from ..core.interrupts import cause, joblib_workers_ignoring_sigint
 
     from ..core.resources import clamp_jobs
 
@@ -221,12 +200,21 @@ def run(args: argparse.Namespace) -> int:
           f"{','.join(map(str, segments))} x {len(methods)} methods", file=sys.stderr)
     result = run_grid(trials, segments=segments, methods=methods, options=options, protocol=protocol, mask=mask,
                       jobs=args.jobs, dask=args.dask, progress=not args.no_progress)
-    text = (f"Data: {source}\nProtocol: {protocol}\nGrid: {int(mask.sum())} pairs x N = "
+    # a set-up with no pair scored (a stopped run, every pair failed) is NaN in the tables, as said there
+    warnings.filterwarnings("ignore", "Mean of empty slice", RuntimeWarning)
+    stopped = ""
+    if result.stopped is not None:
+        stopped = (f"INCOMPLETE: stopped by {cause(result.stopped)} after {result.rows_done} of {len(trials)} "
+                   f"template rows; every figure below is over the {int(result.mask.sum())} pairs done\n\n")
+    text = (stopped + f"Data: {source}\nProtocol: {protocol}\nGrid: {int(mask.sum())} pairs x N = "
             f"{', '.join(map(str, segments))}, {result.backend}, {result.wall_seconds:.1f} s\n\n"
             + render(result, tables=args.dataset != "lasa"))
     sys.stdout.write(text)
     info = {"source": source, "threshold": threshold, "timing": args.timing,
             "seed": args.seed if args.dataset is None else None}
+    if result.stopped is not None:
+        info.update(complete=False, stopped_by=cause(result.stopped), rows_done=result.rows_done,
+                    rows=len(trials))
     written = write_report(result, text, out, info)
     for m in methods:
         if result.failures[m]:
@@ -234,4 +222,8 @@ def run(args: argparse.Namespace) -> int:
                   f"{result.failures[m][0]}", file=sys.stderr)
     print(f"wrote {len(written)} files to {out}/ ({', '.join(sorted(Path(w).name for w in written))})",
           file=sys.stderr)
+    if result.stopped is not None:  # saved what was done: now end as the signal asked (130, 143, 129)
+        print(f"stopped by {cause(result.stopped)}: the files hold the {result.rows_done} of {len(trials)} "
+              "template rows done, marked incomplete", file=sys.stderr)
+        raise result.stopped
     return 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path
 from ..session.runopts import add_run_arguments, run_options
 
 HELP = "run a .hila program (dry kinematic back end or the PyBullet iCub)"
@@ -16,10 +17,10 @@ DESCRIPTION = (
 
 def add_arguments(parser) -> None:
     add_run_arguments(parser)
-    parser.add_argument("--trace", default=None, metavar="FILE",
+    parser.add_argument("--trace", type=output_path, default=None, metavar="FILE",
                         help="write the state trace to FILE (also when the run fails: its last line is the failing state)")
     parser.add_argument("--quiet", action="store_true", help="do not print the state trace")
-    parser.add_argument("--record", default=None, metavar="FILE.hilarec",
+    parser.add_argument("--record", type=output_path, default=None, metavar="FILE.hilarec",
                         help="record the run in one file (program, templates, settings, every step with its "
                              "paths): 'hila replay FILE' steps through it, 'hila replay --verify FILE' re-runs it")
     parser.add_argument("--record-eyes", action="store_true",

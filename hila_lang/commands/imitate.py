@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path
 import argparse
 
 HELP = "imitate a template in a new scene (OSILA) and write the path as CSV"
@@ -27,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("template", metavar="TEMPLATE.yaml", help="template to imitate")
     parser.add_argument("--task", required=True, metavar="TASK.yaml", help="task scene: ICPs, forced waypoints, obstacles")
     parser.add_argument("--sub", metavar="TAG", default=None, help="imitate only the sub-template with this tag")
-    parser.add_argument("-o", "--output", metavar="OUT.csv", default=None, help="CSV to write (default: stdout)")
+    parser.add_argument("-o", "--output", type=output_path, metavar="OUT.csv", default=None, help="CSV to write (default: stdout)")
     parser.add_argument("--threshold", type=float, default=None,
                         help="distortion threshold (task units; default 2 sigma of the template's position noise)")
     parser.add_argument("--timing", type=float, default=None,

@@ -7,6 +7,7 @@ or a recording made in simulation (``--from-sim``).
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path, seed
 import argparse
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
@@ -51,6 +52,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     seen = parser.add_argument_group("learning by perception (stereo eye cameras)")
     seen.add_argument("--from-sim", action="store_true", help="record the demonstration in PyBullet and learn it by perception")
     seen.add_argument("--keep-recording", metavar="DIR", help="with --from-sim: keep the recorded frames in DIR")
+    parser.add_argument("--robot", metavar="NAME|PATH", default=None,
+                        help="with --from-sim: the robot whose eyes watch (icub, panda, kuka, a spec .yaml or a "
+                             ".urdf; default icub): the iCub's head or the arm's stereo rig (docs/robots.md)")
+    parser.add_argument("--set", dest="robot_settings", action="append", default=[], metavar="robot.KEY=VALUE",
+                        help="with --robot PATH.urdf: robot.tip=LINK, robot.packages=DIR[:DIR]")
     seen.add_argument("--frames", metavar="REC", help="a recording folder (left/, right/, calibration/, cameras.yaml)")
     seen.add_argument("--left", metavar="L", help="left frames: an image folder or a video file")
     seen.add_argument("--right", metavar="R", help="right frames: an image folder or a video file")
@@ -68,17 +74,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--method", choices=("speed", "kmeans", "changepoint", "equal"), default="speed",
                         help="segmentation: speed (default: cut at the deepest dips in speed, where the hand "
                              "slows between strokes), kmeans (the paper's: k-means on position and time), "
-                             "changepoint (ruptures on the velocity; needs ruptures), equal (equal lengths)")
-    parser.add_argument("--seed", type=int, default=0, help="k-means seed (default 0)")
+                             "changepoint (change points of the velocity), equal (equal lengths)")
+    parser.add_argument("--seed", type=seed, default=0, help="k-means seed (default 0)")
     parser.add_argument("--name", default=None, help="template name (default: the output file's stem)")
     parser.add_argument("--description", default=None, help="provenance text stored in the template")
     known = parser.add_argument_group("recognition of known parts (docs/recognition.md)")
     known.add_argument("--library", metavar="DIR", help="find DIR's templates and sub-templates in the demonstration")
-    known.add_argument("--report", metavar="FILE.json", help="with --library: write the parts found as JSON")
+    known.add_argument("--report", type=output_path, metavar="FILE.json", help="with --library: write the parts found as JSON")
     known.add_argument("--stream", action="store_true",
                        help="with --library: feed the demonstration point by point and say each known part as soon as "
                             "it is found (online recognition); the final answer is the offline one")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.yaml", help="template file to write")
+    parser.add_argument("-o", "--output", type=output_path, required=True, metavar="OUT.yaml", help="template file to write")
 
 
 def _split(text: str | None, option: str = "--tags") -> list[str]:
@@ -125,6 +131,13 @@ def _source(args: argparse.Namespace) -> str:
         raise InputError("expected both --left and --right frames")
     if source != "--from-sim" and args.keep_recording:
         raise InputError("--keep-recording goes with --from-sim")
+    if source != "--from-sim" and (args.robot is not None or args.robot_settings):
+        raise InputError("--robot and --set robot.KEY go with --from-sim (the robot whose eyes watch)")
+    from ..plugins.options import parse_pairs
+
+    stray = [k for k in parse_pairs(args.robot_settings) if not k.startswith("robot.")]
+    if stray:
+        raise InputError(f"hila learn --set takes the robot's settings only (robot.KEY=VALUE), got {stray[0]!r}")
     return source
 
 
@@ -136,9 +149,15 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     info = registry.world(args.world)
     if source == "--from-sim":
         learn_from_sim = info.capability("recorder", "demonstration to record", "--from-sim")
-        print("recording the demonstration through the iCub's eye cameras (about a minute) ...", flush=True)
+        extra = {}
+        if args.robot is not None:  # a recorder that takes the robot (a world's own may not): hila_lang.robot.spec
+            from ..robot.spec import resolve
+
+            extra["robot"] = resolve(args.robot, _robot_pairs(args))
+        who = "the iCub's eye cameras" if args.robot is None else f"the {extra['robot'].name}'s cameras"
+        print(f"recording the demonstration through {who} (about a minute) ...", flush=True)
         template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name, method=args.method,
-                                  recording_dir=args.keep_recording)
+                                  recording_dir=args.keep_recording, **extra)
     else:
         left, right = (args.frames, None) if source == "--frames" else (args.left, args.right)
         demonstration_icps = info.capability("icp_reader", "reader of a demonstration's ICPs", source)
@@ -149,6 +168,13 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     if args.description:
         template.description = args.description
     return template
+
+
+def _robot_pairs(args: argparse.Namespace) -> dict[str, str]:
+    """``--set robot.KEY=VALUE`` of ``hila learn`` (the robot's settings only)."""
+    from ..plugins.options import parse_pairs
+
+    return {k: v for k, v in parse_pairs(args.robot_settings).items() if k.startswith("robot.")}
 
 
 def _library(args: argparse.Namespace):

@@ -63,16 +63,17 @@ def run(args) -> int:
 
 def find_template(name: str):
     """``(path, Template)`` for a name as ``import NAME`` finds it, or a ``.yaml`` path."""
+    import os
     from pathlib import Path
 
     from ..core.errors import InputError, did_you_mean
+    from ..core.fileio import check_regular
     from ..core.resources import template_search_path
     from ..osila.template import load_template
 
     given = Path(name)
-    if given.suffix in (".yaml", ".yml") or given.is_file():
-        if not given.is_file():
-            raise InputError(f"template file {name!r} not found")
+    if given.suffix in (".yaml", ".yml") or os.path.lexists(given):  # a file, folder, FIFO, link: it says what it is
+        check_regular(given, "template file")
         return given, load_template(given)
     folders = template_search_path(None)
     found = next((d / f"{name}.yaml" for d in folders if (d / f"{name}.yaml").is_file()), None)

@@ -9,17 +9,18 @@ board takes ``board_top.png`` (the board, cell 1 top-left).
 
 from __future__ import annotations
 
+from ..core.argtypes import output_path, seed
 import argparse
 
 HELP = "render the simulated iCub drawing: an eye-camera PNG and a top-down board PNG"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", required=True, metavar="DIR", help="folder to write the PNGs into")
+    parser.add_argument("--out", type=output_path, required=True, metavar="DIR", help="folder to write the PNGs into")
     parser.add_argument("--cell", type=int, default=5, metavar="N", help="cell 1..9 the robot circles (default 5)")
     parser.add_argument("--opponent-cell", type=int, default=1, metavar="N", help="cell 1..9 with the opponent's cross (default 1; 0 for none)")
     parser.add_argument("--eye", choices=("left", "right"), default="left", help="eye camera (default left)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the arm's random start and the cross (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the arm's random start and the cross (default 0)")
     parser.add_argument("--size", type=int, default=480, metavar="PX", help="side of the top-down image (default 480)")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window (needs a display)")
 
@@ -53,8 +54,6 @@ def run(args: argparse.Namespace) -> int:
         )
     if not 64 <= args.size <= 2048:
         raise InputError(f"--size must be 64..2048 pixels, got {args.size}")
-    if args.seed < 0:
-        raise InputError(f"--seed must be >= 0, got {args.seed}")
     scene = Grid.game()
     cell = scene.grid_size / 3
     with PyBulletBackend(scene.paper(), gui=args.gui, arm="ready") as robot:

@@ -8,4 +8,6 @@
 - ``interrupts``  Ctrl-C where it can be acted on cleanly
 - ``jit``         optional numba compilation of a few hot loops
 - ``rotation``    rotations: one convention, through one library
+- ``argtypes``    command-line value types and the limits they hold (the studio obeys them too)
+- ``images``      pictures a person gives, their size checked by the header before decoding
 """

@@ -34,6 +34,8 @@ import warnings
 from contextlib import contextmanager
 from typing import Any, Callable, Iterator
 
+from .interrupts import guarded
+
 _DONE: dict[Callable, Callable | None] = {}
 #: shortest path (stamps) for which OSILA uses its compiled kernels (module docstring)
 MIN_STAMPS = 200
@@ -86,23 +88,30 @@ def compiled(func: Callable, *warm: Any) -> Callable | None:
     """
     if func in _DONE:
         return _DONE[func]
-    kernel = None
-    if enabled():
+    # A Ctrl-C or SIGTERM while numba compiles waits until it is done (a second or two): numba
+    # stopped half-way fails on the next call ("no compiled object yet"), which would turn a
+    # stopped run into an internal error instead of one that saves what it did (issue 32).
+    with guarded() as guard:
+        guard.hold()
+        _DONE[func] = _build(func, warm)
+    return _DONE[func]
+
+
+def _build(func: Callable, warm: tuple[Any, ...]) -> Callable | None:
+    if not enabled():
+        return None
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return None
+    for cache in (True, False):
         try:
-            import numba  # noqa: F401
-        except ImportError:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # e.g. NumbaWarning: cannot cache
+                return _compile(func, warm, cache)
+        except Exception:  # noqa: BLE001 -- any numba failure means: use numpy
             pass
-        else:
-            for cache in (True, False):
-                try:
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore")  # e.g. NumbaWarning: cannot cache
-                        kernel = _compile(func, warm, cache)
-                    break
-                except Exception:  # noqa: BLE001 -- any numba failure means: use numpy
-                    kernel = None
-    _DONE[func] = kernel
-    return kernel
+    return None
 
 
 def reset() -> None:

@@ -59,6 +59,12 @@ class GridResult:
         Wall-clock time of the grid.
     backend : str
         ``local``, ``joblib(N)`` or ``dask(ADDRESS)``.
+    stopped : KeyboardInterrupt or None
+        What stopped the grid before every row was done (Ctrl-C, SIGTERM, SIGHUP), or None.
+        A stopped grid keeps the rows done: ``mask`` is narrowed to them, so every table and
+        test is over the pairs evaluated (issue 32).
+    rows_done : int
+        Template rows evaluated (all ``J`` unless stopped).
     """
 
     labels: list[str]
@@ -74,6 +80,8 @@ class GridResult:
     failures: dict[str, list[str]] = field(default_factory=dict)
     wall_seconds: float = 0.0
     backend: str = "local"
+    stopped: KeyboardInterrupt | None = None
+    rows_done: int = 0
 
     def metric(self, method: str, name: str) -> np.ndarray:
         """One metric of one method, shape (S, J, J)."""
@@ -125,23 +133,19 @@ def _chunks(n_rows: int, n_chunks: int) -> list[list[int]]:
     return [list(range(k, n_rows, n_chunks)) for k in range(n_chunks)]
 
 
-def _run_local(trials, chunks, args, progress):
+def _run_local(trials, chunks, args):
     for rows in chunks:
-        res = evaluate_rows(trials, rows, *args)
-        progress.update(len(rows))
-        yield res
+        yield evaluate_rows(trials, rows, *args)
 
 
-def _run_joblib(trials, chunks, args, jobs, progress):
+def _run_joblib(trials, chunks, args, jobs):
     from joblib import Parallel, delayed
 
     try:
         parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")  # joblib >= 1.4
     except (TypeError, ValueError):  # older joblib: results in submission order
         parallel = Parallel(n_jobs=jobs)
-    for res in parallel(delayed(evaluate_rows)(trials, rows, *args) for rows in chunks):
-        progress.update(len(res))
-        yield res
+    yield from parallel(delayed(evaluate_rows)(trials, rows, *args) for rows in chunks)
 
 
 def _unreachable(address: str, reason: object) -> InputError:
@@ -187,7 +191,7 @@ def _connect(address: str):
         raise _unreachable(address, exc) from None
 
 
-def _run_dask(trials, chunks, args, address, progress):
+def _run_dask(trials, chunks, args, address):
     from distributed import as_completed
 
     client = _connect(address)
@@ -195,9 +199,7 @@ def _run_dask(trials, chunks, args, address, progress):
         [shared] = client.scatter([trials], broadcast=True)
         futures = [client.submit(evaluate_rows, shared, rows, *args, pure=False) for rows in chunks]
         for fut in as_completed(futures, loop=client.loop):
-            res = fut.result()
-            progress.update(len(res))
-            yield res
+            yield fut.result()
     finally:
         client.close()
 
@@ -263,15 +265,26 @@ def run_grid(
     t0 = time.perf_counter()
     if dask:
         result.backend = f"dask({dask})"
-        stream_of_results = _run_dask(trials, _chunks(n, 4 * n), args, dask, bar)
+        stream_of_results = _run_dask(trials, _chunks(n, 4 * n), args, dask)
     elif jobs != 1:
         result.backend = f"joblib({jobs})"
-        stream_of_results = _run_joblib(trials, _chunks(n, 4 * max(jobs, 2)), args, jobs, bar)
+        stream_of_results = _run_joblib(trials, _chunks(n, 4 * max(jobs, 2)), args, jobs)
     else:
-        stream_of_results = _run_local(trials, _chunks(n, n), args, bar)
+        stream_of_results = _run_local(trials, _chunks(n, n), args)
     rows: list[RowResult] = []
-    for chunk in stream_of_results:
-        rows.extend(chunk)
+    try:
+        for chunk in stream_of_results:
+            rows.extend(chunk)
+            bar.update(len(chunk))  # after the rows are kept: a stop after the bar moves keeps them
+    except KeyboardInterrupt as stop:  # Ctrl-C, SIGTERM, SIGHUP: keep what was done
+        stream_of_results.close()  # the workers stop now, not at exit
+        if not rows:
+            raise
+        result.stopped = stop
+        done = np.zeros(n, bool)
+        done[[row.row for row in rows]] = True
+        result.mask = mask & done[:, None]
+    result.rows_done = len(rows)
     result.wall_seconds = time.perf_counter() - t0
     for row in sorted(rows, key=lambda r: r.row):
         for m in methods:

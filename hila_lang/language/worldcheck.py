@@ -42,11 +42,17 @@ class WorldCheck:
         #: ((x, y, z), radius): the ball the back end's hand stays in, or None
         self.reach_ball = backend_info.reach
         self.backend_name = backend_info.name
+        self.robot_name = "the iCub"
         if settings is not None:
             from ..plugins.options import split_settings
 
             self.run_settings = split_settings(settings, self.info, backend_info)
             parsed = self.run_settings[1]
+            if self.reach_ball is not None and any(k == "robot" or k.startswith("robot.") for k in settings):
+                from ..robot.spec import resolve  # the chosen robot's reach, computed from its chain
+
+                robot = resolve(settings.get("robot"), settings)
+                self.reach_ball, self.robot_name = robot.reach(), f"the {robot.name}"
         self.declared = self.info.declared(parsed)
 
     # ------------------------------------------------------------------ names
@@ -121,7 +127,7 @@ class WorldCheck:
         if why is not None:
             where = "(" + ", ".join(f"{v:.3f}" for v in target) + ")"
             raise self.error(f"{what} {where}{via}, which the arm cannot reach: {why}", pos,
-                             f"back end {self.backend_name!r} moves the iCub's arm: targets must be above the table, "
+                             f"back end {self.backend_name!r} moves {self.robot_name}'s arm: targets must be above the table, "
                              "in front of the robot (x 0.20-0.45 m, y -0.30-0.10 m works at table height)")
 
     # ------------------------------------------------------------------ dimensions

@@ -5,7 +5,7 @@ Methods (:data:`METHODS`; :func:`segments` dispatches):
 - ``speed`` (the default): cut at the k - 1 deepest dips in the hand's speed, where one stroke
   ends and the next begins (:func:`speed_segments`).
 - ``kmeans`` (the paper's): k-means on spatio-temporal features (:func:`kmeans_segments`).
-- ``changepoint``: change points of the velocity (``ruptures``, optional; :func:`changepoint_segments`).
+- ``changepoint``: change points of the velocity (:func:`changepoint_segments`).
 - ``equal``: equal lengths (the controlled variant of the paper's Experiment A).
 
 Why ``speed`` is the default: ``bench/segmentation.py`` measures every method against known
@@ -47,7 +47,7 @@ DEFAULT_METHOD = "speed"
 def describe(method: str, k: int) -> str:
     """How a template was segmented, one sentence for its description."""
     how = {"speed": "at the deepest dips in speed (hila_lang.osila.segmentation.speed_segments)",
-           "kmeans": "by k-means", "changepoint": "by change points of the velocity (ruptures)",
+           "kmeans": "by k-means", "changepoint": "by change points of the velocity",
            "equal": "into equal lengths"}[method]
     return f"Segmented {how} (k = {k})."
 
@@ -203,23 +203,75 @@ def speed_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[int, i
     return _ranges(cuts, T)
 
 
+def _split_gain(csum: np.ndarray, a: int, b: int, min_size: int) -> tuple[float, int]:
+    """The best single cut ``c`` of ``[a, b)`` for the L2 cost and how much it lowers the cost.
+
+    ``csum`` holds the prefix sums of the signal (a zero row first).  A span's cost is
+    Σ|x - mean|² = Σ|x|² - |Σx|²/n, and the Σ|x|² terms cancel in the gain, so each candidate is
+    O(D) and one pass over the candidate cuts O(b - a)."""
+    c = np.arange(a + min_size, b - min_size + 1)
+    if c.size == 0:
+        return -np.inf, -1
+    left, right, whole = csum[c] - csum[a], csum[b] - csum[c], csum[b] - csum[a]
+    gain = ((left**2).sum(1) / (c - a) + (right**2).sum(1) / (b - c) - (whole**2).sum() / (b - a))
+    best = int(np.argmax(gain))
+    return float(gain[best]), int(c[best])
+
+
+def changepoint_cuts(signal: Any, k: int, *, min_size: int = 2) -> list[int]:
+    """The ``k - 1`` cuts that best explain ``signal`` (T, D) as piecewise constant (L2 cost).
+
+    Binary segmentation -- the span whose best cut lowers the cost most is cut next -- then every
+    cut is moved to its best place between its neighbours until none moves (each move lowers the
+    cost, so it ends).  Prefix sums make a span's cost O(D), so the whole is O(k·T) per pass
+    (issue 32: ``ruptures.Dynp``'s exact programme was O(T²) in time and memory, and one 5000-point
+    demonstration took the studio down).  Not exact in general; on every seeded case of
+    ``tests/test_core_segmentation.py`` its cost equals an exhaustive search's, and on
+    ``bench/segmentation.py``'s cases it cuts where ``ruptures.Dynp``'s exact programme did.
+    """
+    x = np.asarray(signal, dtype=float)
+    T = x.shape[0]
+    csum = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(x, axis=0)])
+    csq = np.concatenate([[0.0], np.cumsum((x**2).sum(1))])
+    bounds = [0, T]
+    while len(bounds) < k + 1:
+        gains = [_split_gain(csum, bounds[i], bounds[i + 1], min_size) for i in range(len(bounds) - 1)]
+        gain, cut = max(gains)
+        if cut < 0:
+            break
+        bounds = sorted(bounds + [cut])
+    for _ in range(4 * T):  # refinement: a cut between fixed neighbours is a one-cut problem
+        moved = False
+        for i in range(1, len(bounds) - 1):
+            _, cut = _split_gain(csum, bounds[i - 1], bounds[i + 1], min_size)
+            if cut != bounds[i]:
+                old = _span_cost(csum, csq, bounds[i - 1], bounds[i]) + _span_cost(csum, csq, bounds[i], bounds[i + 1])
+                new = _span_cost(csum, csq, bounds[i - 1], cut) + _span_cost(csum, csq, cut, bounds[i + 1])
+                if new < old - 1e-12 * max(1.0, old):
+                    bounds[i], moved = cut, True
+        if not moved:
+            break
+    return bounds[1:-1]
+
+
+def _span_cost(csum: np.ndarray, csq: np.ndarray, a: int, b: int) -> float:
+    """Σ|x - mean|² over ``[a, b)`` from the prefix sums."""
+    s = csum[b] - csum[a]
+    return float(csq[b] - csq[a] - (s**2).sum() / (b - a))
+
+
 def changepoint_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[int, int]]:
     """Split a path into ``k`` segments by change-point detection on its velocity.
 
-    ``ruptures.Dynp`` (exact dynamic programming) with the ``"l2"`` cost on the velocity vectors
-    (units per second): the ``k - 1`` cuts that best explain the velocity as piecewise constant,
-    segments of at least two samples.  Needs the optional package ``ruptures``.
+    The ``k - 1`` cuts that best explain the velocity vectors (units per second) as piecewise
+    constant, segments of at least two samples (:func:`changepoint_cuts`: O(k·T), so a long
+    demonstration costs what a short one does per sample).
     """
-    try:
-        import ruptures
-    except ImportError:
-        raise InputError("segmentation method 'changepoint' needs the optional package ruptures",
-                         hint="pip install 'hila-lang[changepoint]', or use --method speed") from None
     path, T, k = _checked(path, k, 2)
     if k == 1:
         return [(0, T)]
     v = np.gradient(path, _times(T, times), axis=0)
-    return _ranges(ruptures.Dynp(model="l2", min_size=2, jump=1).fit(v).predict(n_bkps=k - 1)[:-1], T)
+    return _ranges(changepoint_cuts(v, k, min_size=2), T)
 
 
 def segments(path: Any, k: int, method: str = DEFAULT_METHOD, *, times: Any = None, seed: int = 0) -> list[tuple[int, int]]:

@@ -51,15 +51,9 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     """An image file as RGB (H, W, 3) uint8; :class:`InputError` when it cannot be read."""
     import cv2
 
-    path = Path(path)
-    try:
-        data = np.frombuffer(path.read_bytes(), np.uint8)
-    except OSError as exc:
-        raise InputError(f"cannot read frame: {exc.strerror}", file=str(path)) from None
-    img = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
-    if img is None:
-        raise InputError("unreadable frame: not an image file (or a truncated one)", file=str(path))
-    return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+    from ..core.images import read_picture
+
+    return cv2.cvtColor(read_picture(path, "frame"), cv2.COLOR_BGR2RGB)  # its size checked before decoding
 
 
 def frame_files(folder: str | os.PathLike, what: str = "frames") -> list[Path]:

@@ -1,10 +1,12 @@
 """What ``hila exec`` / ``hila repl`` pass to every world and back end, and how ``--set`` pairs
-are split among OSILA, the world and the back end and parsed -- before anything is built, by
+are split among OSILA, the robot, the world and the back end and parsed -- before anything is built, by
 ``hila check`` as by ``hila exec``: a bad value is exit status 2 naming the option.
 
 ``osila.KEY`` goes to :func:`hila_lang.osila.imitate` (values read as YAML scalars: ``0.002``,
 ``true``, ``[1, 2]``) and is validated by OSILA itself on a two-point path, so the rules live in
-one place; any other key goes to the world or the back end that declares it.
+one place; ``robot`` (``--robot NAME|PATH``) and ``robot.KEY`` name the robot
+(:func:`hila_lang.robot.spec.resolve` reads them); any other key goes to the world or the back
+end that declares it.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 
 @dataclass
@@ -29,7 +31,11 @@ class RunOptions:
         Open a GUI window (PyBullet) instead of running headless.
     settings : dict[str, str]
         ``--set key=value`` pairs as typed; the runner splits them among OSILA (``osila.*``),
-        the world and the back end, and parses each with the owner's declaration.
+        the robot (``robot``, the value of ``--robot``, and ``robot.*``), the world and the back
+        end, and parses each with the owner's declaration.
+    robot : RobotSpec or None
+        The robot the run moves (:func:`hila_lang.robot.spec.resolve` of the ``robot``
+        settings, done by the runner); None: the iCub.
     stdin, stdout : text streams
         A human opponent and the REPL read the same ``stdin``, so piped input drives both.
     """
@@ -40,6 +46,7 @@ class RunOptions:
     settings: dict[str, str] = field(default_factory=dict)
     stdin: TextIO = field(default_factory=lambda: sys.stdin)
     stdout: TextIO = field(default_factory=lambda: sys.stdout)
+    robot: Any = None
 
 
 #: the range of every numeric OSILA option a run may be given by ``--set osila.NAME=VALUE``,
@@ -150,7 +157,7 @@ def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict
     backend_keys = {s.name for s in backend.settings}
     mine: dict[str, dict[str, str]] = {"world": {}, "backend": {}}
     for key, text in settings.items():
-        if key.startswith("osila."):
+        if key.startswith(("osila.", "robot.")) or key == "robot":  # OSILA's; the robot's (hila_lang.robot.spec)
             continue
         if key in world_keys:
             mine["world"][key] = text

@@ -1,7 +1,7 @@
-"""Worlds and back ends found through entry points, declared without being built.
+"""Worlds, back ends and robots found through entry points, declared without being built.
 
-A plug-in is a :class:`WorldInfo` or :class:`BackendInfo` object named by an entry point in the
-group ``hila.worlds`` or ``hila.backends`` (hila's own are in its ``pyproject.toml``; a
+A plug-in is a :class:`WorldInfo`, :class:`BackendInfo` or :class:`RobotInfo` object named by an
+entry point in the group ``hila.worlds``, ``hila.backends`` or ``hila.robots`` (hila's own are in its ``pyproject.toml``; a
 third-party package adds its own the same way, without editing hila).  The declaration says,
 without building anything or starting a simulator: the plug-in's one-line doc, its settings
 (:class:`~hila_lang.plugins.settings.Setting`), for a world the questions (``ask``) and events
@@ -25,7 +25,7 @@ from typing import Any, Mapping
 from ..core.errors import InputError
 from .settings import Setting, parse_settings
 
-GROUPS = {"world": "hila.worlds", "back end": "hila.backends"}
+GROUPS = {"world": "hila.worlds", "back end": "hila.backends", "robot": "hila.robots"}
 #: the world of a program without ``world NAME``
 DEFAULT_WORLD = "scripted"
 
@@ -194,6 +194,8 @@ class BackendInfo:
         A ball (world frame, metres) that holds every point the back end's hand can reach, when
         it moves a robot's arm: ``hila check`` refuses a target bound outside it, at the
         statement that binds it (:mod:`hila_lang.language.worldcheck`).  None: no such bound.
+        The iCub's; a run that names its robot (``--robot``) is checked against that robot's
+        reach instead (:meth:`hila_lang.robot.spec.RobotSpec.reach`).
     """
 
     name: str
@@ -216,6 +218,29 @@ class BackendInfo:
             backend.close()
             raise
         return backend
+
+
+@dataclass(frozen=True)
+class RobotInfo:
+    """A robot plug-in's declaration (``--robot NAME``).
+
+    Attributes
+    ----------
+    name : str
+        As given to ``--robot``.
+    factory : str
+        ``"module:callable"``; ``callable() -> RobotSpec`` (:mod:`hila_lang.robot.spec`).
+    doc : str
+        One line.
+    """
+
+    name: str
+    factory: str
+    doc: str
+
+    def spec(self):
+        """The robot's :class:`~hila_lang.robot.spec.RobotSpec`."""
+        return _import(self.factory)()
 
 
 @functools.lru_cache(maxsize=None)
@@ -246,7 +271,7 @@ def _info(kind: str, name: str):
     except ModuleNotFoundError as exc:
         raise InputError(f"{kind} {name!r} is not available in this installation "
                          f"({ep.value} needs the module {exc.name!r})") from None
-    wanted = WorldInfo if kind == "world" else BackendInfo
+    wanted = {"world": WorldInfo, "back end": BackendInfo, "robot": RobotInfo}[kind]
     if not isinstance(info, wanted) or info.name != name:
         raise TypeError(f"entry point {GROUPS[kind]}:{name} = {ep.value} is not a {wanted.__name__} named {name!r}")
     return info
@@ -260,6 +285,11 @@ def world(name: str) -> WorldInfo:
 def backend(name: str) -> BackendInfo:
     """The declaration of back end ``name`` (InputError with "did you mean" when unknown)."""
     return _info("back end", name)
+
+
+def robot(name: str) -> RobotInfo:
+    """The declaration of robot ``name`` (InputError with "did you mean" when unknown)."""
+    return _info("robot", name)
 
 
 def declarations(kind: str) -> list:

@@ -1,12 +1,15 @@
-"""The iCub in PyBullet: its body, arm controller, eyes and paper behind one back end, and the dry back end.
+"""Robots in PyBullet -- the iCub, the Panda, the KUKA, any arm from its URDF -- behind one back end, and the dry back end.
 
-- :mod:`hila_lang.robot.model`     the iCub URDF generated at run time from ``icub-models``
+- :mod:`hila_lang.robot.spec`      a robot as a declared description (:class:`RobotSpec`), ``--robot NAME|PATH``
+- :mod:`hila_lang.robot.urdf`      any arm's URDF made ready: its chain checked, ``package://`` meshes found, a pen
+- :mod:`hila_lang.robot.model`     the iCub's spec and its URDF generated at run time from ``icub-models``
 - :mod:`hila_lang.robot.ik`        forward kinematics, Jacobian, damped least squares IK
 - :mod:`hila_lang.robot.trajectory` densifying paths, trapezoidal speed profile
 - :mod:`hila_lang.robot.workspace` the table in front of the robot; the default sheet of paper
-- :mod:`hila_lang.robot.body`      the iCub loaded in a simulated scene: joints, links, chains
+- :mod:`hila_lang.robot.body`      a robot loaded in a simulated scene: joints, links, chains
 - :mod:`hila_lang.robot.arm`       the arm controller: IK along a path, the 240 Hz control loop
-- :mod:`hila_lang.robot.eyes`      gaze and the eye cameras (the ``eyes`` capability)
+- :mod:`hila_lang.robot.eyes`      the iCub's gaze and eye cameras (the ``eyes`` capability)
+- :mod:`hila_lang.robot.rig`       eyes for an arm without a head: a stereo rig on a stand
 - :mod:`hila_lang.robot.paper`     ink on the paper (``ink``), the camera above it (``overview``)
 - :mod:`hila_lang.robot.backend`   :class:`PyBulletBackend`, the thin façade the interpreter drives
 - :mod:`hila_lang.robot.dry`       :class:`DryBackend`: kinematic, no physics
@@ -16,11 +19,12 @@
 
 The robot knows a neutral drawing surface (:class:`hila_lang.sim.surface.Surface`): what is
 printed on it is a world's business.  ``DRY`` and ``PYBULLET`` declare the two back ends (entry
-points ``hila.backends``).  Importing this package imports nothing heavy; pybullet is loaded by
+points ``hila.backends``); ``ICUB``, ``PANDA`` and ``KUKA`` the shipped robots
+(``hila.robots``).  Importing this package imports nothing heavy; pybullet is loaded by
 ``backend``.
 """
 
-from ..plugins.registry import BackendInfo
+from ..plugins.registry import BackendInfo, RobotInfo
 from ..plugins.settings import Setting, number, point
 
 #: the iCub arm's kinematic reach bound (:mod:`hila_lang.robot.reach`; kept here as numbers so
@@ -47,3 +51,10 @@ PYBULLET = BackendInfo(
                       flag="--speed"),),
     reach=REACH,
 )
+
+ICUB = RobotInfo(name="icub", factory="hila_lang.robot.model:spec",
+                 doc="the iCub: torso + right arm (10 joints), eyes in its head (the default)")
+PANDA = RobotInfo(name="panda", factory="hila_lang.robot.spec:panda",
+                  doc="Franka Emika Panda (7 joints, pybullet_data), a stereo rig on a stand")
+KUKA = RobotInfo(name="kuka", factory="hila_lang.robot.spec:kuka",
+                 doc="KUKA LBR iiwa (7 joints, pybullet_data), a stereo rig on a stand")

@@ -2,9 +2,9 @@
 
 :meth:`Arm.move` prefixes the path with the current pen-tip position, densifies it to waypoints
 at most 2 mm apart, and solves every waypoint by IK (:mod:`.ik`), warm-started from the
-previous one, over torso + right arm within *comfort limits* (a margin inside the URDF limits,
-the torso kept near upright).  Only when every waypoint is solved does the arm move: joint
-targets are interpolated along the path's arc length with a trapezoidal speed profile (drawing
+previous one, over the arm's chain within *comfort limits* (a margin inside the URDF limits,
+and the spec's comfort ranges: the iCub's torso kept near upright).  Only when every waypoint
+is solved does the arm move: joint targets are interpolated along the path's arc length with a trapezoidal speed profile (drawing
 5 cm/s with the pen down, 15 cm/s with it up), sent to PyBullet's position controllers with
 realistic force limits at 240 Hz, with the matching joint velocities as feed forward.  The pen
 tip is recorded every step and joint limits are checked every step.  A target more than 2 mm
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import HilaRuntimeError
-from . import ik, model
+from . import ik
 from .reach import check_planned, unreachable
 from .trajectory import densify, trapezoid_profile
 
@@ -40,17 +40,9 @@ IK_ACCEPT_TILT = 0.01
 LIMIT_MARGIN = 0.02
 #: joint-limit check during execution: allowed excess over the URDF limits, radians
 LIMIT_CHECK_TOLERANCE = 1e-3
-#: torso comfort range for the IK, radians: (pitch, roll, yaw) lower and upper
-TORSO_COMFORT = ((-0.10, -0.35, -0.60), (0.60, 0.35, 0.60))
-#: relative IK weight of torso joints (they move less than the arm)
-TORSO_WEIGHT = 0.3
 #: position-controller gains
 POSITION_GAIN = 0.3
 VELOCITY_GAIN = 1.0
-#: seed posture of torso + right arm for the first IK (hand in front, palm down), radians
-SEED_POSTURE = np.array([0.10, 0.20, 0.0, -0.55, 0.60, 0.55, 1.30, 0.50, -0.10, 0.0])
-#: rest posture of torso + right arm (hand by the side, out of the cameras' way), radians
-REST_POSTURE = np.array([0.0, 0.0, 0.0, -0.30, 0.45, 0.0, 0.80, 0.0, 0.0, 0.0])
 #: physics solver iterations per step (PyBullet's default 50 costs 60 % more time for a
 #: tracking gain of 0.002 mm)
 SOLVER_ITERATIONS = 20
@@ -69,8 +61,8 @@ class Trace:
         The path as given, world frame, metres.
     executed : ndarray, shape (T', 3)
         The pen tip at every simulation step (240 Hz), world frame, metres.
-    joints : ndarray, shape (T', 10)
-        Torso + right-arm joint angles at every step, radians, order ``model.ARM_CHAIN``.
+    joints : ndarray, shape (T', n)
+        The arm's joint angles at every step, radians, chain order.
     reference : ndarray, shape (T', 3)
         The point of the (densified) path the controller was aiming at at every step; the
         tracking error is ``executed - reference``.
@@ -92,7 +84,9 @@ def _fmt(point) -> str:
 
 
 class Arm:
-    """Torso + right arm of ``body`` holding a pen over a table whose paper is at ``surface_z``.
+    """The arm of ``body`` holding a pen over a table whose paper is at ``surface_z``; its weights,
+    comfort ranges, seed and rest postures and reach come from the body's spec
+    (:class:`~.spec.RobotSpec`).
 
     ``stats`` (a dict) gains ``ik_solves``, ``ik_seconds``, ``steps`` and ``step_seconds``.
     ``realtime``: pace the control loop for a window a person watches: 0 (or False) not at all,
@@ -105,25 +99,27 @@ class Arm:
         self.surface_z = float(surface_z)
         self.stats = stats
         self.realtime = realtime
-        lo, hi = self.chain.lower + LIMIT_MARGIN, self.chain.upper - LIMIT_MARGIN
-        lo[:3] = np.maximum(lo[:3], TORSO_COMFORT[0])
-        hi[:3] = np.minimum(hi[:3], TORSO_COMFORT[1])
+        spec = body.spec
+        lo, hi = spec.ik_limits(LIMIT_MARGIN)
         self.ik_lower, self.ik_upper = lo, hi
         #: called with the pen tip (3,) after every simulation step of a move (a window draws it)
         self.observer = None
-        self.weights = np.array([TORSO_WEIGHT] * 3 + [1.0] * 7)
-        self.rest_posture = np.clip(REST_POSTURE, lo, hi)
+        self.weights = spec.joint_weights()
+        self.seed_posture = spec.posture("seed")
+        self.rest_posture = np.clip(spec.posture("rest"), lo, hi)
         self.ready_posture = self.rest_posture
+        self.reach = spec.reach()
+        self.tip_link = spec.tip_link()
 
     def ready_at(self, point: np.ndarray) -> bool:
         """Find the ready posture: the pen vertical at ``point`` (3,); False when out of reach
         (the ready posture is then the rest posture)."""
-        ready = ik.solve(self.chain, point, SEED_POSTURE, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights)
+        ready = ik.solve(self.chain, point, self.seed_posture, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights)
         self.ready_posture = ready.q if ready.converged else self.rest_posture
         return bool(ready.converged)
 
     def joint_positions(self) -> np.ndarray:
-        """Torso + right-arm joint angles (10,), radians, order ``model.ARM_CHAIN``."""
+        """The arm's joint angles (n,), radians, chain order."""
         return self.body.arm_angles()
 
     def hand_position(self) -> np.ndarray:
@@ -138,7 +134,7 @@ class Arm:
         return result
 
     def _check_above_table(self, point: np.ndarray, k: int, total: int, label: str) -> None:
-        check_planned(np.asarray(point, dtype=float)[None], self.surface_z, label)
+        check_planned(np.asarray(point, dtype=float)[None], self.surface_z, label, self.reach)
 
     def _raise_if_unreachable(self, result: ik.IKResult, point, k: int, total: int, label: str) -> None:
         if result.converged:
@@ -150,7 +146,7 @@ class Arm:
                           where=f" (waypoint {k + 1} of {total})")
 
     def reset_hand(self, target: np.ndarray) -> np.ndarray:
-        """Put the pen tip at ``target`` (3,) at once (no motion, no trace); returns the angles (10,).
+        """Put the pen tip at ``target`` (3,) at once (no motion, no trace); returns the angles (n,).
 
         Raises :class:`UnreachableError` when the point cannot be reached.
         """
@@ -168,7 +164,7 @@ class Arm:
         Raises :class:`UnreachableError` (the arm does not move) when a waypoint cannot be
         reached, :class:`HilaRuntimeError` if a joint leaves its limits during execution.
         """
-        check_planned(planned, self.surface_z, label)  # the reach bound and the paper, as the dry back end checks
+        check_planned(planned, self.surface_z, label, self.reach)  # the reach bound and the paper, as the dry back end checks
         q_start = self.joint_positions()
         start = self.chain.tip_position(q_start)
         dense, origin_index, arc = densify(np.vstack([start, planned]), WAYPOINT_SPACING)
@@ -194,7 +190,7 @@ class Arm:
         return Trace(label, bool(pen_down), planned, executed, joints, reference)
 
     def _execute(self, qs: np.ndarray, dense: np.ndarray, arc: np.ndarray, speed: float):
-        """Run the joint path ``qs`` (M, 10) through ``dense`` (M, 3) at arc lengths ``arc`` (M,)."""
+        """Run the joint path ``qs`` (M, n) through ``dense`` (M, 3) at arc lengths ``arc`` (M,)."""
         pb, c = self.body.sim.pb, self.body.sim.client
         dt = 1.0 / SIM_RATE
         times = trapezoid_profile(arc[-1], speed, ACCELERATION, dt)
@@ -220,11 +216,11 @@ class Arm:
             if np.any(q < lower) or np.any(q > upper):
                 bad = int(np.argmax(np.maximum(lower - q, q - upper)))
                 raise HilaRuntimeError(
-                    f"joint {model.ARM_CHAIN[bad]} left its limits during a move "
+                    f"joint {self.chain.names[bad]} left its limits during a move "
                     f"({q[bad]:.3f} rad, limits {self.chain.lower[bad]:.3f}..{self.chain.upper[bad]:.3f})"
                 )
             joints.append(q)
-            executed.append(self.body.link_position(model.PEN_TIP_LINK))
+            executed.append(self.body.link_position(self.tip_link))
             if self.observer is not None:
                 self.observer(executed[-1])
 

@@ -1,14 +1,16 @@
-"""The PyBullet iCub back end: a thin façade over the scene, the arm, the eyes and the paper.
+"""The PyBullet back end: a thin façade over the scene, the robot's arm, its eyes and the paper.
 
 :class:`PyBulletBackend` implements :class:`hila_lang.plugins.protocols.Backend`.  One instance
 owns one :class:`~hila_lang.sim.scene.SimScene` (a PyBullet client, ``DIRECT`` by default) with
 
-- the iCub fixed at its waist facing +x (:class:`~hila_lang.robot.body.Body`),
+- the robot of the run's spec (``--robot``, :mod:`.spec`; default the iCub fixed at its waist
+  facing +x) (:class:`~hila_lang.robot.body.Body`),
 - a table and the paper the world asks for (:class:`~hila_lang.robot.paper.Paper`, the ``ink``
   capability), with a camera above it (``overview``),
 - the arm controller (:class:`~hila_lang.robot.arm.Arm`: IK along a path, the 240 Hz loop),
-- the eye cameras (:class:`~hila_lang.robot.eyes.Eyes`, the ``eyes`` capability: fish-eye
-  lenses, the robot's own calibration, poses from the joint angles, optional sensor noise),
+- the eye cameras (the ``eyes`` capability: fish-eye lenses, the robot's own calibration,
+  optional sensor noise): the iCub's in its head (:class:`~hila_lang.robot.eyes.Eyes`, poses
+  from the joint angles) or a stereo rig on a stand (:class:`~hila_lang.robot.rig.RigEyes`),
 - the scene's light (:class:`~hila_lang.sim.scene.Lights`, the ``lighting`` capability: a
   world may change it during a run),
 - snapshots for the REPL's ``back`` (:class:`SimSnapshots`: PyBullet's ``saveState`` /
@@ -17,7 +19,7 @@ owns one :class:`~hila_lang.sim.scene.SimScene` (a PyBullet client, ``DIRECT`` b
 
 :meth:`PyBulletBackend.move` asks the arm to follow a path and inks where the pen touched.
 
-Frames: world frame, metres, z up; the root is at (0, 0, 0.62) and the robot faces +x.
+Frames: world frame, metres, z up (hila's table, :mod:`.workspace`); the robot faces +x.
 """
 
 from __future__ import annotations
@@ -35,9 +37,8 @@ from ..core.validation import check_path
 from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
 from . import model
 from .body import Body
-from .eyes import Eyes
 from .paper import Paper, TopView
-from .workspace import PAPER_THICKNESS, READY_HEIGHT, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z, default_surface
+from .workspace import PAPER_THICKNESS, READY_HEIGHT, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z
 
 #: moves kept in :attr:`PyBulletBackend.traces` (a 4 s move at 240 Hz is about 100 kB)
 KEEP_TRACES = 1000
@@ -49,15 +50,18 @@ __all__ = ["PyBulletBackend", "Trace", "make_backend"]
 
 
 def make_backend(scene, options, settings) -> "PyBulletBackend":
-    """Plug-in factory: the world's ``scene.surface`` (default :func:`.workspace.default_surface`),
-    ``options.gui`` and its pace (``--speed N``), and the eyes' sensor noise (``--set eyes.noise=SIGMA``, seeded by ``options.seed``)."""
+    """Plug-in factory: the world's ``scene.surface`` (default the robot's sheet,
+    :meth:`.spec.RobotSpec.default_surface`), the robot (``options.robot``, a
+    :class:`~.spec.RobotSpec`; None: the iCub), ``options.gui`` and its pace (``--speed N``), and
+    the eyes' sensor noise (``--set eyes.noise=SIGMA``, seeded by ``options.seed``)."""
     surface = None if scene is None else scene.surface
     return PyBulletBackend(surface, gui=options.gui, eye_noise=float(settings.get("eyes.noise") or 0.0),
-                           seed=int(options.seed), speed=float(settings.get("speed") or 1.0))
+                           seed=int(options.seed), speed=float(settings.get("speed") or 1.0),
+                           robot=getattr(options, "robot", None))
 
 
 class PyBulletBackend:
-    """The iCub drawing on a sheet of paper in PyBullet (see the module docstring).
+    """A robot drawing on a sheet of paper in PyBullet (see the module docstring).
 
     Parameters
     ----------
@@ -77,13 +81,16 @@ class PyBulletBackend:
         Standard deviation of the eye cameras' sensor noise, grey levels (0: none).
     seed : int
         Seed of the sensor noise.
+    robot : RobotSpec, optional
+        The robot (:mod:`.spec`); default the iCub.
 
     Attributes
     ----------
     sim : SimScene
     body : Body
     arm : Arm
-    eyes : Eyes
+    eyes : Eyes or RigEyes or None
+        None for a robot whose spec gives it no eyes.
     ink : Paper
     overview : TopView
     lighting : Lights
@@ -100,8 +107,13 @@ class PyBulletBackend:
     name = "pybullet"
 
     def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto",
-                 eye_noise: float = 0.0, seed: int = 0, speed: float = 1.0) -> None:
-        self.surface = surface if surface is not None else default_surface()
+                 eye_noise: float = 0.0, seed: int = 0, speed: float = 1.0, robot=None) -> None:
+        if robot is None:
+            from .model import spec as icub
+
+            robot = icub()
+        self.robot = robot
+        self.surface = surface if surface is not None else robot.default_surface()
         if not isinstance(self.surface, Surface):
             raise InputError(f"surface must be a Surface, got {type(self.surface).__name__}")
         if arm not in ("auto", "ready", "rest"):
@@ -111,10 +123,10 @@ class PyBulletBackend:
         self.sim = SimScene(gui=gui, time_step=1.0 / SIM_RATE, solver_iterations=SOLVER_ITERATIONS, style=EYE_LIGHT)
         try:
             if gui:  # framed from the first frame: before the robot loads and the eyes calibrate
-                from .window import frame
+                from .window import frame, robot_points
 
-                frame(self.sim, self.surface, drawing=False)  # the window draws again once it is made
-            self.body = Body(self.sim)
+                frame(self.sim, self.surface, robot_points(self.surface, robot), drawing=False)  # drawn again once the window is made
+            self.body = Body(self.sim, robot)
             self._build_table(self.surface.z - PAPER_THICKNESS)
             self.ink = Paper(self.sim, self.surface)
             self.overview = TopView(self.ink, self._render)
@@ -125,7 +137,7 @@ class PyBulletBackend:
             low_table = self.surface.z < TABLE_TOP_Z - 0.05
             rest = arm == "rest" or (arm == "auto" and (low_table or not reachable))
             self.body.set_arm(self.arm.rest_posture if rest else self.arm.ready_posture)
-            self.eyes = Eyes(self.body, centre, self._render, noise=eye_noise, seed=seed)
+            self.eyes = self._make_eyes(centre, eye_noise, seed)
             self.lighting = Lights(self.sim)
             self.snapshots = SimSnapshots(self)
             self.view = self._open_window() if gui else None
@@ -133,11 +145,23 @@ class PyBulletBackend:
             self.close()
             raise
 
+    def _make_eyes(self, centre, noise: float, seed: int):
+        """The robot's eyes: in its head (the iCub), on a stand (a rig), or none."""
+        if self.robot.eyes == "head":
+            from .eyes import Eyes
+
+            return Eyes(self.body, centre, self._render, noise=noise, seed=seed)
+        if self.robot.eyes is None:
+            return None
+        from .rig import RigEyes
+
+        return RigEyes(self.body, self.robot.eyes, centre, self._render, self.sim, noise=noise, seed=seed)
+
     def _open_window(self):
         """The ``view``: PyBullet's window framed on the robot and the paper (:mod:`.window`)."""
-        from .window import Window
+        from .window import Window, robot_points
 
-        window = Window(self.sim, self.surface)  # framed as when the window opened
+        window = Window(self.sim, self.surface, robot_points(self.surface, self.robot))  # framed as when the window opened
         self.arm.observer = window.executed_point
         return window
 
@@ -159,6 +183,9 @@ class PyBulletBackend:
                 pos = [center[0] + dx * (depth / 2 - 0.04), center[1] + dy * (width / 2 - 0.04), leg_h / 2]
                 self.sim.add_box([0.02, 0.02, leg_h / 2], pos, [0.35, 0.25, 0.15, 1])
         self.sim.add_box([2, 2, 0.005], [0, 0, -0.005], [0.75, 0.75, 0.78, 1])
+        base = self.robot.base_position
+        if self.robot.pedestal and base[2] > 0.02:  # an arm on a stand: a grey column under its base
+            self.sim.add_box([0.09, 0.09, base[2] / 2], [base[0], base[1], base[2] / 2], [0.42, 0.42, 0.45, 1])
 
     # -- Backend --------------------------------------------------------------------------------
     def hand_position(self) -> np.ndarray:
@@ -168,7 +195,7 @@ class PyBulletBackend:
     def reset_hand(self, point: np.ndarray) -> np.ndarray:
         """Put the pen tip at ``point`` (3,) at once (no motion, no ink, no trace).
 
-        Used to park the arm at a start position.  Returns the joint angles (10,).
+        Used to park the arm at a start position.  Returns the joint angles (n,).
         Raises :class:`UnreachableError` when the point cannot be reached.
         """
         return self.arm.reset_hand(check_point(point))
@@ -189,7 +216,7 @@ class PyBulletBackend:
         trace = self.arm.move(planned, pen_down=pen_down, label=label)
         trace.inked = self.ink.ink_trace(trace.executed) if pen_down else 0
         self.traces.append(trace)
-        if self.view is not None:
+        if self.view is not None and self.eyes is not None:
             self.view.show_eye(self.eyes.camera_image("left").rgb)
         return trace.executed
 
@@ -223,8 +250,9 @@ class SimSnapshots:
         b = self.b
         pb, c = b.sim.pb, b.sim.client
         return {"state": pb.saveState(physicsClientId=c), "ink": b.ink.canvas.image.copy(),
-                "strokes": b.ink.canvas.strokes, "surface": b.ink.surface, "held": dict(b.body.held), "gaze": b.eyes.target.copy(),
-                "style": b.sim.style, "noise": b.eyes._rng.bit_generator.state, "traces": len(b.traces)}
+                "strokes": b.ink.canvas.strokes, "surface": b.ink.surface, "held": dict(b.body.held),
+                "gaze": None if b.eyes is None else b.eyes.target.copy(), "style": b.sim.style,
+                "noise": None if b.eyes is None else b.eyes._rng.bit_generator.state, "traces": len(b.traces)}
 
     def restore(self, saved: dict) -> None:
         b = self.b
@@ -234,8 +262,9 @@ class SimSnapshots:
         b.body.held.update(saved["held"])
         b.body.hold_head()
         b.body.command(b.body.arm_angles(), np.zeros(len(b.body.arm_joints)))
-        b.eyes.target = saved["gaze"].copy()
-        b.eyes._rng.bit_generator.state = saved["noise"]
+        if b.eyes is not None:
+            b.eyes.target = saved["gaze"].copy()
+            b.eyes._rng.bit_generator.state = saved["noise"]
         b.sim.style = saved["style"]
         if saved["surface"] is not b.ink.surface:
             b.ink.move_to(saved["surface"])

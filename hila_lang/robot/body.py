@@ -1,4 +1,4 @@
-"""The iCub loaded into a :class:`~hila_lang.sim.scene.SimScene`: joints, links, chains, holding.
+"""A robot loaded into a :class:`~hila_lang.sim.scene.SimScene` from its spec: joints, links, chains, holding.
 
 :class:`Body` knows the robot's own joints and kinematics -- what the robot may know about
 itself -- and talks to PyBullet for them: joint angles, link poses, position-control commands.
@@ -9,59 +9,66 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import HilaRuntimeError
-from ..core.rotation import about_z, from_quat, pose, to_quat
+from ..core.rotation import from_quat, pose, to_quat
 from ..sim.client import quiet_c_output
-from . import ik, model
+from . import ik
 
 
 class Body:
-    """The iCub fixed at its waist facing +x (:mod:`.model`), in ``sim``.
+    """The robot of ``spec`` (:class:`~.spec.RobotSpec`, default the iCub) fixed at its base in ``sim``.
 
     Attributes
     ----------
+    spec : RobotSpec
     id : int
         PyBullet body id.
     world_T_root : ndarray (4, 4)
+        Where the base link stands.
     arm_chain : ik.KinematicChain
-        Torso + right arm to the pen tip (order ``model.ARM_CHAIN``).
+        The arm to the pen tip (the iCub: torso + right arm), in the order of ``spec.chain()``.
     held : dict[str, float]
-        Neck and eye joints position-controlled at these angles (legs and left arm are frozen
-        in the URDF).
+        Other revolute joints position-controlled at these angles (the iCub's neck and eyes;
+        its legs and left arm, and any arm's fingers, are fixed in the prepared URDF).
     """
 
-    def __init__(self, sim) -> None:
-        self.sim = sim
+    def __init__(self, sim, spec=None) -> None:
+        if spec is None:
+            from .model import spec as icub
+
+            spec = icub()
+        self.sim, self.spec = sim, spec
         pb, c = sim.pb, sim.client
-        path = model.urdf_path()
+        path = spec.urdf_path()
         self.urdf = path.read_text()
-        self.world_T_root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
+        self.world_T_root = spec.world_T_base()
         with quiet_c_output():
-            self.id = pb.loadURDF(str(path), model.ROOT_POSITION, to_quat(self.world_T_root[:3, :3]).tolist(),
+            self.id = pb.loadURDF(str(path), list(spec.base_position), to_quat(self.world_T_root[:3, :3]).tolist(),
                                   useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=c)
-        self.arm_chain = self.chain_to(model.PEN_TIP_LINK)
-        if self.arm_chain.names != model.ARM_CHAIN:
-            raise HilaRuntimeError(f"unexpected arm chain in the iCub model: {self.arm_chain.names}")
+        self.arm_chain = self.chain_to(spec.tip_link())
+        if self.arm_chain.names != spec.chain().names:
+            raise HilaRuntimeError(f"unexpected arm chain in the {spec.name} model: {self.arm_chain.names}")
         self.joint: dict[str, int] = {}
         self.link: dict[str, int] = {}
         for i in range(pb.getNumJoints(self.id, physicsClientId=c)):
             info = pb.getJointInfo(self.id, i, physicsClientId=c)
             self.joint[info[1].decode()] = i
             self.link[info[12].decode()] = i
-        self.arm_joints = [self.joint[n] for n in model.ARM_CHAIN]
-        self.forces = [model.FORCE_LIMITS[n] for n in model.ARM_CHAIN]
+        names = self.arm_chain.names
+        self.arm_joints = [self.joint[n] for n in names]
+        self.forces = spec.force_limits()
         self.held: dict[str, float] = {}
         for name, index in self.joint.items():
-            if name not in model.ARM_CHAIN and pb.getJointInfo(self.id, index, physicsClientId=c)[2] == pb.JOINT_REVOLUTE:
+            if name not in names and pb.getJointInfo(self.id, index, physicsClientId=c)[2] == pb.JOINT_REVOLUTE:
                 self.held[name] = 0.0
         for name, value in self.held.items():
             pb.resetJointState(self.id, self.joint[name], value, physicsClientId=c)
 
     def chain_to(self, link: str) -> ik.KinematicChain:
         """The kinematic chain from the world to ``link``."""
-        return ik.KinematicChain.from_urdf(self.urdf, link, self.world_T_root)
+        return ik.KinematicChain.from_urdf(self.urdf, link, self.world_T_root, self.spec.base_link)
 
     def arm_angles(self) -> np.ndarray:
-        """Torso + right-arm joint angles (10,), radians, order ``model.ARM_CHAIN``."""
+        """The arm's joint angles (n,), radians, chain order."""
         states = self.sim.pb.getJointStates(self.id, self.arm_joints, physicsClientId=self.sim.client)
         return np.array([s[0] for s in states])
 
@@ -83,7 +90,7 @@ class Body:
         return np.array(state[4])
 
     def set_arm(self, q: np.ndarray) -> None:
-        """Teleport torso + arm to ``q`` and make the controllers hold it (and every held joint)."""
+        """Teleport the arm to ``q`` and make the controllers hold it (and every held joint)."""
         pb, c = self.sim.pb, self.sim.client
         for index, value in zip(self.arm_joints, q):
             pb.resetJointState(self.id, index, float(value), 0.0, physicsClientId=c)
@@ -100,10 +107,10 @@ class Body:
         held = [self.joint[n] for n in self.held]
         self.sim.pb.setJointMotorControlArray(
             self.id, held, self.sim.pb.POSITION_CONTROL, targetPositions=list(self.held.values()),
-            forces=[model.HOLD_FORCE] * len(held), physicsClientId=self.sim.client)
+            forces=[self.spec.hold_force] * len(held), physicsClientId=self.sim.client)
 
     def command(self, q: np.ndarray, qd: np.ndarray, position_gain: float = 0.3, velocity_gain: float = 1.0) -> None:
-        """Position targets ``q`` with velocity feed-forward ``qd`` for torso + arm."""
+        """Position targets ``q`` with velocity feed-forward ``qd`` for the arm."""
         pb = self.sim.pb
         pb.setJointMotorControlArray(
             self.id, self.arm_joints, pb.POSITION_CONTROL, targetPositions=q.tolist(), targetVelocities=qd.tolist(),

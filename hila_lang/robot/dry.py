@@ -37,11 +37,13 @@ class DryBackend:
     view = None
     lighting = None
 
-    def __init__(self, start=(0.0, 0.0, 0.0), surface_z: float | None = None) -> None:
+    def __init__(self, start=(0.0, 0.0, 0.0), surface_z: float | None = None, reach=None) -> None:
         from ..plugins.snapshots import AttributeSnapshots
 
         #: the paper's height, metres (None: no paper, no table check)
         self.surface_z = surface_z
+        #: the robot's reach bound ((x, y, z), radius) (:meth:`~.spec.RobotSpec.reach`; None: the iCub's)
+        self.reach = reach
         self._hand = np.asarray(start, dtype=float).reshape(3).copy()
         #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.core.bounded.BoundedLog`)
         self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
@@ -63,7 +65,10 @@ class DryBackend:
             raise InputError(f"expected a path of shape (T, 3), got {arr.shape}")
         from .reach import check_planned
 
-        check_planned(arr, self.surface_z, label)
+        if self.reach is None:
+            check_planned(arr, self.surface_z, label)
+        else:
+            check_planned(arr, self.surface_z, label, self.reach)
         self.moves.append((label, arr.copy(), bool(pen_down)))
         self._hand = arr[-1].copy()
         return arr.copy()
@@ -73,11 +78,15 @@ class DryBackend:
 
 
 def make_backend(scene, options, settings) -> DryBackend:
-    """Plug-in factory (see :mod:`hila_lang.plugins.registry`)."""
+    """Plug-in factory (see :mod:`hila_lang.plugins.registry`); the robot's reach and sheet come
+    from ``options.robot`` (a :class:`~.spec.RobotSpec`; None: the iCub's)."""
     from .workspace import default_surface, ready_point
 
+    robot = getattr(options, "robot", None)
     home = None if scene is None else scene.home
     if home is None:
         home = settings.get("hand")
-    surface = scene.surface if scene is not None and scene.surface is not None else default_surface()
-    return DryBackend(home if home is not None else ready_point(surface), surface_z=surface.z)
+    surface = scene.surface if scene is not None and scene.surface is not None else \
+        (robot.default_surface() if robot is not None else default_surface())
+    return DryBackend(home if home is not None else ready_point(surface), surface_z=surface.z,
+                      reach=None if robot is None else robot.reach())

@@ -140,6 +140,10 @@ class Eyes:
         """``world_T_camera`` (4, 4) of an eye camera now, from its joint angles (:func:`eye_pose`)."""
         return eye_pose(self.chain(eye), self.joints(eye))
 
+    def true_pose(self, eye: str = "left") -> np.ndarray:
+        """``world_T_camera`` (4, 4) of ``eye`` as the simulator has it: truth, for a referee only."""
+        return self.body.link_pose(model.EYE_LINKS[_check_eye(eye)])
+
     def calibration(self, eye: str = "left"):
         """The robot's own calibration of ``eye`` (:func:`.lens.eye_calibration`)."""
         return eye_calibration(_check_eye(eye))

@@ -1,6 +1,7 @@
-"""Forward kinematics and damped-least-squares IK for the torso + right arm (pure numpy).
+"""Forward kinematics and damped-least-squares IK for a robot's arm (pure numpy).
 
-The chain is read from the generated URDF (:mod:`hila_lang.robot.model`): the joints from the
+The chain is read from the robot's URDF (:mod:`hila_lang.robot.spec`; the iCub's is generated,
+:mod:`hila_lang.robot.model`): the joints from the
 root link to the pen tip, with their fixed origins, axes and limits.  Forward kinematics and the
 geometric Jacobian are computed here from those joint frames and axes; PyBullet's
 ``calculateJacobian`` disagreed with finite differences on this model and its IK treats limits
@@ -8,12 +9,11 @@ as soft (``DESIGN.md`` section 4), so neither is used.
 
 Task: put the pen tip at a point and keep the pen vertical (its axis, +z of the tip frame,
 pointing down -z world); rotation about the pen axis is free.  That is 5 constraints for 10
-joints.  Each iteration takes a damped least-squares step ``dq = J^T (J J^T + l^2 I)^-1 e``
-(damping ``l`` = 0.01, step at most 0.3 rad), clamps to the joint limits and drops joints that
+joints (the iCub's torso + right arm; the Panda's and KUKA's 7).  Each iteration takes a
+damped least-squares step ``dq = J^T (J J^T + l^2 I)^-1 e`` (damping ``l`` = 0.01, step at most 0.3 rad), clamps to the joint limits and drops joints that
 sit at a limit and are pushed further out.
 
-Frames and units: world frame, metres, radians.  ``q`` is ordered as
-:data:`hila_lang.robot.model.ARM_CHAIN`.
+Frames and units: world frame, metres, radians.  ``q`` is ordered as the chain (root to tip).
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ class KinematicChain:
         """Read the chain ``base_link`` -> ``tip_link`` from URDF text.
 
         ``world_T_root`` (4, 4) places the base link in the world.  Only revolute and fixed
-        joints may lie on the path.
+        joints may lie on the path; a continuous joint gets the limits +-2 pi.
         """
         robot = ET.fromstring(urdf_text)
         by_child = {j.find("child").get("link"): j for j in robot.findall("joint")}
@@ -103,15 +103,20 @@ class KinematicChain:
             kind = joint.get("type")
             if kind == "fixed":
                 continue
-            if kind != "revolute":
-                raise ValueError(f"joint {joint.get('name')!r} is {kind}; only revolute and fixed are supported")
-            axis = np.array([float(v) for v in joint.find("axis").get("xyz").split()])
-            limit = joint.find("limit")
+            if kind not in ("revolute", "continuous"):
+                raise ValueError(f"joint {joint.get('name')!r} is {kind}; only revolute, continuous and fixed are supported")
+            axis_element = joint.find("axis")  # URDF's default axis is (1, 0, 0)
+            axis = np.array([float(v) for v in (axis_element.get("xyz") if axis_element is not None else "1 0 0").split()])
             names.append(joint.get("name"))
             origins.append(pending)
             axes.append(axis / np.linalg.norm(axis))
-            lower.append(float(limit.get("lower")))
-            upper.append(float(limit.get("upper")))
+            if kind == "continuous":  # no limits: a whole turn each way (hila_lang.robot.urdf)
+                lower.append(-2 * math.pi)
+                upper.append(2 * math.pi)
+            else:
+                limit = joint.find("limit")
+                lower.append(float(limit.get("lower")))
+                upper.append(float(limit.get("upper")))
             pending = np.eye(4)
         return cls(tuple(names), np.array(origins), np.array(axes), pending, np.array(lower), np.array(upper))
 

@@ -134,10 +134,16 @@ def eyes_in_head() -> np.ndarray:
     return np.linalg.inv(left.forward(q)[0]) @ right.forward(q)[0]
 
 
-@lru_cache(maxsize=None)
 def eyes_calibration():
-    """The robot's calibration of the eye pair (:class:`~hila_lang.perception.calibration.StereoCalibration`:
-    ``right_T_left``), from a card both eyes see (:func:`~hila_lang.perception.calibration.stereo_views`,
+    """The iCub's calibration of its eye pair: :func:`pair_calibration` of its head's eyes."""
+    return pair_calibration(tuple(map(tuple, eyes_in_head().tolist())), "the iCub's eye pair")
+
+
+@lru_cache(maxsize=None)
+def pair_calibration(left_T_right: tuple, who: str = "a stereo rig"):
+    """The robot's calibration of an eye pair whose right eye is at ``left_T_right`` (4x4 nested
+    tuples: truth, to render the sessions; the lenses are the eyes' lens model), a
+    :class:`~hila_lang.perception.calibration.StereoCalibration` (``right_T_left``), from a card both eyes see (:func:`~hila_lang.perception.calibration.stereo_views`,
     :func:`~hila_lang.perception.calibration.calibrate_stereo` with each eye's own calibration);
     cached like :func:`eye_calibration`.  Triangulating with it keeps the two eyes' rays
     consistent with their calibrated intrinsics (a principal point 0.1 px off moves a depth at
@@ -147,10 +153,10 @@ def eyes_calibration():
     from ..perception.rig import StereoRig
     from ..sim.camera import Camera
 
-    head = eyes_in_head()
+    head = np.array(left_T_right, dtype=float)
 
     def make(folder):
-        _progress(f"calibrating the iCub's eye pair from {STEREO_PAIRS} chessboard pairs (once; kept in {folder})")
+        _progress(f"calibrating {who} from {STEREO_PAIRS} chessboard pairs (once; kept in {folder})")
         rig = StereoRig(Camera(ICUB_EYE_K, np.eye(4), EYE_WIDTH, EYE_HEIGHT),
                         Camera(ICUB_EYE_K, head, EYE_WIDTH, EYE_HEIGHT))  # the left eye at the origin
         lens = true_lens(CALIBRATION_SUPERSAMPLE)
@@ -165,7 +171,7 @@ def eyes_calibration():
 
     def save(path, stereo):
         dump_yaml(path, {"right_T_left": stereo.right_T_left.tolist(), "rms_px": stereo.rms, "n_pairs": stereo.n_pairs},
-                  header="the iCub's eye pair calibrated from simulated chessboard pairs (hila_lang.robot.lens)")
+                  header=f"{who} calibrated from simulated chessboard pairs (hila_lang.robot.lens)")
 
     key = _key(pairs=STEREO_PAIRS, seed=STEREO_SEED, head=np.round(head, 6).tolist(),
                left=CALIBRATION_SEEDS["left"], right=CALIBRATION_SEEDS["right"])

@@ -94,6 +94,17 @@ FORCE_LIMITS = {
 }
 #: force limit for every other (held) joint, N m
 HOLD_FORCE = 40.0
+#: torso comfort range for the IK, radians: (pitch, roll, yaw) lower and upper
+TORSO_COMFORT = ((-0.10, -0.35, -0.60), (0.60, 0.35, 0.60))
+#: relative IK weight of torso joints (they move less than the arm)
+TORSO_WEIGHT = 0.3
+#: seed posture of torso + right arm for the first IK (hand in front, palm down), radians
+SEED_POSTURE = (0.10, 0.20, 0.0, -0.55, 0.60, 0.55, 1.30, 0.50, -0.10, 0.0)
+#: rest posture of torso + right arm (hand by the side, out of the cameras' way), radians
+REST_POSTURE = (0.0, 0.0, 0.0, -0.30, 0.45, 0.0, 0.80, 0.0, 0.0, 0.0)
+#: the robot's prior for the table before it has seen it: this far below its waist, metres
+#: (only a start for reading the first images; the plane is then triangulated)
+TABLE_PRIOR_BELOW_ROOT = 0.15
 
 _KEEP_LEAVES = {"r_hand_dh_frame"}
 _TINY_INERTIAL = (
@@ -238,6 +249,26 @@ def _add_eyes(robot: ET.Element) -> None:
         robot.append(
             _fixed(f"{name}_fixed_joint", "eyes_tilt_link", name, (sign * EYE_BASELINE / 2, 0, 0), (0, 0, math.pi))
         )
+
+
+def spec():
+    """The iCub's :class:`~hila_lang.robot.spec.RobotSpec`: this module's facts as a robot
+    description (its URDF generated here, its eyes in its head, its reach declared in
+    :data:`hila_lang.robot.REACH` and recomputed from the chain by ``tests/test_reach.py``)."""
+    from . import REACH
+    from .spec import RobotSpec
+
+    return RobotSpec(
+        name="icub", doc="the iCub (icub-models iCubGazeboV2_5): torso + right arm, eyes in its head",
+        urdf=Path(f"icub-models:{ROBOT_NAME}"), tip="r_hand_dh_frame", base_link="root_link",
+        base_position=ROOT_POSITION, base_yaw=ROOT_YAW, pen_length=PEN_LENGTH,
+        seed=SEED_POSTURE, rest=REST_POSTURE,
+        weights=dict.fromkeys(TORSO_JOINTS, TORSO_WEIGHT),
+        comfort={n: (lo, hi) for n, lo, hi in zip(TORSO_JOINTS, *TORSO_COMFORT)},
+        forces=dict(FORCE_LIMITS), hold_force=HOLD_FORCE,
+        table_prior=ROOT_POSITION[2] - TABLE_PRIOR_BELOW_ROOT, eyes="head",
+        outline_radius=0.045, pedestal=False, source="hila_lang/robot/model.py",
+        generator=urdf_path, pen_tip_link=PEN_TIP_LINK, declared_reach=REACH)
 
 
 @lru_cache(maxsize=None)

@@ -1,6 +1,10 @@
 """The arm's reach without a simulator: a kinematic bound, the checks every back end makes of a
 planned path, and an unreachable move told in the program's terms.
 
+Every robot's bound is computed from its chain the same way
+(:meth:`hila_lang.robot.spec.RobotSpec.reach`, :func:`hila_lang.robot.spec.chain_reach`); the
+iCub's, below, is also declared as numbers so that declaring the back ends imports nothing.
+
 **The bound.**  Whatever its joint angles, the pen tip of the iCub's torso + right-arm chain (the
 chain :mod:`hila_lang.robot.arm` solves, pen included) is never farther from the torso pitch
 joint's origin :data:`REACH_CENTRE` than the sum of the chain's link lengths (triangle
@@ -52,15 +56,17 @@ def out_of_reach(point, centre=REACH_CENTRE, radius: float = REACH_RADIUS) -> st
             f"the pen can be ({radius:.3f} m)")
 
 
-def check_planned(path, surface_z: float | None, label: str = "") -> None:
-    """Refuse a planned path (T, 3) that leaves the reach bound or goes below the paper
-    (``surface_z``; None: no paper) over the table: :class:`UnreachableError` (see
-    :func:`unreachable`)."""
+def check_planned(path, surface_z: float | None, label: str = "", reach=REACH) -> None:
+    """Refuse a planned path (T, 3) that leaves the reach bound ``reach`` (``((x, y, z), radius)``,
+    the robot's: :meth:`~hila_lang.robot.spec.RobotSpec.reach`; default the iCub's) or goes
+    below the paper (``surface_z``; None: no paper) over the table: :class:`UnreachableError`
+    (see :func:`unreachable`)."""
     path = np.asarray(path, dtype=float)
-    off = np.linalg.norm(path - np.asarray(REACH_CENTRE), axis=1) - REACH_RADIUS
+    centre, radius = reach
+    off = np.linalg.norm(path - np.asarray(centre), axis=1) - radius
     k = int(np.argmax(off))
     if off[k] > 0:
-        raise unreachable(path[k], out_of_reach(path[k]), float(off[k]), label)
+        raise unreachable(path[k], out_of_reach(path[k], centre, radius), float(off[k]), label)
     if surface_z is None:
         return
     on_table = (path[:, 0] >= TABLE_FRONT_X) & (path[:, 0] <= TABLE_FRONT_X + TABLE_SIZE[0])

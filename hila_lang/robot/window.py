@@ -55,11 +55,19 @@ EXECUTED_RGB = (0.9, 0.1, 0.1)
 HEAD = (0.1264, 0.1004, 0.8947)
 
 
-def robot_points(surface) -> np.ndarray:
-    """What the window frames of the robot (3, 3): its waist, above its head, the pen's ready point."""
+#: an arm without a head is framed from its base to this far above it, metres
+ARM_HEIGHT = 0.8
+
+
+def robot_points(surface, spec=None) -> np.ndarray:
+    """What the window frames of the robot (3, 3): the iCub's waist, above its head and the pen's
+    ready point; another arm's (``spec``, :mod:`.spec`) base, above it and the ready point."""
     from .workspace import ready_point
 
-    return np.array([[0.0, 0.0, 0.45], np.add(HEAD, [0.0, 0.0, 0.08]), ready_point(surface)])
+    if spec is None or spec.eyes == "head":
+        return np.array([[0.0, 0.0, 0.45], np.add(HEAD, [0.0, 0.0, 0.08]), ready_point(surface)])
+    base = np.asarray(spec.base_position, dtype=float)
+    return np.array([base, base + [0.0, 0.0, ARM_HEIGHT], ready_point(surface)])
 
 
 def frame(sim, surface, robot: np.ndarray | None = None, *, drawing: bool = True) -> np.ndarray:

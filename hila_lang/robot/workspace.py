@@ -1,8 +1,10 @@
-"""The robot's workplace: the table in front of the iCub (measured facts, DESIGN.md section 4).
+"""hila's table, where every robot works (measured for the iCub first, DESIGN.md section 4).
 
-World frame: metres, z up, origin on the floor below the robot.  The iCub's root (waist) is
-fixed at (0, 0, 0.62) facing +x; its right side is -y.  The table top is at z = 0.57 with its
-front edge at x = 0.12.  A sheet of paper on it has its surface :data:`PAPER_THICKNESS` higher.
+World frame: metres, z up, origin on the floor.  The table top is at z = 0.57 with its front
+edge at x = 0.12; a robot stands on its -x side facing +x, its right side towards -y (the
+iCub's root (waist) at (0, 0, 0.62); the Panda's and KUKA's bases on a pedestal behind the
+front edge: their specs, :mod:`.spec`).  A sheet of paper on it has its surface
+:data:`PAPER_THICKNESS` higher.  The worlds lay their sheets out on this table whatever the robot.
 """
 
 from __future__ import annotations
@@ -29,9 +31,10 @@ def ready_point(surface):
     return surface.to_world(0.0, 0.0) + np.array([0.0, 0.0, READY_HEIGHT])
 
 
-def default_surface():
-    """A blank A4 sheet on the table where the robot reaches it well: centred at (0.31, -0.09),
-    turned 15 degrees (where the tic-tac-toe game's sheet lies; a world that says nothing gets it)."""
+def default_surface(center=(0.31, -0.09), rotation: float = math.radians(15.0)):
+    """A blank A4 sheet on the table where the robot reaches it well: by default centred at
+    (0.31, -0.09), turned 15 degrees (where the tic-tac-toe game's sheet lies; a world that says
+    nothing gets it; a robot's spec may say otherwise: ``sheet``)."""
     from ..sim.surface import Surface
 
-    return Surface(center=(0.31, -0.09), rotation=math.radians(15.0), z=TABLE_TOP_Z + PAPER_THICKNESS)
+    return Surface(center=tuple(center), rotation=rotation, z=TABLE_TOP_Z + PAPER_THICKNESS)

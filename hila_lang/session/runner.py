@@ -4,7 +4,8 @@
 ``--set`` pairs and back end (so every setting is split and parsed, and the program's questions,
 events and points checked against what the world declares, before anything is built:
 :func:`hila_lang.plugins.options.split_settings`, :mod:`hila_lang.language.worldcheck`), looks
-up the world it names (``world NAME``, default ``scripted``) and the back end (``--backend``,
+up the world it names (``world NAME``, default ``scripted``), the robot (``--robot``,
+:func:`hila_lang.robot.spec.resolve`; default the iCub) and the back end (``--backend``,
 else the world's ``default_backend``) in the registry (:mod:`hila_lang.plugins.registry`),
 builds the world, then the back end on the world's scene, attaches them, and returns an
 :class:`~hila_lang.engine.interpreter.Interpreter`.  ``--out DIR`` works in every world: one
@@ -30,6 +31,10 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
     """Program + world + back end -> a ready :class:`Interpreter` (at its start state);
     ``step_limit`` bounds each run (:data:`~hila_lang.language.limits.DEFAULT_STEP_LIMIT`)."""
     checked, fsm = Environment.default().load(path, settings=options.settings, backend=backend)
+    if options.robot is None:
+        from ..robot.spec import resolve
+
+        options.robot = resolve(options.settings.get("robot"), options.settings)  # --robot, --set robot.KEY
     world_info = registry.world(checked.world)
     backend_info = registry.backend(backend or world_info.default_backend)
     osila, world_settings, backend_settings = checked.run_settings

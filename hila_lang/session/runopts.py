@@ -10,29 +10,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ..core.argtypes import output_path, seed, whole
 from ..language.limits import DEFAULT_STEP_LIMIT
 
-
-def _whole(note: str = ""):
-    """argparse type: a whole number >= 0 (``note`` says what 0 means, if anything)."""
-
-    def parse(text: str) -> int:
-        import argparse
-
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < 0:
-            got = repr(text) if value is None else value
-            raise argparse.ArgumentTypeError(f"expected a whole number >= 0{note}, got {got}")
-        return value
-
-    return parse
+_steps = whole(note=" (0: no limit)")  # --max-steps
 
 
-_seed = _whole()  # --seed: numpy's generators refuse negative seeds
-_steps = _whole(" (0: no limit)")  # --max-steps
+def _out(text: str) -> Path:
+    return Path(output_path(text))
 
 
 def _aliases() -> dict[str, tuple[str, list[str]]]:
@@ -61,6 +46,10 @@ def add_setting_arguments(parser) -> None:
     for flag, (name, owners) in sorted(_aliases().items()):
         parser.add_argument(flag, dest=f"alias:{name}", default=None, metavar=name.upper(),
                             help=f"same as --set {name}=VALUE ({'; '.join(owners)})")
+    parser.add_argument("--robot", dest="alias:robot", default=None, metavar="NAME|PATH",
+                        help="the robot: a name (" + ", ".join(registry.names("robot")) + "; default icub), "
+                             "a spec file (.yaml) or a URDF (.urdf, with --set robot.tip=LINK); same as "
+                             "--set robot=NAME (docs/robots.md)")
     parser.add_argument("--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
                         help="a setting of the world, the back end or OSILA (osila.threshold=0.002); "
                              "repeatable; the settings are listed below")
@@ -84,6 +73,9 @@ def settings_help() -> str:
                 lines.append("    (no settings)")
     from ..plugins.options import OSILA_SETTABLE  # not hila_lang.osila: 'hila --help' imports no numpy
 
+    lines.extend(textwrap.wrap("the robot (--robot NAME|PATH): robot.tip=LINK (the flange), robot.packages=DIR[:DIR] "
+                               "(package:// meshes), robot.base=X,Y,Z, robot.pen=METRES (docs/robots.md)",
+                               96, initial_indent="  ", subsequent_indent="    "))
     settable = ", ".join(f"osila.{name}" for name in OSILA_SETTABLE)
     lines.extend(textwrap.wrap(f"OSILA: {settable} (see 'hila imitate --help')",
                                96, initial_indent="  ", subsequent_indent="    "))
@@ -103,8 +95,8 @@ def settings_of(args) -> dict[str, str]:
 
 def add_run_arguments(parser) -> None:
     parser.add_argument("program", help="the .hila program")
-    parser.add_argument("--seed", type=_seed, default=0, help="seed for every random choice (default 0)")
-    parser.add_argument("--out", type=Path, default=None, help="output folder for files the world writes")
+    parser.add_argument("--seed", type=seed, default=0, help="seed for every random choice (default 0)")
+    parser.add_argument("--out", type=_out, default=None, help="output folder for files the world writes")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window")
     parser.add_argument("--max-steps", type=_steps, default=DEFAULT_STEP_LIMIT, metavar="N",
                         help=f"stop a run after N steps, a loop that never ends (default {DEFAULT_STEP_LIMIT}; 0: no limit)")

@@ -63,7 +63,8 @@ def run_report(interp, seed: int | None = None) -> dict:
             else round(float(np.linalg.norm(executed[-1] - planned[-1])) * 1000, 3),
         })
     return {
-        "program": str(interp.fsm.file), "world": interp.fsm.world, "backend": interp.backend.name, "seed": seed,
+        "program": str(interp.fsm.file), "world": interp.fsm.world, "backend": interp.backend.name,
+        "robot": getattr(getattr(interp.backend, "robot", None), "name", None), "seed": seed,
         "steps": len(trace), "run_states": trace.kinds.get("run", 0) if hasattr(trace, "kinds") else len(runs),
         "finished": bool(interp.done),
         "stopped": None if last is None or not last.error else {"step": last.step, "state": last.state,

@@ -284,7 +284,8 @@ def make_app(folder: Path, token: str, port: int):
                             opponent = doc.get("opponent") if "opponent" in known else None
                             session = await run_in_threadpool(lambda: RunSession(
                                 path, emit, backend=doc.get("backend") or None,
-                                opponent=opponent or None, seed=int(doc.get("seed", 0))))
+                                opponent=opponent or None, seed=int(doc.get("seed", 0)),
+                                robot=str(doc.get("robot") or "") or None))
                         else:
                             session = await run_in_threadpool(ReplaySession, path, emit)
                         emit(dict(type="fsm", graph=fsm_graph(session.interp.fsm),

@@ -99,7 +99,7 @@ class RunSession(_Session):
     """A program run on a back end, stepped by the page's buttons."""
 
     def __init__(self, program: Path, emit, *, backend: str | None = None, opponent: str | None = None,
-                 seed: int = 0) -> None:
+                 seed: int = 0, robot: str | None = None) -> None:
         from ..session.repl import Repl
         from ..session.runner import prepare
         from ..plugins.options import RunOptions
@@ -109,6 +109,8 @@ class RunSession(_Session):
         self.stdout = Output(emit)
         self._out = tempfile.TemporaryDirectory(prefix="hila-studio-")
         settings = {"opponent": opponent} if opponent else {}
+        if robot:  # --robot NAME (hila_lang.robot.spec): the 3-D view renders the arm that runs
+            settings["robot"] = robot
         options = RunOptions(seed=seed, out=Path(self._out.name), settings=settings, stdin=self.stdin,
                              stdout=self.stdout)
         self.interp = prepare(program, options, backend)
@@ -157,6 +159,7 @@ class RunSession(_Session):
                     steps=it.trace.total, waiting=self.stdin.waiting,
                     board=None if board is None else [str(c) for c in board],
                     path=None if path is None else path.tolist(), eye=self.last_eye, robot=self.robot,
+                    arm=getattr(getattr(it.backend, "robot", None), "name", None),  # the robot that runs
                     breakpoints=list(self.repl.breakpoints) if self.repl else [])
 
     def move(self, cell: int) -> None:

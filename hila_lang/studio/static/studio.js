@@ -455,7 +455,7 @@ $("program-save").addEventListener("click", async () => {
   await refreshFiles(); $("program").value = p;
 });
 $("btn-start").addEventListener("click", () => { R.breaks.clear();
-  send({ cmd: "start", path: $("program").value, backend: $("backend").value, opponent: $("opponent").value }); });
+  send({ cmd: "start", path: $("program").value, backend: $("backend").value, robot: $("robot-choice").value, opponent: $("opponent").value }); });
 for (const c of ["step", "run", "back", "reload", "stop"]) $("btn-" + c).addEventListener("click", () => send({ cmd: c }));
 $("recording").addEventListener("change", () => { if ($("recording").value) send({ cmd: "open", path: $("recording").value }); });
 $("azimuth").addEventListener("change", () => send({ cmd: "view", azimuth: +$("azimuth").value }));

@@ -49,6 +49,16 @@ def demonstration_features(backend):
     return scene_features(left, right, hidden=S.own_body(backend)), sheet, (left, right), truth
 
 
+def recorded_demonstration():
+    """:func:`demonstration_features` as the demonstration was recorded: through the iCub's eyes
+    (who watched it when ``primitives/picture.yaml`` was learned), in a simulation of its own.
+    A robot with other eyes matches its task images against these."""
+    from ...robot.backend import PyBulletBackend
+
+    with PyBulletBackend(S.mat()) as watcher:
+        return demonstration_features(watcher)
+
+
 def _min_jerk(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     s = np.linspace(0, 1, n)
     s = 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5

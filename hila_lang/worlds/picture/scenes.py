@@ -117,10 +117,8 @@ def show(backend, sheet: Sheet, texture: np.ndarray, boxes=()) -> list[int]:
 
 def look(backend):
     """The eyes' images (left, right) and, for the referee only, the true left camera pose."""
-    from ...robot import model
-
     images = [backend.eyes.camera_image(e) for e in ("left", "right")]
-    return images, backend.body.link_pose(model.EYE_LINKS["left"])
+    return images, backend.eyes.true_pose("left")
 
 
 def own_body(backend):
@@ -136,12 +134,12 @@ def own_body(backend):
 def referee_pairs(pairs, demo: Sheet, task: Sheet, demo_camera: np.ndarray, task_camera: np.ndarray):
     """The truth about scene pairs: where each pair's demonstration feature truly is in the
     demonstration (N, 3) and on the task sheet (N, 3), and which pairs are true (N,)."""
-    from ...robot.lens import ICUB_EYE_K
+    from ...perception.rig import EYE_K  # the simulated eyes' true intrinsics (the head's and a rig's)
     from ...sim.camera import intersect_plane_z, project
 
-    true_demo = intersect_plane_z(pairs.template_uv, ICUB_EYE_K, demo_camera, demo.z)
+    true_demo = intersect_plane_z(pairs.template_uv, EYE_K, demo_camera, demo.z)
     true_task = task.to_world(sheet_uv(demo, true_demo))
-    true = np.linalg.norm(project(true_task, ICUB_EYE_K, task_camera) - pairs.task_uv, axis=1) < TRUE_PIXELS
+    true = np.linalg.norm(project(true_task, EYE_K, task_camera) - pairs.task_uv, axis=1) < TRUE_PIXELS
     return true_demo, true_task, true
 
 

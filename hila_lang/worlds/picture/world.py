@@ -2,7 +2,10 @@
 
 When it starts (:meth:`PictureWorld.attach`, PyBullet back end) the robot sees the
 demonstration scene again -- the map flat at the demonstration pose, as when the route was
-traced (:mod:`.demonstration`) -- and remembers its triangulated features; the world refuses a
+traced (:mod:`.demonstration`) -- and remembers its triangulated features (a robot with other
+eyes than the iCub's, which recorded the demonstration -- a stereo rig on a stand -- takes the
+demonstration as it was recorded, :func:`.demonstration.recorded_demonstration`, and sees only
+the task with its own eyes); the world refuses a
 template whose ICPs are not those features (named ``f000``, ...).  Then the task scene is laid
 out from ``--seed``: the sheet moved, turned, scaled and (``--set bent=yes``, the default) bent,
 three distractor boxes beside it, the light changed (:mod:`.scenes`).
@@ -36,7 +39,8 @@ from ...core.fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
 from . import scenes as S
-from .demonstration import DRAW, LIFT, REACH, TEXTURE_SEED, ROUTE_SEED, demonstration_features, feature_name
+from .demonstration import (DRAW, LIFT, REACH, TEXTURE_SEED, ROUTE_SEED, demonstration_features, feature_name,
+                            recorded_demonstration)
 
 FILES = ("report.json", "route.png", "eyes.png")
 #: the template's ICPs must be the demonstration's features within this distance, metres
@@ -69,7 +73,11 @@ class PictureWorld:
             return  # nothing to see: 'ask matched' says so
         from .texture import map_texture
 
-        self.seen, self.demo, self.demo_images, self.demo_camera = demonstration_features(backend)
+        robot = getattr(backend, "robot", None)
+        if robot is None or robot.eyes == "head":  # the eyes that watched the demonstration: see it again
+            self.seen, self.demo, self.demo_images, self.demo_camera = demonstration_features(backend)
+        else:  # another robot's eyes: the demonstration as it was recorded (the template's ICPs)
+            self.seen, self.demo, self.demo_images, self.demo_camera = recorded_demonstration()
         self.names = [feature_name(i) for i in range(len(self.seen))]
         self.texture = map_texture(S.SIZE, TEXTURE_SEED)
         self.task = S.task_sheet(self.seed, self.mat.z, self.bent)

@@ -71,6 +71,9 @@ class Player:
     layout : Grid or None
         Where the board was laid out, for a robot without eyes (default :meth:`Grid.game`); a
         robot with eyes is given none: it knows the board only from its sightings.
+    table_prior : float or None
+        The table's height the robot assumes before its eyes measure it (its spec's
+        ``table_prior``, :mod:`hila_lang.robot.spec`); None: a little below where its eyes look.
 
     Attributes
     ----------
@@ -85,15 +88,16 @@ class Player:
     """
 
     def __init__(self, first: str, park: np.ndarray, *, eyes=None, hand: Hand | None = None,
-                 layout: Grid | None = None) -> None:
-        from ...robot.model import ROOT_POSITION
-        from .vision import TABLE_PRIOR_BELOW_ROOT, Table
+                 layout: Grid | None = None, table_prior: float | None = None) -> None:
+        from .vision import TABLE_PRIOR_BELOW_GAZE, Table
 
         self.first = first
         self.park = np.asarray(park, dtype=float).copy()
         self.eyes, self.hand = eyes, hand
         self.layout = layout if layout is not None or eyes is not None else Grid.game()
-        self.table = Table(ROOT_POSITION[2] - TABLE_PRIOR_BELOW_ROOT)
+        if table_prior is None:  # no spec says: a little below where the eyes look
+            table_prior = float(eyes.target[2]) - TABLE_PRIOR_BELOW_GAZE if eyes is not None else float("nan")
+        self.table = Table(table_prior)
         self.sightings: list[dict[str, Any]] = []
         self.own: list[int] = []
         self.choice: int | None = None

@@ -81,8 +81,9 @@ class DemonstrationScene:
         self.sim = SimScene(style=STUDIO)
         s = self.spec
         self.paper = self.marker = None
-        if table:
-            half = (0.6, 0.6, 0.02)
+        if table:  # 3 m square: a stereo rig on a stand sees table around the sheet, not the sky
+            # (the iCub's eyes see the same pixels as with the 1.2 m table it was first given)
+            half = (1.5, 1.5, 0.02)
             top = s.surface_z - 0.001
             self.sim.add_box(half, (s.grid_center[0] + 0.15, s.grid_center[1], top - half[2]), TABLE_RGBA)
         if paper:
@@ -108,19 +109,23 @@ class DemonstrationScene:
         self.close()
 
 
-def demonstration_rig(spec: Grid | None = None):
-    """The iCub's eyes while it watches: its gaze aimed at the demonstration grid's centre, each
-    eye placed by its joint angles through the robot's kinematic chain
-    (:func:`hila_lang.robot.eyes.eye_poses_looking_at`, the function that places the game's eyes)."""
+def demonstration_rig(spec: Grid | None = None, robot=None):
+    """The robot's eyes while it watches (``robot``: a :class:`~hila_lang.robot.spec.RobotSpec`,
+    default the iCub): the iCub's gaze aimed at the demonstration grid's centre, each eye placed
+    by its joint angles through its kinematic chain (:func:`hila_lang.robot.eyes.eye_poses_looking_at`,
+    the function that places the game's eyes); a stereo rig's cameras where they stand
+    (:func:`hila_lang.robot.rig.watching_poses`)."""
     from ...perception.rig import rig
-    from ...robot.eyes import eye_poses_looking_at
+    from ...robot.rig import watching_poses
+    from ...robot.spec import resolve
 
     spec = spec or Grid.demonstration()
-    return rig(eye_poses_looking_at((spec.grid_center[0], spec.grid_center[1], spec.surface_z)))
+    robot = robot if robot is not None else resolve()
+    return rig(watching_poses(robot, (spec.grid_center[0], spec.grid_center[1], spec.surface_z)))
 
 
 def record_demonstration(out_dir, seed: int = 0, *, n_calibration: int = 40, n_stereo: int = 16,
-                         overwrite: bool = False, frames: int | None = None) -> Path:
+                         overwrite: bool = False, frames: int | None = None, robot=None) -> Path:
     """Record the seeded demonstration (:func:`.demonstration.demonstrate`) to a recording folder.
 
     The hand marker's centre follows the pen tip plus :data:`MARKER_OFFSET` while the distorted
@@ -145,14 +150,14 @@ def record_demonstration(out_dir, seed: int = 0, *, n_calibration: int = 40, n_s
             scene.set_marker(demo.path[i] + MARKER_OFFSET)
             return scene.render(camera)
 
-        return write_recording(out, demonstration_rig(spec), n, render, surface_z=spec.surface_z,
+        return write_recording(out, demonstration_rig(spec, robot), n, render, surface_z=spec.surface_z,
                                marker_offset=MARKER_OFFSET, truth=truth, seed=seed,
                                n_calibration=n_calibration, n_stereo=n_stereo, overwrite=overwrite)
 
 
 def learn_from_sim(seed: int = 0, *, k: int = 3, tags=("reach", "draw", "retract"), contact=("draw",),
                    name: str = "circle", method: str = DEFAULT_METHOD, recording_dir=None, frames: int | None = None,
-                   n_calibration: int = 40, n_stereo: int = 16, return_perception: bool = False):
+                   n_calibration: int = 40, n_stereo: int = 16, return_perception: bool = False, robot=None):
     """Record the seeded demonstration in PyBullet, then learn it by perception.
 
     ``recording_dir`` keeps the recording (default: a temporary folder, deleted afterwards);
@@ -165,7 +170,7 @@ def learn_from_sim(seed: int = 0, *, k: int = 3, tags=("reach", "draw", "retract
 
     def run(folder: Path):
         record_demonstration(folder, seed, n_calibration=n_calibration, n_stereo=n_stereo, overwrite=True,
-                             frames=frames)
+                             frames=frames, robot=robot)
         out = template_from_frames(folder, read_icps=demonstration_icps, k=k, tags=tags, contact=contact,
                                    name=name, method=method, seed=0, return_perception=return_perception)
         template = out[0] if return_perception else out

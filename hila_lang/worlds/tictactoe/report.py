@@ -74,6 +74,7 @@ def build_report(world, trace=None) -> dict[str, Any]:
         "opponent": world.opponent.name,
         "first": world.first,
         "backend": None if backend is None else backend.name,
+        "robot": getattr(getattr(backend, "robot", None), "name", None),
         "park": [round(float(v), 5) for v in world.park],
         "scene": {
             "grid_center": list(world.referee.layout.grid_center),

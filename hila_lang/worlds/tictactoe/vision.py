@@ -32,8 +32,8 @@ robot plays on what it saw (the game goes on from its own reading) and the sight
 cells it was unsure of; no view finding the grid at all is a
 :class:`~hila_lang.core.errors.HilaRuntimeError`.
 
-The table.  The paper's plane is not given: the robot starts from a rough prior (a table a
-little below its waist, :data:`TABLE_PRIOR_BELOW_ROOT`), reads both eyes' images on it, and
+The table.  The paper's plane is not given: the robot starts from a rough prior (its spec's
+``table_prior``: the iCub assumes a table 0.15 m below its waist, :mod:`hila_lang.robot.spec`), reads both eyes' images on it, and
 triangulates the four inner crossings of the grid (cell 5's corners) from the two eyes
 (:func:`hila_lang.perception.triangulation.triangulate`, the left eye placed by its joint
 angles, the right one by the robot's calibration of the pair) -- only from two images that each
@@ -72,9 +72,9 @@ SURE = 0.5
 GOOD_CONTRAST = 0.3
 #: the pen is lifted only when it is more than this below the lift point, metres
 LIFT_TOLERANCE = 0.005
-#: the robot's prior for the table before it has seen it: this far below its waist, metres
-#: (only a start for reading the first images; the plane is then triangulated)
-TABLE_PRIOR_BELOW_ROOT = 0.15
+#: with no prior from the robot's spec, the table is first assumed this far below the point the
+#: eyes look at (only a start for reading the first images; the plane is then triangulated), metres
+TABLE_PRIOR_BELOW_GAZE = 0.10
 #: rounds of (read on the plane, triangulate, move the plane) at the first look
 PLANE_ROUNDS = 1
 #: a pair of images whose four crossings are not level within this (the table is flat) does not

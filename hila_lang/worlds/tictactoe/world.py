@@ -184,7 +184,9 @@ class TicTacToeWorld:
         backend.reset_hand(self.park)
         hand = Hand(backend.hand_position, lambda path: backend.move(path, label="look"))
         # the layout only for a robot that plays blind: one with eyes knows the board from its sightings
+        robot = getattr(backend, "robot", None)  # the robot's spec (hila_lang.robot.spec), if the back end has one
         self.player = Player(self.first, self.park, eyes=backend.eyes, hand=hand,
+                             table_prior=None if robot is None else robot.table_prior,
                              layout=self.referee.layout if backend.eyes is None else None)
         self._print(f"tic-tac-toe: the robot plays O, the opponent ({self.opponent.name}) plays X; "
                     f"{self.first} starts")
