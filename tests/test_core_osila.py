@@ -369,6 +369,9 @@ def test_an_amplifying_tps_falls_back_when_the_pairs_precision_does_not_allow_it
     noisy = path + rng.normal(0, 0.003, path.shape)
     assert amplification_limit(src, src @ A.T, noisy, 2) < amplification_limit(src, src @ A.T, path, 2)
     assert fit_warp(src, src @ A.T, on=noisy).kind == "similarity"
+    # OSILA's option: the ICPs' precision, when they are placed less precisely than the template was measured
+    assert imitate_detailed(path, src, src @ A.T, threshold=0).warp.kind == "tps"
+    assert imitate_detailed(path, src, src @ A.T, threshold=0, precision=0.01).warp.kind == "similarity"
 
 
 def test_loo_chooses_the_map_that_predicts_left_out_icps():

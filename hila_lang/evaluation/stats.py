@@ -155,9 +155,10 @@ def confirmatory(result: GridResult) -> list[tuple[str, int, str]]:
     return [(m, n, CONFIRMATORY_METRIC) for m in result.methods if m in BASELINES for n in ns]
 
 
-#: two methods are the same on a pair when every score agrees to this fraction of the metric's
-#: largest magnitude in the run (rounding: the same path computed by two routes, e.g. every
-#: baseline's offset through the ends is zero at N = 1, to 1e-15)
+#: two methods are the same on a pair when every score agrees to this fraction of the largest score
+#: magnitude in the run (rounding: the same path computed by two routes, e.g. every baseline's
+#: offset through the ends is zero at N = 1, to 1e-15; a per-metric scale would not do: the
+#: end-point error of such a path is 0 or 1e-15, whose relative difference is all)
 SAME = 1e-9
 
 
@@ -167,8 +168,9 @@ def duplicates(result: GridResult) -> dict[int, dict[str, str]]:
     (module docstring)."""
     out: dict[int, dict[str, str]] = {}
     for s, n in enumerate(result.segments):
-        scale = np.nanmax(np.abs(np.stack([result.scores[m][s] for m in result.methods])), axis=(0, 1, 2),
-                          initial=0.0) if result.methods else 0.0
+        block = np.stack([result.scores[m][s] for m in result.methods]) if result.methods else np.zeros(0)
+        top = float(np.nanmax(np.abs(block), initial=0.0)) if block.size else 0.0
+        tol = SAME * top
         same: dict[str, str] = {}
         for k, m in enumerate(result.methods):
             a = result.scores[m][s]
@@ -177,7 +179,7 @@ def duplicates(result: GridResult) -> dict[int, dict[str, str]]:
                     continue
                 b = result.scores[first][s]
                 nan = np.isnan(a)
-                if np.array_equal(nan, np.isnan(b)) and (np.abs(a - b)[~nan] <= (SAME * scale * np.ones_like(a))[~nan]).all():
+                if np.array_equal(nan, np.isnan(b)) and bool((np.abs(a - b)[~nan] <= tol).all()):
                     same[m] = first
                     break
         out[n] = same

@@ -62,6 +62,7 @@ OPTIONS: dict[str, Any] = {
     "stretch": STRETCH,
     "reject": "auto",
     "task_times": None,
+    "precision": None,
 }
 #: the options of one call's own pairs and path (a step's), not of a whole run: ``--set`` and a
 #: task file cannot give them
@@ -191,6 +192,7 @@ def imitate_detailed(
         reject=_reject(opts["reject"]),
         seed=int(opts["seed"]),
         task_times=_task_times(opts["task_times"], len(src)),
+        precision=None if opts["precision"] is None else check_positive(opts["precision"], "precision", allow_zero=True),
     )
 
 
@@ -255,6 +257,12 @@ def imitate(
             at the same template point, e.g. ``{0: hand, -1: goal}`` to start where the hand
             is and end on a bound target.  A sequence, e.g. ``(0,)``, fixes each stamp at its
             mapped point (no candidate ball there).
+        precision : float, default the template's measured position noise
+            How precisely the ICPs are located (task units).  The TPS is kept only while its
+            amplification of errors of this size on the path is no larger than the deformation
+            the pairs show beyond a similarity (:func:`.noise.amplification_limit`); give it when
+            the ICPs are placed less precisely than the template was measured (points placed
+            by hand on a clean drawing).
         stretch : float, default 5
             A repair bends the route between the held targets (the first and last waypoints,
             and the waypoint nearest each ICP the template passes through), which keep the

@@ -258,6 +258,7 @@ def adjust(
     reject: str = "auto",
     seed: int = 0,
     task_times: np.ndarray | None = None,
+    precision: float | None = None,
 ) -> OsilaResult:
     """Run OSILA with plan adjustment on validated arrays (see the module docstring).
 
@@ -287,6 +288,9 @@ def adjust(
     task_times : ndarray, shape (K,), optional
         When the task passes each ICP, a fraction of its duration (NaN: not known); only pairs
         with a time are re-timed (:func:`.timing.timed_stamps`).
+    precision : float, optional
+        How precisely the ICPs are located (task units), for the TPS's amplification limit
+        (:func:`.noise.amplification_limit`); None: the template's measured noise.
     """
     T, D = path.shape
     pairs = screen(src, dst, reject, seed, threshold or 0.0, fast=T >= min_stamps())
@@ -306,8 +310,9 @@ def adjust(
     refits = Refits()  # the warp's inverses, bordered from round to round while the pairs grow
     times = None if task_times is None else np.concatenate([task_times, np.full(len(pin_src), np.nan)])
     moved = (retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given),
-                    refits=refits, times=times)
-             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given), refits=refits, times=times))
+                    refits=refits, times=times, precision=precision)
+             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given), refits=refits, times=times,
+                                         precision=precision))
     path, src = moved.path, moved.src[: len(src)]
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []
@@ -326,7 +331,7 @@ def adjust(
             # the path warp in later rounds only where the given pairs chose it: the held start and
             # goal of a repair never turn a spatial warp into a path warp halfway
             warp = choose_warp(all_src, all_dst, smoothing, exact=exact, on=path, refits=refits,
-                               along=rnd == 1 or along)
+                               along=rnd == 1 or along, precision=precision)
         if rnd == 1:
             along = warp.kind == "path"
         mapped = warp.mapped

@@ -161,7 +161,7 @@ def timed_stamps(path: np.ndarray, src: np.ndarray, times, timing: float) -> set
 
 
 def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
-           fixed: tuple[int, ...] = (), refits=None, times=None) -> Retimed:
+           fixed: tuple[int, ...] = (), refits=None, times=None, precision: float | None = None) -> Retimed:
     """Re-estimate the template stamps of on-path pairs (module docstring) and re-time the template.
 
     Parameters
@@ -179,6 +179,8 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
     times : array_like, shape (K,), optional
         When the task passes each pair, a fraction of its duration (NaN: not known).  Only pairs
         with a time that agrees (:func:`timed_stamps`) are re-timed; none without ``times``.
+    precision : float, optional
+        The pairs' precision for the warp's amplification limit (:func:`.pathwarp.choose_warp`).
 
     Returns
     -------
@@ -189,7 +191,7 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
     timed = timed_stamps(path, src, times, timing)
     if not timed:
         return Retimed(path, src, {})
-    warp = choose_warp(src, dst, on=path, refits=refits)
+    warp = choose_warp(src, dst, on=path, refits=refits, precision=precision)
     unchanged = Retimed(path, src, {}, warp)
     # pairs (rows of warp.src, after merging) whose template point is the path's point at one stamp
     count = Counter(warp.at.values())

@@ -67,6 +67,7 @@ OSILA_RANGES: dict[str, tuple[float, float, str]] = {
     "directions": (1, 2000, "candidate directions per shell"),
     "timing": (0, 1e6, "a weight"),
     "stretch": (1, 1e6, "a ratio of route lengths"),
+    "precision": (0, 1e3, "a distance in the template's units"),
 }
 #: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but those of
 #: one step's own pairs, ``hila_lang.osila.PER_STEP``: ``pin`` and ``task_times``), named here so
