@@ -1,9 +1,21 @@
-"""Benchmark: a whole headless tic-tac-toe game, its wall time and peak memory, and a long series.
+"""Benchmark: a whole headless tic-tac-toe game, its wall time against its floor, peak memory, a long series.
 
 Run from the checkout::
 
     python bench/game.py                 # 3 single games as separate processes + 20 in one process
     python bench/game.py --series 50     # a longer series (texture leaks show as RSS growth)
+
+Part 0, the floor, measured in the same run: what a game cannot cost less than with this robot,
+simulator and renderer --
+
+- start-up: a fresh process that imports hila and prepares the game (the program, the world, the
+  iCub loaded into PyBullet, its calibrations read) and exits, timed from outside, as the game is;
+- physics: the game's simulator steps (counted in one in-process game with the same seed and
+  opponent) times the cost of a bare ``stepSimulation`` in that scene;
+- eyes: the game's eye images (counted the same way) times the cost of one eye image (render
+  through the lens) in that scene.
+
+``floor = start-up + steps x step + images x image``; ``ratio = wall / floor`` (goal <= 1.5).
 
 Part 1 times ``hila exec programs/game.hila`` as a fresh process (start-up, loading the iCub,
 the whole game, the output folder), reading the child's peak resident memory.  Targets: under
@@ -12,7 +24,10 @@ with its own PyBullet client, and prints the resident memory after each, so a le
 ``loadTexture`` on every ink reload, DESIGN.md section 4) shows as growth per game.  The last line
 sums it up::
 
-    game wall=<s> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
+    game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> images=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
+
+``wall`` is the median of the single games (all seeds play the same opening against minimax
+when the robot starts, so their counts are alike; the floor's counts come from seed 0).
 """
 
 from __future__ import annotations
@@ -27,6 +42,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 PROGRAM = ROOT / "programs" / "game.hila"
@@ -50,6 +67,63 @@ def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float,
         raise SystemExit(f"game failed (exit {proc.returncode}):\n{proc.stderr}")
     peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1e3  # KB -> MB (max over children)
     return wall, peak, json.loads((out / "report.json").read_text())
+
+
+STARTUP = """
+import io, sys
+from pathlib import Path
+from hila_lang.plugins.options import RunOptions
+from hila_lang.session.runner import prepare
+interp = prepare(Path(sys.argv[1]), RunOptions(seed=0, out=Path(sys.argv[2]), settings={"opponent": "minimax"},
+                 stdin=io.StringIO(), stdout=io.StringIO()), "pybullet")
+interp.backend.close()
+"""
+
+
+def startup_s(out: Path, repeat: int = 3) -> float:
+    """Median wall time (s) of a fresh process that imports hila, prepares the game and exits."""
+    walls = []
+    for k in range(repeat):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", STARTUP, str(PROGRAM), str(out / f"startup{k}")], cwd=ROOT, check=True,
+                       capture_output=True)
+        walls.append(time.perf_counter() - t0)
+    return float(sorted(walls)[len(walls) // 2])
+
+
+def counted_game(seed: int, out: Path) -> dict:
+    """One in-process game (``hila exec``'s seed and opponent): its simulator steps and eye images,
+    then the cost of one bare step and of one eye image in its scene (medians), before closing."""
+    from hila_lang.plugins.options import RunOptions
+    from hila_lang.session.runner import finish, prepare
+
+    options = RunOptions(seed=seed, out=out, settings={"opponent": "minimax"}, stdin=io.StringIO(), stdout=io.StringIO())
+    interp = prepare(PROGRAM, options, "pybullet")
+    be = interp.backend
+    t0 = time.perf_counter()
+    interp.run()
+    in_game = time.perf_counter() - t0
+    pb, c = be.sim.pb, be.sim.client
+    step = []
+    for _ in range(5):  # 5 x 1000 bare steps (a busy machine slows them as it slows a game), the arm held
+        a = time.perf_counter()
+        for _ in range(1000):
+            pb.stepSimulation(physicsClientId=c)
+        step.append((time.perf_counter() - a) / 1000)
+    stats = dict(be.stats)
+    image = []
+    for k in range(7):
+        a = time.perf_counter()
+        be.eyes.camera_image(("left", "right")[k % 2])
+        image.append(time.perf_counter() - a)
+    renders = be.stats["renders"]
+    a = time.perf_counter()
+    finish(interp)  # the output folder: its pictures are eye images too (eye.png) or top views
+    outputs = time.perf_counter() - a
+    return {"steps": stats["steps"], "images": stats["renders"] + be.stats["renders"] - renders,
+            "outputs_s": outputs, "step_s": float(np.median(step)),
+            "image_s": float(np.median(image)), "in_game_s": in_game, "ik_solves": stats["ik_solves"],
+            "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"], "render_s": stats["render_seconds"]}
 
 
 def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
@@ -81,6 +155,15 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
+        print(f"load average {os.getloadavg()[0]:.2f} at start ({os.cpu_count()} cores, shared)", flush=True)
+        start = startup_s(tmp)
+        counts = counted_game(0, tmp / "counted")
+        floor = start + counts["steps"] * counts["step_s"] + counts["images"] * counts["image_s"]
+        print(f"floor: start-up {start:.2f} s + {counts['steps']} steps x {counts['step_s'] * 1e3:.3f} ms "
+              f"+ {counts['images']} eye images x {counts['image_s'] * 1e3:.1f} ms = {floor:.2f} s; "
+              f"the in-process game spent {counts['in_game_s']:.2f} s: stepping loop {counts['step_loop_s']:.2f} s, "
+              f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s; "
+              f"writing the outputs {counts['outputs_s']:.2f} s", flush=True)
         walls, r_all = [], []
         peak = 0.0
         for seed in range(args.games):
@@ -106,7 +189,11 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"series game {k + 1:3d}: {wall:5.2f} s, RSS {rss:7.1f} MB, {report['result']}", flush=True)
             if len(rows) >= 3:  # growth after the first game (which loads everything)
                 growth = (rows[-1][1] - rows[1][1]) / (len(rows) - 2)
-        print(f"game wall={max(walls):.2f} peak={peak:.0f} series={args.series} failed={failed} "
+        wall = float(np.median(walls))
+        print(f"load average {os.getloadavg()[0]:.2f} at the end")
+        print(f"game wall={wall:.2f} floor={floor:.2f} ratio={wall / floor:.2f} startup={start:.2f} "
+              f"steps={counts['steps']}x{counts['step_s'] * 1e3:.3f}ms images={counts['images']}x"
+              f"{counts['image_s'] * 1e3:.1f}ms peak={peak:.0f} series={args.series} failed={failed} "
               f"rss_growth_per_game={growth:.2f} r_min={min(r_all):.4f}")
     return 1 if failed else 0
 

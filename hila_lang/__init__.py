@@ -11,7 +11,7 @@ through ``importlib`` too, and checks this list):
 - ``engine/``                            the stepping engine: step loop, one executor per state class, scene, trace
 - ``language/``                          the front end: grammar, AST, checker, compiler, the FSM
 - ``robot/``                             robots from their specs (iCub, Panda, KUKA, any URDF) in PyBullet; the dry back end
-- ``perception/``                        stereo eyes: calibration, marker tracks, scene matching
+- ``perception/``                        stereo eyes: calibration, marker tracks, scene matching; a pen on a sheet
 - ``sim/``, ``plugins/``                 the simulated scene and camera; the plug-in seam
 - ``hierarchy/``                         HILA: THE step (bind a sub-template, run OSILA), sequences, explain
 - ``recognition/``                       known sub-actions found in a new demonstration
@@ -19,6 +19,14 @@ through ``importlib`` too, and checks this list):
 - ``core/``                              errors, validation, file io, shipped resources, logs, Ctrl-C, jit
 
 Each package's docstring names its modules, one line each.
+
+Importing ``hila_lang`` sets one thing for the whole process: the numeric libraries' threads
+(one each by default; ``HILA_THREADS`` changes it; :mod:`hila_lang.core.threads`), before any of
+them loads.
 """
 
+from .core import threads as _threads
+
 __version__ = "0.1.0"
+
+_threads.startup()

@@ -33,6 +33,7 @@ COMMANDS = {
     "compile": "compile_",
     "explain": "explain",
     "learn": "learn",
+    "sheet": "sheet",
     "imitate": "imitate",
     "eval": "eval_",
     "snapshot": "snapshot",
@@ -40,6 +41,11 @@ COMMANDS = {
     "show": "show",
     "studio": "studio",
 }
+
+
+#: commands whose runs may use OSILA's compiled kernels: their first run after an install starts
+#: their compilation in the background (:func:`hila_lang.core.jit.warm_in_background`)
+WARMING = frozenset({"exec", "repl", "replay", "explain", "learn", "imitate", "eval", "studio"})
 
 
 class _Parser(argparse.ArgumentParser):
@@ -93,9 +99,17 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "_run", None) is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    from .core import threads
     from .core.interrupts import exit_code, handle_termination
 
+    if threads.problem():  # HILA_THREADS is read when hila is imported; a bad value is bad input
+        print(f"hila: error: {threads.problem()}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     handle_termination()  # SIGTERM and SIGHUP stop a run as Ctrl-C does (exit 143, 129)
+    if args.command in WARMING:  # the first run after an install fills numba's cache meanwhile
+        from .core.jit import warm_in_background
+
+        warm_in_background("hila_lang.osila.warm")
     for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii: escapes, not UnicodeEncodeError
         if "utf" not in (getattr(stream, "encoding", None) or "utf").lower() and hasattr(stream, "reconfigure"):
             stream.reconfigure(errors="backslashreplace")

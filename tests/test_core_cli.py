@@ -62,7 +62,8 @@ def write(tmp_path, name, text):
         ("t,x,y\n0,0,0\n1,1\n", r"demo\.csv:3: error: expected 3 columns \(t,x,y\), got 2"),
         ("t,x,y\n0,0,0\n1,1,abc\n", r"demo\.csv:3: error: expected a finite number in column 'y', got 'abc'"),
         ("t,x,y\n0,0,0\n0,1,1\n", r"demo\.csv:3: error: expected increasing times in column 't', got 0.0 after 0.0"),
-        ("a,b,c\n0,0,0\n", r"demo\.csv:1: error: expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z', got 'a,b,c'"),
+        ("a,b,c\n0,0,0\n", r"demo\.csv:1: error: expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z' \(each "
+                            r"optionally with a last column 'pen'\), got 'a,b,c'"),
         ("t,x,y\n", r"demo\.csv: error: demonstration CSV has a header but no data rows"),
         ("", r"demo\.csv: error: demonstration CSV is empty"),
     ],

@@ -127,6 +127,7 @@ def test_jit_switched_off_or_failing_falls_back_to_numpy(monkeypatch):
     jit.reset()
 
 
+@pytest.mark.slow
 def test_jit_without_a_usable_cache_compiles_uncached(monkeypatch):
     from hila_lang.core import jit
 

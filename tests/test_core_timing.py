@@ -164,3 +164,17 @@ def test_task_times_option_is_checked():
 def test_timing_option_is_checked():
     with pytest.raises(InputError, match="timing"):
         imitate(stroke(20), [[0, 0], [2, 0]], [[0, 0], [2, 0]], timing=-0.1)
+
+
+def test_the_noise_estimate_s_median_is_numpy_s_bit_for_bit():
+    """position_noise's one-partition median (a default imitate pays two) against np.median on
+    seeded arrays of odd and even sizes, scaled from tiny to large."""
+    import numpy as np
+
+    from hila_lang.osila.noise import _median
+
+    rng = np.random.default_rng(38)
+    for n in (1, 2, 3, 4, 7, 100, 101, 1999, 2000):
+        for _ in range(20):
+            x = rng.normal(size=n) * 10.0 ** rng.uniform(-6, 6) + rng.uniform(-5, 5)
+            assert _median(x) == float(np.median(x))

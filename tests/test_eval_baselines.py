@@ -22,6 +22,7 @@ def _run(out, *extra):
     assert cli.main(argv) == 0
 
 
+@pytest.mark.slow
 def test_results_json_is_byte_identical_for_the_same_seed(tmp_path, capsys):
     _run(tmp_path / "a")
     _run(tmp_path / "b", "--jobs", "2")  # another backend, another clock

@@ -23,6 +23,7 @@ def address():
         cluster.close()
 
 
+@pytest.mark.slow
 def test_dask_equals_local(address):
     trials = generate(seed=2, trials_per_setup=2)
     local = run_grid(trials, methods=("osila", "tps"), options=OPTIONS, progress=False)
@@ -34,6 +35,7 @@ def test_dask_equals_local(address):
     assert not np.isnan(remote.r["osila"]).any()
 
 
+@pytest.mark.slow
 def test_cli_on_dask(address, tmp_path, capsys):
     assert main(["eval", "--out", str(tmp_path), "--trials-per-setup", "1", "--dask", address, "--no-progress"]) == 0
     out = capsys.readouterr().out

@@ -202,6 +202,7 @@ def test_dmp_aligned_turns_with_the_scene_and_dmp_does_not(trials):
 # ----------------------------------------------------------------------------- the grid and the paper's tables
 
 
+@pytest.mark.slow
 def test_table1_self_mapping_reproduces_the_path(paper_result):
     t1 = tables.table1(paper_result)
     assert t1.shape == (4, 5)

@@ -13,6 +13,7 @@ import time
 import pytest
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.3, 1.0, 2.0, 3.5])
 def test_sigint_ends_eval_with_130_and_no_traceback(tmp_path, delay):
     # the paper protocol's whole grid (tens of seconds): still working when the signal comes

@@ -58,6 +58,7 @@ def _reference_value(board, to_move, me):
     return max(vals) if to_move == me else min(vals)
 
 
+@pytest.mark.slow
 def test_best_move_is_optimal_against_a_reference_on_random_positions():
     rng = random.Random(3)
     checked = 0

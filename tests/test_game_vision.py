@@ -66,6 +66,7 @@ def start(tmp_path, seed, **settings):
 @pytest.mark.parametrize("seed, settings", [(0, {"opponent": "random"}), (1, {"opponent": "minimax"}),
                                             (11, {"opponent": "minimax"}),
                                             (3, {"opponent": "random", "board.bump": "0.03"})])
+@pytest.mark.slow
 def test_whole_game_played_from_what_the_robot_sees(tmp_path, seed, settings):
     interp = start(tmp_path, seed, **settings)
     world, backend = interp.world, interp.backend

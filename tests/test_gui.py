@@ -45,6 +45,7 @@ def _box(mask: np.ndarray):
     return xs.min(), ys.min(), xs.max(), ys.max()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(xvfb_missing() is not None, reason=f"no virtual display: {xvfb_missing()}")
 def test_gui_frames_the_robot_and_board_and_shows_the_state_and_the_eye(tmp_path):
     import cv2

@@ -123,6 +123,7 @@ def test_the_arm_paces_at_speed_n(monkeypatch):
         robot.close()
 
 
+@pytest.mark.slow
 def test_under_xvfb_the_window_never_shows_the_robot_unframed():
     """A screenshot every second while the back end loads and after: each shows either nothing (the
     window does not draw while the robot loads) or the robot exactly where the framing puts it."""

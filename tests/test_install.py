@@ -51,6 +51,7 @@ def installed(tmp_path_factory):
     return site, elsewhere, hila
 
 
+@pytest.mark.slow
 def test_the_package_carries_its_templates_programs_and_grammar(installed):
     site, _, _ = installed
     package = site / "hila_lang"
@@ -67,6 +68,7 @@ def test_the_shipped_robots_are_found_from_any_folder(installed):
     assert probe.returncode == 0, probe.stderr
 
 
+@pytest.mark.slow
 def test_the_shipped_game_runs_from_any_folder(installed):
     site, elsewhere, hila = installed
     out = hila("exec", "game.hila", "--backend", "dry", "--quiet", "--out", "g")

@@ -111,6 +111,7 @@ def test_non_utf8_bytes_inside_a_program():
             front_end(data[:cut] + b"\xc3\x28\xff" + data[cut:])
 
 
+@pytest.mark.slow
 def test_one_megabyte_program():
     body = "    wait tick\n" * (1_000_000 // 14)
     text = "main {\n" + body + "\n  wait tock\n  }\n}\n"  # one '}' too many at the very end

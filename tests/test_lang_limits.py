@@ -250,6 +250,7 @@ STMT = st.recursive(
     max_leaves=8)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(STMT, max_size=5), st.sampled_from(["", "\n", "  ", " # c\n"]))
 def test_generated_programs_parse_to_the_same_ast_both_ways(stmts, gap):

@@ -37,6 +37,7 @@ def game(tmp_path_factory) -> Path:
     return folder / "game.hilarec"
 
 
+@pytest.mark.slow
 def test_a_recorded_game_verifies_with_no_difference(game):
     proc = hila("replay", "--verify", str(game))
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -44,6 +45,7 @@ def test_a_recorded_game_verifies_with_no_difference(game):
     assert proc.stdout.splitlines() == [f"no difference: {len(record['steps'])} steps verified (tolerance 0.001 mm)"]
 
 
+@pytest.mark.slow
 def test_the_recording_holds_the_run(game):
     record = read_record(game)
     assert record["hila_record"] == 1 and record["command"]["backend"] == "pybullet"
@@ -142,6 +144,7 @@ def test_a_run_stopped_by_the_step_limit_verifies(tmp_path):
     assert proc.returncode == 0 and proc.stdout.startswith("no difference: 10 steps verified"), proc.stdout
 
 
+@pytest.mark.slow
 def test_a_person_s_moves_are_recorded_and_typed_again(tmp_path):
     moves = "5\n1\n2\n3\n4\n6\n7\n8\n9\n"
     proc = hila("exec", "programs/game.hila", "--backend", "dry", "--opponent", "human", "--set", "report=no",

@@ -46,6 +46,7 @@ def copy(recording, tmp_path):
     return dst
 
 
+@pytest.mark.slow
 def test_recording_layout_and_atomicity(recording):
     assert len(list((recording / "left").glob("*.png"))) == FRAMES
     assert len(list((recording / "right").glob("*.png"))) == FRAMES
@@ -58,6 +59,7 @@ def test_recording_layout_and_atomicity(recording):
         record_demonstration(recording, frames=2)
 
 
+@pytest.mark.slow
 def test_calibration_reprojection_error_and_intrinsics(learned, recording):
     truth = load_yaml(recording / "truth.yaml")
     K = np.array(truth["K"])
@@ -186,6 +188,7 @@ def test_frames_from_a_video_file(recording, tmp_path):
     assert len(video) == 5 and video[0].shape == (240, 320, 3) and names[0] == "left.avi#0"
 
 
+@pytest.mark.slow
 def test_template_from_sim_says_how_it_was_made(tmp_path):
     from hila_lang.worlds.tictactoe.recording import learn_from_sim as template_from_sim
     from hila_lang.osila.template import load_template, save_template

@@ -17,6 +17,7 @@ from hila_lang.osila.template import load_template  # noqa: E402
 from test_recognition_cli import CIRCLE, _write_demo, circle_then_cross  # noqa: E402
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 3])
 def test_online_latency_and_final_equals_offline(seed):
     entries = entries_of(load_template(CIRCLE))
@@ -67,6 +68,7 @@ def test_stream_needs_library(tmp_path, capsys):
     assert "--stream goes with --library" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_shape_in_progress_is_not_settled_as_a_smaller_one():
     """LASA's PShape begins like a Trapezoid: while it is drawn the Trapezoid is announced, but it
     is not settled before a later part confirms it ended, so the whole PShape is announced on time

@@ -58,6 +58,7 @@ def test_is_a_backend(robot):
     assert isinstance(robot, Backend) and robot.name == "pybullet"
 
 
+@pytest.mark.slow
 def test_every_cell_corner_is_reached_within_1_mm(robot):
     for cell in range(1, 10):
         for name, corner in cell_corners(GRID, cell).items():
@@ -205,6 +206,7 @@ def _marker_offsets(robot, image_of, n=16, seed=7):
     return np.array(offsets)
 
 
+@pytest.mark.slow
 def test_the_gl_projection_puts_a_marker_where_project_says():
     """The GL projection puts a small sphere's centroid at ``CameraImage.project`` (sub-pixel),
     rendered as an ideal pinhole at an eye's pose.
@@ -233,6 +235,7 @@ def test_the_gl_projection_puts_a_marker_where_project_says():
     assert np.linalg.norm(offsets, axis=1).max() < 0.35, offsets
 
 
+@pytest.mark.slow
 def test_an_eye_image_matches_the_lens_the_robot_calibrated():
     """Through the fish-eye lens, a marker is where the robot's own calibration (``K``, ``dist``)
     and the pose from its joint angles put it (measured: median 0.33 px, max 0.45 px; the

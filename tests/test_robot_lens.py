@@ -73,3 +73,61 @@ def test_an_eye_is_placed_by_its_joint_angles_and_missing_angles_are_named():
             eye_pose(chain, {k: v for k, v in joints.items() if k != "neck_pitch"})
         with pytest.raises(InputError, match=r"light level must be a number in \(0, 3\]"):
             robot.lighting.set_light(0.0)
+
+
+def test_the_shipped_calibrations_are_the_ones_this_code_would_name():
+    """The files shipped with hila (read when nothing is cached: a first game after an install)
+    carry the names the current code hashes for the OpenCV they were made with: a change to the
+    lens, the views, the seeds or the eyes in the head without ``python -m hila_lang.robot.lens``
+    fails here instead of silently costing every new user 25 s."""
+    import json
+
+    manifest = json.loads((lens.SHIPPED / lens.SHIPPED_MANIFEST).read_text())
+    assert manifest["files"] == lens.names(manifest["opencv"])
+    assert sorted(p.name for p in lens.SHIPPED.glob("*.yaml")) == sorted(manifest["files"])
+
+
+def test_a_first_run_reads_the_shipped_calibration_when_nothing_is_cached(tmp_path, monkeypatch):
+    import cv2
+
+    manifest = __import__("json").loads((lens.SHIPPED / lens.SHIPPED_MANIFEST).read_text())
+    if manifest["opencv"] != cv2.__version__:
+        pytest.skip(f"the shipped calibrations were made with OpenCV {manifest['opencv']}, this is {cv2.__version__}")
+    monkeypatch.setenv("HILA_CACHE_DIR", str(tmp_path))
+    lens.eye_calibration.cache_clear()
+    from hila_lang.perception import calibration
+
+    def no_rendering(*args, **kwargs):
+        raise AssertionError("calibrated again instead of reading the shipped file")
+
+    monkeypatch.setattr(calibration, "chessboard_views", no_rendering)
+    monkeypatch.setattr(calibration, "stereo_views", no_rendering)
+    try:
+        got = lens.eye_calibration("right")
+        pair = lens.eyes_calibration()
+    finally:
+        lens.eye_calibration.cache_clear()
+        lens.pair_calibration.cache_clear()
+    assert got.n_views >= 20 and pair.rms < 0.1
+    assert not (tmp_path / "hila" / "lens").exists() or not any((tmp_path / "hila" / "lens").iterdir())
+
+
+@pytest.mark.slow
+def test_the_shipped_calibrations_are_what_the_robot_makes_itself(tmp_path):
+    """Made afresh (nothing cached or shipped read: the chessboard rendered through each eye,
+    OpenCV's calibration), the three calibrations equal the shipped ones."""
+    import cv2
+
+    from hila_lang.core.fileio import load_yaml
+
+    manifest = __import__("json").loads((lens.SHIPPED / lens.SHIPPED_MANIFEST).read_text())
+    if manifest["opencv"] != cv2.__version__:
+        pytest.skip(f"the shipped calibrations were made with OpenCV {manifest['opencv']}, this is {cv2.__version__}")
+    written = lens.ship(tmp_path)
+    assert [p.name for p in written] == manifest["files"]
+    for path in written:
+        fresh, shipped = load_yaml(path), load_yaml(lens.SHIPPED / path.name)
+        assert fresh.keys() == shipped.keys()
+        for key in fresh:
+            np.testing.assert_allclose(np.asarray(fresh[key], float), np.asarray(shipped[key], float),
+                                       rtol=1e-6, atol=1e-9, err_msg=f"{path.name}: {key}")

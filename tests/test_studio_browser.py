@@ -16,6 +16,7 @@ import pytest
 from studio_support import BROWSER_ARGS, ROOT, Studio, chromium_or_skip
 
 pytest.importorskip("starlette")
+pytestmark = pytest.mark.slow  # a browser and a server per test (tests/conftest.py)
 
 #: a person's reach, circle and retract over cell 5 of the tic-tac-toe sheet, as pointer events
 #: with their own time stamps: hover in from the lower left, pause, pen down, one circle, pen up,

@@ -12,6 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 PAGE = ROOT / "docs" / "tutorial.md"
 
@@ -53,6 +55,7 @@ def test_the_page_has_the_steps_the_issue_asks_for():
     assert len(body) == 5 and " via (" in program  # five lines, a via point
 
 
+@pytest.mark.slow
 def test_the_tutorials_commands_run_as_written(tmp_path):
     shutil.copytree(ROOT / "primitives", tmp_path / "primitives")
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",

@@ -46,6 +46,7 @@ def test_check_knows_the_picture_worlds_questions(tmp_path, capsys, line, messag
     assert f"{prog}:{message}" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_matched_icps_retrace_the_route_on_a_bent_sheet(matched):
     report, out = matched
     assert report["bent_m"] > 0.015
@@ -60,6 +61,7 @@ def test_matched_icps_retrace_the_route_on_a_bent_sheet(matched):
         assert (out / name).stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_four_corners_instead_of_matching_lose_the_route(tmp_path, monkeypatch, matched):
     """Keep, of the robot's matched pairs, only the four nearest the corners of the sheet as it
     saw it: the route error on the bent sheet rises."""

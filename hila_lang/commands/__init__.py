@@ -7,6 +7,7 @@
 - ``replay``    ``hila replay``: step through a recorded run, or verify it
 - ``explain``   ``hila explain``: run a program and say what OSILA did in each run state and why
 - ``learn``     ``hila learn``: one demonstration -> a segmented template YAML
+- ``sheet``     ``hila sheet``: the printable pen sheet (ArUco markers) as PDF or PNG
 - ``imitate``   ``hila imitate``: one template imitated in a task scene
 - ``eval_``     ``hila eval``: OSILA against controls, baselines and its ablation
 - ``snapshot``  ``hila snapshot``: PNGs of the simulated iCub drawing

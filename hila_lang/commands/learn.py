@@ -2,12 +2,14 @@
 
 The demonstration comes from a CSV path plus its ICPs, or is seen through the iCub's stereo
 cameras (:mod:`hila_lang.perception.learn`): recorded frames (``--frames``, ``--left/--right``)
-or a recording made in simulation (``--from-sim``).
+or a recording made in simulation (``--from-sim``), or is a pen on the printed sheet before one
+camera (``VIDEO --sheet``, :mod:`hila_lang.perception.pen`): tracked, written as a demonstration
+CSV with its pen column and its ICPs, and learned from them as from any CSV.
 """
 
 from __future__ import annotations
 
-from ..core.argtypes import output_path, seed
+from ..core.argtypes import number, output_path, seed, whole
 import argparse
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
@@ -20,7 +22,10 @@ Sources (one of):
                               eye cameras, then learn it by perception (about a minute)
   --frames REC                a recording folder (left/, right/, calibration/, cameras.yaml)
   --left L --right R          left and right frames: image folders or video files
-The last three learn in the world --world names (default tictactoe): the world declares how its
+  VIDEO --sheet               a pen with a coloured ball on its tip drawing on the sheet 'hila sheet'
+                              prints, filmed by one camera (a video file or a folder of frames):
+                              see docs/camera.md and "a pen on the printed sheet" below
+--from-sim, --frames and --left/--right learn in the world --world names (default tictactoe): the world declares how its
 demonstration is recorded and how its scene's ICPs are read (WorldInfo.recorder, .icp_reader).
 
 DEMO.csv: a header line, then one row per waypoint.  Header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z'
@@ -42,7 +47,20 @@ rest become new segments (tagged new1, new2, ... or by --tags, one per new part)
 FILE.json writes every part: {"segments": [{"start", "end", "template", "tag", "distance"}]}.
 Without --icps a CSV demonstration's own ends are its ICPs (start, end; said when used): recognition
 needs only the path.  See docs/recognition.md.
-Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml"""
+Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml
+
+A pen on the printed sheet (VIDEO --sheet): the sheet's markers give the paper's plane, the ball
+gives the tip and, from its apparent size, its height: the pen is down where the tip is on the
+paper, the moments it lands and leaves from the dips in the hand's speed.  The path is in the
+sheet's frame (metres from its bottom-left corner: x right, y up the page, z off the paper),
+resampled at 20 Hz, and written beside OUT.yaml as OUT.demo.csv (t,x,y,z,pen) with its ICPs as
+OUT.icps.yaml; the template is learned from those two files exactly as 'hila learn OUT.demo.csv
+--icps OUT.icps.yaml' would.  ICPs: the corners of the printed grid's cell --cell N, or --icps
+FILE (sheet frame, metres), or by default the corner markers' centres (tl, tr, br, bl); 'hand'
+is where the pen starts unless the ICPs name it.  A video without the sheet's markers, without
+the ball, or where the sheet is hidden longer than --max-gap frames is refused (exit 2) and
+nothing is written.
+Example: hila learn pen.mp4 --sheet --cell 5 -k 3 --tags reach,draw,retract --contact draw -o circle.yaml"""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -68,6 +86,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                       help="the world whose demonstration is recorded (--from-sim) or whose scene ICPs are read "
                            "in the frames (default tictactoe, the only one shipped that has them)")
     seen.add_argument("--max-gap", type=int, default=3, help="longest marker loss bridged, frames (default 3)")
+    pen = parser.add_argument_group("a pen on the printed sheet before one camera (docs/camera.md)")
+    pen.add_argument("--sheet", action="store_true", help="DEMO is a video (or folder of frames) of a pen on the sheet")
+    pen.add_argument("--cell", type=whole(1, 9, " (1 top left, 9 bottom right as you read the sheet)"), default=None,
+                     metavar="N",
+                     help="ICPs tl, tr, br, bl: the corners of the printed grid's cell N (1 top left .. 9)")
+    pen.add_argument("--ball", default="green", metavar="COLOUR",
+                     help="colour of the ball on the pen's tip: green (default), blue, red, yellow, cyan, magenta")
+    pen.add_argument("--ball-mm", type=number(2, 60, " mm"), default=12.0, metavar="MM",
+                     help="the ball's diameter (default 12 mm)")
+    pen.add_argument("--hfov", type=number(20, 150, " degrees"), default=None, metavar="DEG",
+                     help="the camera's horizontal field of view, if known (else measured from the sheet)")
+    pen.add_argument("--fps", type=number(1, 1000), default=30.0, help="frame rate of a folder of frames (default 30)")
     parser.add_argument("-k", type=int, default=None, help="number of segments (default: number of --tags, or 1)")
     parser.add_argument("--tags", default=None, help="comma-separated segment tags in time order")
     parser.add_argument("--contact", default="", help="comma-separated tags that touch the surface")
@@ -112,6 +142,17 @@ def _source(args: argparse.Namespace) -> str:
     """Which demonstration source the arguments name; exactly one is allowed."""
     from ..core.errors import InputError
 
+    if getattr(args, "sheet", False):
+        others = [name for name, on in (("--from-sim", args.from_sim), ("--frames", args.frames is not None),
+                                        ("--left/--right", args.left is not None or args.right is not None),
+                                        ("--keep-recording", args.keep_recording),
+                                        ("--robot/--set", args.robot is not None or args.robot_settings)) if on]
+        if args.demo is None or others:
+            raise InputError("--sheet learns from one video: hila learn VIDEO --sheet"
+                             + (f" (not with {' and '.join(others)})" if others else ""))
+        return "--sheet"
+    if getattr(args, "cell", None) is not None:
+        raise InputError("--cell goes with --sheet (the printed grid's cell)")
     given = [name for name, on in (
         ("DEMO.csv", args.demo is not None),
         ("--from-sim", args.from_sim),
@@ -139,6 +180,38 @@ def _source(args: argparse.Namespace) -> str:
     if stray:
         raise InputError(f"hila learn --set takes the robot's settings only (robot.KEY=VALUE), got {stray[0]!r}")
     return source
+
+
+def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
+    """Track the pen in the video ``args.demo`` (:mod:`hila_lang.perception.pen`), write
+    OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
+    import numpy as np
+
+    from ..core.fileio import atomic_write_text, dump_yaml, ensure_writable
+    from ..evaluation.lasa import RATE_HZ, resample_in_time
+    from ..osila.demofile import demo_csv, load_icps
+    from ..perception.pen import sheet_icps, track_video
+
+    stem = out.name[:-len(out.suffix)] if out.suffix else out.name
+    csv, icps_file = out.with_name(f"{stem}.demo.csv"), out.with_name(f"{stem}.icps.yaml")
+    for path in (csv, icps_file):
+        ensure_writable(path)
+    given = load_icps(args.icps, 3) if args.icps else None
+    print(f"tracking the pen in {args.demo} ...", flush=True)
+    track = track_video(args.demo, ball=args.ball, ball_mm=args.ball_mm, hfov_deg=args.hfov, fps=args.fps,
+                        max_gap=args.max_gap, progress=lambda n: print(f"  {n} frames", flush=True))
+    icps = given if given is not None else sheet_icps(track.layout, args.cell)
+    path = resample_in_time(track.times, np.column_stack([track.tip / 1000.0, track.contact]), RATE_HZ)
+    pen = path[:, 3] > 0.5
+    path = np.where(pen[:, None], np.column_stack([path[:, :2], np.zeros(len(path))]), path[:, :3])
+    icps = {**icps, "hand": path[0]} if "hand" not in icps else icps
+    print(f"  {track.summary()}")
+    atomic_write_text(csv, f"# tracked by hila learn --sheet from {args.demo}: {track.summary()}\n"
+                           "# sheet frame, metres: x right, y up the page, z off the paper; pen 1 = on the paper\n"
+                      + demo_csv(path, np.arange(len(path)) / RATE_HZ, pen))
+    dump_yaml(icps_file, {k: [float(v) for v in p] for k, p in icps.items()},
+              header=f"ICPs of {csv.name}: the {track.layout.name} sheet's frame, metres")
+    return str(csv), str(icps_file)
 
 
 def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
@@ -272,6 +345,9 @@ def run(args: argparse.Namespace) -> int:
     name = args.name or out.stem
     if library is not None:
         (tags_new, tags), (contact_new, contact), k = (tags, []), (contact, []), 1
+    if source == "--sheet":
+        args.demo, args.icps = _from_sheet(args, out)
+        source = "DEMO.csv"
     if source != "DEMO.csv":
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:

@@ -7,6 +7,7 @@
 - ``bounded``     logs that keep memory flat however long a run
 - ``interrupts``  Ctrl-C where it can be acted on cleanly
 - ``jit``         optional numba compilation of a few hot loops
+- ``threads``     the numeric libraries' threads: one by default, set once at start-up
 - ``rotation``    rotations: one convention, through one library
 - ``argtypes``    command-line value types and the limits they hold (the studio obeys them too)
 - ``images``      pictures a person gives, their size checked by the header before decoding

@@ -25,13 +25,27 @@ candidates), so a 200-stamp path costs about 1 ms in numpy and 0.05 ms compiled,
 of a few short sub-templates (``hila exec``: tens of stamps each) never pays the start-up.  Which
 implementation runs is a function of the input alone, so a run is deterministic.  Batch work that maps thousands of paths (``hila eval``)
 runs inside :func:`batch`, where every path uses the kernels.
+
+**First use** (issue 38).  Compiling every kernel takes 25-40 s on this machine (the TPS choice
+kernel most of it); numba caches the result beside the sources, so only the first run after an
+install pays -- a first ``hila eval`` took 169 s against 11.5 s for the second (load 22).  So the
+first run of a ``hila`` command that may use them (:func:`warm_in_background`, called by the
+command line) starts one detached process at the lowest priority that compiles them all into
+numba's cache and leaves a stamp; the run itself goes on as before (the same kernels at the same
+places, so the same results).  A later run finds the cache warm.  A run that needs a kernel while
+that process still compiles compiles it itself, as before.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import subprocess
+import sys
+import time
 import warnings
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Callable, Iterator
 
 from .interrupts import guarded
@@ -112,6 +126,74 @@ def _build(func: Callable, warm: tuple[Any, ...]) -> Callable | None:
         except Exception:  # noqa: BLE001 -- any numba failure means: use numpy
             pass
     return None
+
+
+#: the modules holding kernels, under ``hila_lang/``: the warm stamp hashes their sources' times
+#: and sizes (a new install or an edit writes them anew, and numba's cache is then stale too)
+KERNEL_SOURCES = ("osila/route.py", "osila/tps.py", "osila/robust.py", "metrics.py")
+#: a background compile older than this is taken for dead and may be started again, seconds
+STALE_LOCK_S = 1800.0
+
+
+def warm_stamp() -> Path | None:
+    """Where the stamp of a warm kernel cache for these sources lives (beside numba's own cache:
+    ``hila_lang/osila/__pycache__``, or ``NUMBA_CACHE_DIR``), or None if that cannot be said."""
+    root = Path(__file__).resolve().parent.parent
+    try:
+        stats = [(root / name).stat() for name in KERNEL_SOURCES]
+    except OSError:
+        return None
+    key = hashlib.sha256(repr(([(s.st_mtime_ns, s.st_size) for s in stats], sys.version,
+                               sys.executable)).encode()).hexdigest()[:12]
+    folder = Path(os.environ["NUMBA_CACHE_DIR"]) if os.environ.get("NUMBA_CACHE_DIR") else root / "osila" / "__pycache__"
+    return folder / f"hila-kernels-{key}.warm"
+
+
+def warm_in_background(module: str) -> bool:
+    """Start ``python -m module STAMP`` detached at the lowest priority, once, when the kernels'
+    cache is not known to be warm (module docstring); True if it was started.
+
+    ``module`` compiles every kernel and writes ``STAMP``; a lock file beside the stamp keeps a
+    second run from starting another one meanwhile.  Nothing is started when numba is disabled
+    (``HILA_JIT=0``) or the cache's folder is not writable.
+    """
+    if not enabled():
+        return False
+    stamp = warm_stamp()
+    if stamp is None or stamp.exists():
+        return False
+    lock = stamp.with_suffix(".running")
+    try:
+        stamp.parent.mkdir(parents=True, exist_ok=True)
+        if lock.exists() and time.time() - lock.stat().st_mtime > STALE_LOCK_S:
+            lock.unlink()
+        os.close(os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
+    except OSError:  # another run is warming it, or the folder is not writable
+        return False
+    try:
+        subprocess.Popen([sys.executable, "-m", module, str(stamp)], stdin=subprocess.DEVNULL,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                         close_fds=True)
+    except OSError:
+        lock.unlink(missing_ok=True)
+        return False
+    return True
+
+
+def warmed(stamp: Path, compile_all: Callable[[], None]) -> None:
+    """The background process's work: lowest priority, ``compile_all()``, then ``stamp`` written
+    (only if every kernel compiled) and the lock removed."""
+    lock = stamp.with_suffix(".running")
+    try:
+        try:
+            os.nice(19)
+        except OSError:
+            pass
+        compile_all()
+        if all(kernel is not None for kernel in _DONE.values()):
+            stamp.write_text("numba's cache holds hila's kernels for these sources (hila_lang.core.jit)\n")
+    finally:
+        lock.unlink(missing_ok=True)
 
 
 def reset() -> None:

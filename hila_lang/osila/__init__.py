@@ -28,6 +28,7 @@ One line each:
 - ``route``         the minimum-energy route through the candidates
 - ``adjust``        plan adjustment until forced waypoints and obstacles hold
 - ``bordered``      the warp's inverses grown from round to round while the pairs only grow
+- ``warm``          every kernel compiled into numba's cache at once (the first run's background process)
 """
 
 from __future__ import annotations

@@ -1,14 +1,19 @@
 """Demonstration files: a path as CSV and its scene ICPs as YAML (``hila learn``, ``hila eval``).
 
 CSV: a header line ``t,x,y``, ``t,x,y,z``, ``x,y`` or ``x,y,z`` (t in seconds, strictly
-increasing; x, y, z in metres or pixels), then one row per waypoint; blank lines and lines starting
-with ``#`` are skipped.  ICPs: a YAML mapping ``name: [x, y(, z)]``, or a task file's ``icps:``
-mapping.
+increasing; x, y, z in metres or pixels), optionally followed by a ``pen`` column, then one row per
+waypoint; blank lines and lines starting with ``#`` are skipped.  ``pen`` records the pen's
+contact with the surface at each waypoint: ``1`` down (touching, inking), ``0`` up -- what a
+drawing's pointer events say (``pointerdown`` / ``pointerup``) and what a camera demonstration
+tracks; ``hila learn`` then cuts where the pen touches and leaves the paper
+(:func:`hila_lang.osila.segmentation.contact_segments`).  ICPs: a YAML mapping
+``name: [x, y(, z)]``, or a task file's ``icps:`` mapping.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -16,11 +21,31 @@ from ..core.errors import InputError
 from ..core.fileio import load_yaml, read_text
 from .template import MAX_COORDINATE, check_coordinates
 
+#: the headers a demonstration CSV may have (each also with a last column ``pen``)
+HEADERS = (["t", "x", "y"], ["t", "x", "y", "z"], ["x", "y"], ["x", "y", "z"])
+
+
+class Demo(NamedTuple):
+    """A demonstration file's contents: ``path`` (T, D), ``times`` (T,) seconds or None, ``pen``
+    (T,) bool (True: the pen touches the surface) or None when the file has no ``pen`` column."""
+
+    path: np.ndarray
+    times: np.ndarray | None
+    pen: np.ndarray | None
+
+
 def read_demo_csv(path: str | Path):
-    """Read a demonstration CSV: returns (path (T, D), times (T,) or None).
+    """Read a demonstration CSV: returns (path (T, D), times (T,) or None) (:func:`read_demo`
+    without the pen)."""
+    demo = read_demo(path)
+    return demo.path, demo.times
+
+
+def read_demo(path: str | Path) -> Demo:
+    """Read a demonstration CSV, its ``pen`` column included when it has one.
 
     Raises InputError naming the file and line for a bad header, a ragged row, a non-number,
-    non-increasing times or no data rows.
+    a pen value other than 0 or 1, non-increasing times or no data rows.
     """
     text = read_text(path, "demonstration CSV")
     rows = []
@@ -32,9 +57,11 @@ def read_demo_csv(path: str | Path):
         raise InputError("demonstration CSV is empty; expected a header 't,x,y[,z]' and rows", file=str(path))
     no, raw, header = rows[0]
     header = [h.lower() for h in header]
-    if header not in (["t", "x", "y"], ["t", "x", "y", "z"], ["x", "y"], ["x", "y", "z"]):
+    has_pen = header[-1:] == ["pen"]
+    if (header[:-1] if has_pen else header) not in HEADERS:
         raise InputError(
-            f"expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z', got {','.join(header)!r}",
+            f"expected the header 't,x,y', 't,x,y,z', 'x,y' or 'x,y,z' (each optionally with a last "
+            f"column 'pen'), got {','.join(header)!r}",
             file=str(path), line=no, source_line=raw,
         )
     data = []
@@ -55,7 +82,12 @@ def read_demo_csv(path: str | Path):
                     f"expected a finite number in column {name!r}, got {cell!r}",
                     file=str(path), line=no, source_line=raw,
                 )
-            if name != "t" and abs(v) > MAX_COORDINATE:
+            if name == "pen" and v not in (0.0, 1.0):
+                raise InputError(
+                    f"expected 1 (pen down, touching) or 0 (pen up) in column 'pen', got {cell!r}",
+                    file=str(path), line=no, source_line=raw,
+                )
+            if name not in ("t", "pen") and abs(v) > MAX_COORDINATE:
                 raise InputError(
                     f"expected a coordinate within +-{MAX_COORDINATE:g} in column {name!r}, got {cell!r}",
                     file=str(path), line=no, source_line=raw, hint="a demonstration's units are metres or pixels",
@@ -70,9 +102,24 @@ def read_demo_csv(path: str | Path):
     if not data:
         raise InputError("demonstration CSV has a header but no data rows", file=str(path))
     arr = np.array([v for _, v in data])
+    pen = arr[:, -1] > 0.5 if has_pen else None
+    if has_pen:
+        arr = arr[:, :-1]
     if header[0] == "t":
-        return arr[:, 1:], arr[:, 0]
-    return arr, None
+        return Demo(arr[:, 1:], arr[:, 0], pen)
+    return Demo(arr, None, pen)
+
+
+def demo_csv(path: np.ndarray, times: np.ndarray | None = None, pen: np.ndarray | None = None) -> str:
+    """The CSV text :func:`read_demo` reads: ``path`` (T, D), optional ``times`` (T,) and ``pen``
+    (T,) bool; floats written with ``repr`` precision (a round trip is exact)."""
+    path = np.asarray(path, dtype=float)
+    header = ["t"] * (times is not None) + ["x", "y", "z"][:path.shape[1]] + ["pen"] * (pen is not None)
+    rows = [",".join(header)]
+    for i, p in enumerate(path):
+        cells = ([repr(float(times[i]))] if times is not None else []) + [repr(float(v)) for v in p]
+        rows.append(",".join(cells + ([str(int(bool(pen[i])))] if pen is not None else [])))
+    return "\n".join(rows) + "\n"
 
 
 def load_icps(path: str | Path, dim: int) -> dict:

@@ -62,8 +62,19 @@ def position_noise(path: np.ndarray, order: int = ORDER) -> float:
     d = np.diff(path, n=order, axis=0).ravel()
     if d.size == 0:
         return 0.0
-    mad = float(np.median(np.abs(d - np.median(d))))
+    mad = _median(np.abs(d - _median(d)))
     return mad * _MAD_TO_SIGMA / float(np.sqrt(comb(2 * order, order)))
+
+
+def _median(x: np.ndarray) -> float:
+    """``np.median`` of a finite 1-D array, bit for bit, by one partition: a default ``imitate``
+    of a 1000-point path pays two medians, and ``np.median``'s own checks cost as much as the
+    partition (about 20 µs of a 0.4 ms call here)."""
+    k = x.size // 2
+    if x.size % 2:
+        return float(np.partition(x, k)[k])
+    part = np.partition(x, (k - 1, k))
+    return float((part[k - 1] + part[k]) / 2)
 
 
 def default_threshold(mapped: np.ndarray) -> float:

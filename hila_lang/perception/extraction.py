@@ -3,7 +3,9 @@
 Detection.  The marker is the only saturated green thing in view.  Each pixel gets a weight
 ``clip(greenness / GREEN_FULL, 0, 1)`` with ``greenness = G - max(R, B)``: pixels fully inside
 the marker weigh 1, pixels it partly covers (the camera averages light over a pixel) weigh
-their coverage, so the weighted centroid of the largest green blob is sub-pixel.
+their coverage, so the weighted centroid of the largest green blob is sub-pixel.  Other
+colours (:data:`COLOURS`, for a pen's ball before a webcam) use the same rule with their own
+*colourness*; :func:`detect_blob` also measures the blob's area.
 
 Bridging.  A frame where no blob of at least ``min_area`` pixels is found is *lost*.  Runs of at
 most ``max_gap`` lost frames between two detections are filled by cubic interpolation in time;
@@ -20,6 +22,8 @@ hundredths of a pixel here) and never reshapes the drawing.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..core.errors import InputError
@@ -30,18 +34,55 @@ GREEN_FULL = 80.0
 GREEN_MIN = 12.0
 
 
-def detect_marker(image: np.ndarray, min_area: float = 4.0) -> np.ndarray | None:
-    """Sub-pixel centre (2,) of the green marker in ``image`` (H, W, 3) RGB uint8, or None.
+#: colours a marker may have: name -> (channels that must be high, channels that must be low),
+#: RGB channel indices.  A pixel's *colourness* is its lowest high channel minus its highest low
+#: one: green's is G - max(R, B), yellow's min(R, G) - B.  Skin is reddish (R - max(G, B) is
+#: about 50), so a red marker near a hand is a poor choice; green and blue are the safe ones.
+COLOURS = {"green": ((1,), (0, 2)), "blue": ((2,), (0, 1)), "red": ((0,), (1, 2)),
+           "yellow": ((0, 1), (2,)), "cyan": ((1, 2), (0,)), "magenta": ((0, 2), (1,))}
 
-    The centre is the coverage-weighted centroid of the largest connected green blob, pixels.
+
+@dataclass(frozen=True)
+class Blob:
+    """A coloured marker found in an image.
+
+    Attributes
+    ----------
+    centre : ndarray (2,)
+        Coverage-weighted centroid, pixels.
+    area : float
+        Its area, pixels: each pixel's colourness over the blob's own bright core (the 90th
+        percentile of its colourness), clipped to 1 and summed -- a coverage that neither blur
+        (which spreads colourness without adding any) nor the light's brightness changes.
     """
-    import cv2
 
+    centre: np.ndarray
+    area: float
+
+
+def colourness(image: np.ndarray, colour: str = "green") -> np.ndarray:
+    """How much of ``colour`` each pixel of an RGB image (H, W, 3) holds, (H, W) int16 (see :data:`COLOURS`)."""
+    if colour not in COLOURS:
+        raise InputError(f"unknown marker colour {colour!r}; expected one of {', '.join(COLOURS)}")
     img = np.asarray(image)
     if img.ndim != 3 or img.shape[2] < 3:
         raise InputError(f"expected an RGB image of shape (H, W, 3), got {img.shape}")
+    high, low = COLOURS[colour]
     f = img[:, :, :3].astype(np.int16)
-    green = f[:, :, 1] - np.maximum(f[:, :, 0], f[:, :, 2])
+    lo = f[:, :, low[0]] if len(low) == 1 else np.maximum(f[:, :, low[0]], f[:, :, low[1]])
+    hi = f[:, :, high[0]] if len(high) == 1 else np.minimum(f[:, :, high[0]], f[:, :, high[1]])
+    return hi - lo
+
+
+def detect_blob(image: np.ndarray, min_area: float = 4.0, colour: str = "green") -> Blob | None:
+    """The largest connected blob of ``colour`` in ``image`` (H, W, 3) RGB uint8, or None.
+
+    Its centre is the coverage-weighted centroid (weights ``clip(colourness / GREEN_FULL, 0,
+    1)``, the module docstring), so it is sub-pixel.
+    """
+    import cv2
+
+    green = colourness(image, colour)
     mask = (green > GREEN_MIN).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     if n <= 1:
@@ -51,7 +92,7 @@ def detect_marker(image: np.ndarray, min_area: float = 4.0) -> np.ndarray | None
                                                     cv2.CC_STAT_WIDTH, cv2.CC_STAT_HEIGHT))
     # a one-pixel ring around the blob holds its partially covered edge pixels
     x0, y0 = max(x0 - 1, 0), max(y0 - 1, 0)
-    x1, y1 = min(x0 + w + 2, img.shape[1]), min(y0 + h + 2, img.shape[0])
+    x1, y1 = min(x0 + w + 2, green.shape[1]), min(y0 + h + 2, green.shape[0])
     g = green[y0:y1, x0:x1].astype(float)
     wgt = np.clip(g / GREEN_FULL, 0.0, 1.0)
     wgt[g <= GREEN_MIN / 2] = 0.0
@@ -59,15 +100,27 @@ def detect_marker(image: np.ndarray, min_area: float = 4.0) -> np.ndarray | None
     if total < min_area:
         return None
     ys, xs = np.mgrid[y0:y1, x0:x1]
-    return np.array([(wgt * xs).sum() / total, (wgt * ys).sum() / total])
+    core = float(np.percentile(g[labels[y0:y1, x0:x1] == best], 90))
+    area = float(np.clip(np.where(wgt > 0, g, 0.0) / max(core, 1.0), 0.0, 1.0).sum())
+    return Blob(np.array([(wgt * xs).sum() / total, (wgt * ys).sum() / total]), area)
 
 
-def bridge(track: np.ndarray, max_gap: int = 3, *, camera: str = "camera", names=None) -> np.ndarray:
-    """Fill lost frames (rows of NaN) of ``track`` (T, 2) by cubic interpolation in frame index.
+def detect_marker(image: np.ndarray, min_area: float = 4.0, colour: str = "green") -> np.ndarray | None:
+    """Sub-pixel centre (2,) of the marker in ``image`` (H, W, 3) RGB uint8, or None.
+
+    The centre is the coverage-weighted centroid of the largest connected blob of ``colour``
+    (green by default: the hand marker), pixels (:func:`detect_blob`).
+    """
+    blob = detect_blob(image, min_area, colour)
+    return None if blob is None else blob.centre
+
+
+def bridge(track: np.ndarray, max_gap: int = 3, *, camera: str = "camera", names=None, what: str = "marker") -> np.ndarray:
+    """Fill lost frames (rows of NaN) of ``track`` (T, k) by cubic interpolation in frame index.
 
     Parameters
     ----------
-    track : ndarray, shape (T, 2)
+    track : ndarray, shape (T, k)
         Pixel positions; a lost frame is a row of NaN.
     max_gap : int
         Longest run of consecutive lost frames that is bridged.
@@ -75,6 +128,8 @@ def bridge(track: np.ndarray, max_gap: int = 3, *, camera: str = "camera", names
         Which camera, for the error message.
     names : sequence of str, optional
         Frame names (file names) for the error message; default frame indices.
+    what : str
+        What was lost, for the error message.
 
     Raises
     ------
@@ -94,9 +149,9 @@ def bridge(track: np.ndarray, max_gap: int = 3, *, camera: str = "camera", names
     if bad or (~lost).sum() < 2:
         shown = "; ".join(_fmt_run(r, names) for r in (bad or runs)[:6])
         raise InputError(
-            f"marker lost in {int(lost.sum())} of {len(track)} {camera} frames; cannot bridge {shown} "
+            f"{what} lost in {int(lost.sum())} of {len(track)} {camera} frames; cannot bridge {shown} "
             f"(gaps of up to {max_gap} frames between two detections are interpolated)",
-            hint="check the marker is in view and lit in those frames, or record again")
+            hint=f"check the {what} is in view and lit in those frames, or record again")
     good = np.flatnonzero(~lost)
     spline = CubicSpline(good, track[good], axis=0)
     track[lost] = spline(np.flatnonzero(lost))

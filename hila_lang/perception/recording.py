@@ -23,7 +23,7 @@ complete, so a crash never leaves a half-written recording; every file is writte
 
 :func:`load_frames` reads a folder of images (sorted by name; numbered names must not skip a
 number) or a video file, and turns every problem into :class:`~hila_lang.core.errors.InputError`
-naming the file.
+naming the file; :func:`iter_frames` gives the same frames one at a time, with their times.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from ..sim.camera import Camera
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm")
 #: supersampling of the chessboard images (the demonstration frames use 2x)
 CALIBRATION_SUPERSAMPLE = 4
-VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg")
+VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg", ".y4m")
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:
@@ -78,6 +78,29 @@ def frame_files(folder: str | os.PathLike, what: str = "frames") -> list[Path]:
     return files
 
 
+def iter_frames(source: str | os.PathLike, what: str = "frames", fps: float = 30.0):
+    """The frames of a folder of images or a video file, one at a time: ``(image RGB uint8, name,
+    time in seconds)``, so a long video never sits in memory whole.
+
+    A video's frame times are its own time stamps (a variable frame rate is kept), or the frame
+    index over its frame rate where it has none; a folder's frames are ``fps`` apart.
+
+    Raises
+    ------
+    InputError
+        Missing folder or file, no images, a gap in the numbering, an unreadable image or video.
+    """
+    source = Path(source)
+    if source.is_file() and source.suffix.lower() in VIDEO_SUFFIXES:
+        yield from _read_video(source)
+        return
+    if source.is_file():
+        raise InputError(f"expected a folder of images or a video file ({', '.join(VIDEO_SUFFIXES)})",
+                         file=str(source))
+    for i, p in enumerate(frame_files(source, what)):
+        yield read_image(p), p.name, i / fps
+
+
 def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[np.ndarray], list[str]]:
     """All frames of a folder of images or a video file: (images RGB uint8, names).
 
@@ -87,17 +110,10 @@ def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[n
         Missing folder or file, no images, a gap in the numbering, an unreadable image or video,
         or frames of different sizes.
     """
-    source = Path(source)
-    if source.is_file() and source.suffix.lower() in VIDEO_SUFFIXES:
-        images = _read_video(source)
-        names = [f"{source.name}#{i}" for i in range(len(images))]
-    else:
-        if source.is_file():
-            raise InputError(f"expected a folder of images or a video file ({', '.join(VIDEO_SUFFIXES)})",
-                             file=str(source))
-        files = frame_files(source, what)
-        images = [read_image(p) for p in files]
-        names = [p.name for p in files]
+    images, names = [], []
+    for image, name, _ in iter_frames(source, what):
+        images.append(image)
+        names.append(name)
     shapes = {im.shape for im in images}
     if len(shapes) > 1:
         first = images[0].shape
@@ -107,7 +123,8 @@ def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[n
     return images, names
 
 
-def _read_video(path: Path) -> list[np.ndarray]:
+def _read_video(path: Path):
+    """(RGB frame, name, time) of every frame of a video file, its own time stamps where it has them."""
     import cv2
 
     from ..sim.client import quiet_c_output
@@ -116,18 +133,23 @@ def _read_video(path: Path) -> list[np.ndarray]:
         cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         raise InputError("cannot open video file", file=str(path))
-    frames = []
+    rate = cap.get(cv2.CAP_PROP_FPS)
+    rate = rate if np.isfinite(rate) and 1.0 <= rate <= 1000.0 else 30.0
+    count, last = 0, -1.0
     try:
         while True:
             ok, frame = cap.read()
             if not ok:
                 break
-            frames.append(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
+            stamp = cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
+            t = stamp if np.isfinite(stamp) and stamp > last else (last + 1.0 / rate if count else 0.0)
+            last = t
+            yield cv2.cvtColor(frame, cv2.COLOR_BGR2RGB), f"{path.name}#{count}", t
+            count += 1
     finally:
         cap.release()
-    if not frames:
+    if not count:
         raise InputError("video file has no readable frames", file=str(path))
-    return frames
 
 
 def camera_to_dict(camera: Camera) -> dict:

@@ -15,6 +15,14 @@ the cache folder (``$HILA_CACHE_DIR/hila/lens`` or ``~/.cache/hila/lens``, writt
 :func:`hila_lang.core.fileio.cache_folders`) under a name that hashes everything it depends on, like
 the generated robot model, so it is made once per installation: about 25 s for both eyes and the
 pair here (a first ``hila exec programs/game.hila`` took 31.8 s instead of 5.3 s).
+
+hila ships the three calibrations this procedure makes (:data:`SHIPPED`, read after the cache
+folders; made by ``python -m hila_lang.robot.lens``, :func:`ship`), as a lab keeps the
+calibration file of its robot: a first game after an install reads them instead of spending
+those 25 s.  They are used only under the same name, that is, when everything the name hashes
+(the lens, the views, the seeds, the eyes in the head, OpenCV's version) is the same; otherwise
+the robot calibrates itself as above.  ``tests/test_robot_lens.py`` makes them again and
+compares.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ import hashlib
 import json
 import sys
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -43,6 +52,8 @@ STEREO_PAIRS = 16
 STEREO_SEED = 2000
 #: bump to invalidate every cached calibration
 _VERSION = "1"
+#: the calibrations shipped with hila (module docstring), read after the cache folders
+SHIPPED = Path(__file__).with_name("calibration")
 
 
 def true_lens(supersample: int = 1):
@@ -55,26 +66,30 @@ def true_lens(supersample: int = 1):
                            supersample=supersample)
 
 
-def _key(**what) -> str:
-    import cv2
-
+def _key(opencv: str | None = None, **what) -> str:
+    """A hash of ``what`` and everything a calibration depends on (``opencv``: the version to
+    hash, default the one loaded)."""
     from ..perception.calibration import PATTERN, SQUARE
     from ..perception.distortion import TRUE_DISTORTION
 
+    if opencv is None:
+        import cv2
+
+        opencv = cv2.__version__
     what.update({"K": ICUB_EYE_K.tolist(), "dist": list(TRUE_DISTORTION), "size": [EYE_WIDTH, EYE_HEIGHT],
                  "views": CALIBRATION_VIEWS, "supersample": CALIBRATION_SUPERSAMPLE, "pattern": list(PATTERN),
-                 "square": SQUARE, "version": _VERSION, "opencv": cv2.__version__})
+                 "square": SQUARE, "version": _VERSION, "opencv": opencv})
     return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:12]
 
 
 def _cached(name: str, load, make, save):
-    """``load(path)`` of the first cached ``name`` that reads, else ``make()`` saved with
-    ``save(path, value)`` into the first writable cache folder."""
+    """``load(path)`` of the first cached (or shipped) ``name`` that reads, else ``make()`` saved
+    with ``save(path, value)`` into the first writable cache folder."""
     from ..core.errors import InputError
     from ..core.fileio import cache_folders
 
     folders = cache_folders("lens")
-    for folder in folders:
+    for folder in [*folders, SHIPPED]:
         if (folder / name).is_file():
             try:
                 return load(folder / name)
@@ -118,7 +133,27 @@ def eye_calibration(eye: str):
         save_calibration(path, calib, header=f"the iCub's {eye} eye calibrated from {calib.n_views} simulated "
                                              f"chessboard images (hila_lang.robot.lens); made once, delete to make again")
 
-    return _cached(f"eye_{eye}_{_key(eye=eye, seed=CALIBRATION_SEEDS[eye])}.yaml", load_calibration, make, save)
+    return _cached(_eye_name(eye), load_calibration, make, save)
+
+
+def _eye_name(eye: str, opencv: str | None = None) -> str:
+    return f"eye_{eye}_{_key(opencv, eye=eye, seed=CALIBRATION_SEEDS[eye])}.yaml"
+
+
+def _pair_name(opencv: str | None = None, head: np.ndarray | None = None) -> str:
+    """The file name of the calibration of the pair whose right eye is at ``head`` (default the
+    iCub's eyes in its head)."""
+    head = eyes_in_head() if head is None else head
+    key = _key(opencv, pairs=STEREO_PAIRS, seed=STEREO_SEED, head=np.round(head, 6).tolist(),
+               left=CALIBRATION_SEEDS["left"], right=CALIBRATION_SEEDS["right"])
+    return f"eyes_{key}.yaml"
+
+
+def names(opencv: str | None = None) -> list[str]:
+    """The file names of the three calibrations the iCub uses (each eye, its eye pair) for
+    ``opencv``'s version (default the one loaded): what :data:`SHIPPED` must hold to be used.
+    A stand rig's pair (another robot's eyes) is calibrated on first use and cached."""
+    return [_eye_name("left", opencv), _eye_name("right", opencv), _pair_name(opencv)]
 
 
 def eyes_in_head() -> np.ndarray:
@@ -173,6 +208,52 @@ def pair_calibration(left_T_right: tuple, who: str = "a stereo rig"):
         dump_yaml(path, {"right_T_left": stereo.right_T_left.tolist(), "rms_px": stereo.rms, "n_pairs": stereo.n_pairs},
                   header=f"{who} calibrated from simulated chessboard pairs (hila_lang.robot.lens)")
 
-    key = _key(pairs=STEREO_PAIRS, seed=STEREO_SEED, head=np.round(head, 6).tolist(),
-               left=CALIBRATION_SEEDS["left"], right=CALIBRATION_SEEDS["right"])
-    return _cached(f"eyes_{key}.yaml", load, make, save)
+    return _cached(_pair_name(head=head), load, make, save)
+
+
+#: what :data:`SHIPPED` was made with (the OpenCV version its names hash), beside the files
+SHIPPED_MANIFEST = "made-with.json"
+
+
+def ship(folder: str | Path | None = None) -> list[Path]:
+    """Make the three calibrations afresh (nothing cached or shipped is read) and write them into
+    ``folder`` (default :data:`SHIPPED`), replacing what was there, with :data:`SHIPPED_MANIFEST`.
+    Returns the files written."""
+    import os
+    import tempfile
+
+    import cv2
+
+    from ..core.fileio import atomic_write_text
+
+    global SHIPPED
+    target = Path(folder) if folder is not None else SHIPPED
+    with tempfile.TemporaryDirectory() as tmp:
+        saved = SHIPPED, os.environ.get("HILA_CACHE_DIR")
+        SHIPPED, os.environ["HILA_CACHE_DIR"] = Path(tmp) / "nothing-shipped", tmp
+        eye_calibration.cache_clear()
+        pair_calibration.cache_clear()
+        try:
+            wanted = names()
+            eyes_calibration()  # and both eyes
+        finally:
+            SHIPPED = saved[0]
+            if saved[1] is None:
+                del os.environ["HILA_CACHE_DIR"]
+            else:
+                os.environ["HILA_CACHE_DIR"] = saved[1]
+            eye_calibration.cache_clear()
+            pair_calibration.cache_clear()
+        target.mkdir(parents=True, exist_ok=True)
+        for old in target.glob("*.yaml"):
+            old.unlink()
+        out = []
+        for name in wanted:
+            out.append(atomic_write_text(target / name, (Path(tmp) / "hila" / "lens" / name).read_text()))
+        atomic_write_text(target / SHIPPED_MANIFEST, json.dumps({"opencv": cv2.__version__, "files": wanted}, indent=1))
+    return out
+
+
+if __name__ == "__main__":  # python -m hila_lang.robot.lens: make the shipped calibrations again
+    for written in ship():
+        print(written)
