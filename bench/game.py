@@ -21,7 +21,7 @@ Part 1 times ``hila exec programs/game.hila`` as a fresh process (start-up, load
 the whole game, the output folder), reading the child's peak resident memory.  Targets: under
 20 s wall and under 1 GB peak (issue 5).  Part 2 plays games back to back in one process, each
 with its own PyBullet client, and prints the resident memory after each, so a leak (PyBullet's
-``loadTexture`` on every ink reload, DESIGN.md section 4) shows as growth per game.  The last line
+``loadTexture`` on every ink reload, docs/design.md §5) shows as growth per game.  The last line
 sums it up::
 
     game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> images=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>

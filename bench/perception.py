@@ -19,7 +19,7 @@ PyBullet through both distorted eye cameras (320x240) with the default chessboar
 The last line is ``reconstruction median=<mm> max=<mm> reprojection=<px> fps=<f>``
 (targets: median <= 2 mm, max <= 5 mm, reprojection <= 0.5 px).  Not a test.
 
-    /work/venv/bin/python bench/perception.py [--seeds 0 1 2] [--keep DIR]
+    python bench/perception.py [--seeds 0 1 2] [--keep DIR]
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ puts the demonstration's feature, before and after rejection (pooled over scenes
     python bench/picture.py [--scenes 20] [--method sift|orb] [--model local|homography]
 
 Routes are scored as planned (OSILA's output); executing them on the arm adds ~0.02 mm
-(DESIGN.md section 4).
+(docs/design.md §5).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ Reports, headless on this machine:
 The last line is ``tracking median=<mm> max=<mm> realtime=<factor>x`` (targets: median <= 1 mm,
 max <= 3 mm, >= 10x real time).  Not a test.
 
-    /work/venv/bin/python bench/robot.py [--points 120] [--renders 10]
+    python bench/robot.py [--points 120] [--renders 10]
 """
 
 from __future__ import annotations

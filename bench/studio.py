@@ -72,10 +72,10 @@ def main(argv=None) -> int:
             browser = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS)
             page = browser.new_page(viewport={"width": 1400, "height": 1000})
             page.goto(studio.url)
-            page.wait_for_function("window.hilaStudio.demo.scene !== undefined")
+            page.wait_for_function("window.hilaStudio && window.hilaStudio.demo && window.hilaStudio.demo.scene !== undefined")
             page.get_by_test_id("tab-imitate").click()
             page.get_by_test_id("imitate-template").select_option("bench.yaml")
-            page.wait_for_function("window.hilaStudio.imit.path && window.hilaStudio.imit.shown >= 1", timeout=120000)
+            page.wait_for_function("window.hilaStudio.imitate.path && window.hilaStudio.imitate.shown >= 1", timeout=120000)
             box = page.get_by_test_id("icp-p3").bounding_box()
             x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
             page.mouse.move(x, y)
@@ -104,7 +104,7 @@ def main(argv=None) -> int:
 def _one_move(page, x: float, y: float) -> tuple[float, float]:
     """One real pointer move (Playwright's mouse, dispatched by the browser's input pipeline) and
     the page's time from that event's time stamp to the end of the matching redraw."""
-    page.evaluate("""() => { const I = window.hilaStudio.imit; window.__want = I.seq + 1;
+    page.evaluate("""() => { const I = window.hilaStudio.imitate; window.__want = I.seq + 1;
       window.__result = new Promise(res => { I.onPath = (r) => { if (r.seq >= window.__want)
         requestAnimationFrame(() => res([performance.now(), r.server_ms])); }; });
       window.__t0 = null;

@@ -10,7 +10,7 @@ through ``importlib`` too, and checks this list):
 - ``session/``, ``lsp/``, ``evaluation/``  a run wired and watched: runner, REPL, recording, replay; the LSP; ``hila eval``
 - ``engine/``                            the stepping engine: step loop, one executor per state class, scene, trace
 - ``language/``                          the front end: grammar, AST, checker, compiler, the FSM
-- ``robot/``                             robots from their specs (iCub, Panda, KUKA, any URDF) in PyBullet; the dry back end
+- ``robot/``, ``ros/``                   robots from their specs (iCub, Panda, KUKA, any URDF) in PyBullet; the dry back end; the ROS 2 back end and robot-sim
 - ``perception/``                        stereo eyes: calibration, marker tracks, scene matching; a pen on a sheet
 - ``sim/``, ``plugins/``                 the simulated scene and camera; the plug-in seam
 - ``hierarchy/``                         HILA: THE step (bind a sub-template, run OSILA), sequences, explain

@@ -40,6 +40,7 @@ COMMANDS = {
     "lsp": "lsp",
     "show": "show",
     "studio": "studio",
+    "robot-sim": "robot_sim",
 }
 
 

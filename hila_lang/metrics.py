@@ -26,9 +26,10 @@ thousands of pairs of ``hila eval``), so they are computed by a compiled kernel
 both against ``similaritymeasures``.  Distances between points come from
 ``scipy.spatial.distance.cdist``.
 
-Every score ``hila eval`` reports is registered once, by name, with its direction (higher or
-lower is better) and whether it is time-free (:data:`METRICS`, :func:`register`); the
-evaluation's tables, tests and files read the registry, so a new metric is one registration here.
+Every score ``hila eval`` reports is registered once, by name, with its kind (a correlation, higher
+is better, or a distance, lower is better), whether it is time-free, its unit and its title
+(:data:`METRICS`, :func:`register`); the evaluation's tables, tests, files and plots read the
+registry, so a new metric is one registration here.
 
 1-D inputs (T,) are treated as (T, 1).  Paths of different lengths are first resampled to the
 longer length by :func:`resample` (cubic spline), as in the paper.
@@ -261,6 +262,11 @@ def dtw(a: Any, b: Any) -> float:
 # ----------------------------------------------------------------------------- the registry
 
 
+#: what a metric measures, and so which way is better: a correlation (R: 1 is the same shape) or
+#: a distance (0 is the same path)
+KINDS = {"correlation": "higher", "distance": "lower"}
+
+
 @dataclass(frozen=True)
 class Metric:
     """One score of a generated path ``a`` against a reference ``b``, registered by name.
@@ -270,56 +276,76 @@ class Metric:
     name : str
         The name in ``results.json``, ``pairs.csv`` and every table (a per-axis metric ``r_axis``
         is reported as ``r_x``, ``r_y`` (, ``r_z``)).
-    better : str
-        ``"lower"`` or ``"higher"``: which way is better (the paired tests and "share won" read it).
+    kind : str
+        ``"correlation"`` (unit-free, at most 1, higher is better; printed with 3 decimals, drawn
+        on a fixed scale) or ``"distance"`` (in the data's units, lower is better; drawn on a log
+        scale): :data:`KINDS`.
     time_free : bool
         True when the score does not compare the paths sample by sample at equal normalised times
         (Fréchet, DTW, end-point error): it cannot reward a method for knowing *when* the person
         passed a point.
     unit : str
         ``"u"`` (the data's unit), ``"u²"`` or ``""`` (unit-free).
+    title : str
+        How tables name it ("Fréchet", "MSD").
     per_axis : bool
         True when ``compute`` returns one value per coordinate.
     headline : bool
         Shown in the headline tables and tested shape by shape (a score that is not time-free
         only where the protocol gives no timing away); the others stay in ``results.json``.
+    paper : bool
+        One of the paper's measures (§III.D: R, eq. 1, and MSD, eq. 2): its Tables I-III and the
+        heatmaps ``hila eval`` draws show it.
     compute : callable
         ``(a, b, costs) -> float or ndarray (D,)`` on the two paths resampled to equal length and
         their point-to-point distance matrix.
     """
 
     name: str
-    better: str
+    kind: str
     time_free: bool
     unit: str
+    title: str
     per_axis: bool
     headline: bool
+    paper: bool
     compute: Callable[[np.ndarray, np.ndarray, np.ndarray], Any]
+
+    @property
+    def better(self) -> str:
+        """``"higher"`` or ``"lower"``: which way is better (the paired tests and "share won" read it)."""
+        return KINDS[self.kind]
 
 
 #: every metric of ``hila eval``, in report order; add one with :func:`register` (one place)
 METRICS: dict[str, Metric] = {}
 
 
-def register(name: str, better: str, *, time_free: bool, unit: str, per_axis: bool = False, headline: bool = False):
+def register(name: str, kind: str, *, time_free: bool, unit: str, title: str | None = None, per_axis: bool = False,
+             headline: bool = False, paper: bool = False):
     """Decorator: register ``compute(a, b, costs)`` as the metric ``name`` (see :class:`Metric`)."""
-    if better not in ("lower", "higher"):
-        raise ValueError(f"expected better = 'lower' or 'higher', got {better!r}")
+    if kind not in KINDS:
+        raise ValueError(f"expected kind = {' or '.join(map(repr, KINDS))}, got {kind!r}")
 
     def add(compute):
-        METRICS[name] = Metric(name, better, time_free, unit, per_axis, headline, compute)
+        METRICS[name] = Metric(name, kind, time_free, unit, title or name, per_axis, headline, paper, compute)
         return compute
 
     return add
 
 
 # R rises to ~0.99 for every template method and ignores scale and offset: kept, not a headline
-register("r", "higher", time_free=False, unit="")(lambda a, b, c: _correlation(a, b))
-register("msd", "lower", time_free=False, unit="u²", headline=True)(lambda a, b, c: _msd(a, b))
-register("frechet", "lower", time_free=True, unit="u", headline=True)(lambda a, b, c: _run(_frechet_kernel, "max", c))
-register("dtw", "lower", time_free=True, unit="u", headline=True)(lambda a, b, c: _run(_dtw_kernel, "sum", c) / len(a))
-register("endpoint", "lower", time_free=True, unit="u")(lambda a, b, c: float(np.linalg.norm(a[-1] - b[-1])))
-register("r_axis", "higher", time_free=False, unit="", per_axis=True)(lambda a, b, c: _axis_correlation(a, b))
+register("r", "correlation", time_free=False, unit="", title="R", paper=True)(lambda a, b, c: _correlation(a, b))
+register("msd", "distance", time_free=False, unit="u²", title="MSD", headline=True, paper=True)(
+    lambda a, b, c: _msd(a, b))
+register("frechet", "distance", time_free=True, unit="u", title="Fréchet", headline=True)(
+    lambda a, b, c: _run(_frechet_kernel, "max", c))
+register("dtw", "distance", time_free=True, unit="u", title="DTW", headline=True)(
+    lambda a, b, c: _run(_dtw_kernel, "sum", c) / len(a))
+register("endpoint", "distance", time_free=True, unit="u", title="end-point error")(
+    lambda a, b, c: float(np.linalg.norm(a[-1] - b[-1])))
+register("r_axis", "correlation", time_free=False, unit="", title="R per axis", per_axis=True)(
+    lambda a, b, c: _axis_correlation(a, b))
 
 AXES = "xyz"
 

@@ -1,4 +1,9 @@
-"""Shared helpers of the studio tests: a ``hila studio`` process on a folder, and a browser."""
+"""Shared helpers of the studio tests: a ``hila studio`` process on a folder, a browser on it.
+
+The browser tests of each page (``tests/test_studio_NAME.py``) take the fixtures :func:`browser`
+(Debian's chromium through Playwright, headless, one per module), :func:`studio` (``hila studio``
+on a folder holding ``game.hila`` and ``reach.yaml``, one per module) and :func:`page` (a fresh
+page on it, loaded, that must end without a script error)."""
 
 from __future__ import annotations
 
@@ -48,3 +53,54 @@ def chromium_or_skip():
         pytest.skip("Debian's chromium is not installed (apt-get install chromium); .ci/run installs it")
     sync_api = pytest.importorskip("playwright.sync_api", reason="the Python package playwright is not installed")
     return exe, sync_api
+
+
+#: the page has loaded its pages (their modules) and the Demonstrate page its first scene
+READY = "window.hilaStudio && window.hilaStudio.demo && window.hilaStudio.demo.scene !== undefined"
+
+
+@pytest.fixture(scope="module")
+def browser():
+    exe, sync_api = chromium_or_skip()
+    with sync_api.sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("studio")
+    shutil.copy(ROOT / "programs" / "game.hila", folder / "game.hila")
+    shutil.copy(ROOT / "primitives" / "reach.yaml", folder / "reach.yaml")
+    s = Studio(folder)
+    yield s
+    assert s.stop() == 130
+
+
+@pytest.fixture()
+def page(browser, studio):
+    p = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = []
+    p.on("pageerror", lambda e: errors.append(str(e)))
+    p.goto(studio.url)
+    p.wait_for_function(READY)
+    yield p
+    p.close()
+    assert not errors, errors
+
+
+def plane_to_pixel(page, H, p):
+    """The page's own map from the plane to the picture (common.js's applyH), not a copy of it."""
+    return page.evaluate("async ([H, p]) => (await import('/static/common.js')).applyH(H, p[0], p[1])", [H, list(p)])
+
+
+def click_at(page, testid, u, v):
+    box = page.get_by_test_id(testid).bounding_box()
+    page.mouse.click(box["x"] + u, box["y"] + v)
+
+
+def wait_status(page, predicate: str, timeout=60000):
+    """Wait until the Run page's last snapshot ``s`` satisfies ``predicate`` (JavaScript)."""
+    page.wait_for_function(f"(() => {{ const s = window.hilaStudio.run.state; return s && ({predicate}); }})()",
+                           timeout=timeout)

@@ -49,13 +49,48 @@ def test_metrics_are_registered_once_with_their_direction():
     a, b = rng.normal(size=(30, 2)).cumsum(0), rng.normal(size=(30, 2)).cumsum(0)
     got = dict(zip(metrics.names(2), metrics.scores(a, b)))
     assert got["frechet"] == pytest.approx(metrics.frechet(a, b)) and got["msd"] == pytest.approx(metrics.msd(a, b))
-    metrics.register("span", "lower", time_free=True, unit="u")(lambda a, b, c: float(np.ptp(a - b)))
+    metrics.register("span", "distance", time_free=True, unit="u")(lambda a, b, c: float(np.ptp(a - b)))
     try:  # one registration: a new metric is scored and named
         assert metrics.names(2)[-1] == "span" and len(metrics.scores(a, b)) == 8
     finally:
         del metrics.METRICS["span"]
     with pytest.raises(Exception, match="unknown metric 'speed'"):
         metrics.metric("speed")
+    with pytest.raises(ValueError, match="expected kind = 'correlation' or 'distance'"):
+        metrics.register("x", "lower", time_free=True, unit="u")
+
+
+def test_tables_statistics_and_plots_read_a_metrics_kind_not_its_name():
+    """A distance named like R ('rmse') is printed and plotted as a distance, a correlation named
+    otherwise ('agreement') as a correlation: the registry's kind decides, not the first letter."""
+    from hila_lang.evaluation import report, tables
+    from hila_lang.evaluation.run import GridResult
+
+    metrics.register("rmse", "distance", time_free=False, unit="u", title="RMSE", paper=True)(lambda a, b, c: 0.0)
+    metrics.register("agreement", "correlation", time_free=False, unit="", paper=True)(lambda a, b, c: 0.0)
+    try:
+        rng = np.random.default_rng(3)
+        J, names = 4, ("agreement", "rmse")
+        scores = {m: np.stack([rng.uniform(0.6, 0.99, (1, J, J)), rng.uniform(1.0, 500.0, (1, J, J))], -1)
+                  for m in ("osila", "tps")}
+        scores["tps"][0, 0, 1] = np.nan  # a failed pair has no score
+        result = GridResult([f"s{i // 2}/t{i}" for i in range(J)], np.array([0, 0, 1, 1]), ["s0", "s1"], (1,),
+                            ("osila", "tps"), "positions", names, ~np.eye(J, dtype=bool), scores,
+                            {m: np.zeros((1, J, J)) for m in scores}, {"osila": [], "tps": ["t0 -> t1"]})
+        summary = tables.format_summary(result).splitlines()
+        head = [c.strip() for c in summary[1].split("|")]
+        assert "rmse" in head and "agreement" not in head  # the distance is summarised, the correlation kept aside
+        assert tables._fmt(0.123456, "rmse") == "0.1235" and tables._fmt(0.5, "agreement") == "0.500"
+        rows = {r["method"]: r for r in stats.summary_rows(result)}
+        assert rows["tps"]["failed"] == 1 and rows["osila"]["failed"] == 0 and rows["osila"]["pairs"] == J * (J - 1)
+        assert {"agreement", "rmse"} <= set(stats.by_setup(result)[0])
+        doc = report.results_dict(result)
+        assert doc["run"]["kind"] == {"agreement": "correlation", "rmse": "distance"}
+        assert doc["run"]["better"] == {"agreement": "higher", "rmse": "lower"}
+        corr, dist = report.heatmap(result, "osila", "agreement"), report.heatmap(result, "osila", "rmse")
+        assert corr.shape == dist.shape and not np.array_equal(corr, dist)  # each on its own scale
+    finally:
+        del metrics.METRICS["rmse"], metrics.METRICS["agreement"]
 
 
 # ----------------------------------------------------------------------------- the leak-free protocol

@@ -169,7 +169,7 @@ def test_missing_template_names_the_folders_and_suggests():
 def test_non_utf8_program_is_a_syntax_error_with_position(tmp_path):
     bad = tmp_path / "bad.hila"
     bad.write_bytes(b"main {\n  wait b\xffell\n}\n")
-    from hila_lang.language.parser import read_source
+    from hila_lang.language.source import read_source
 
     with pytest.raises(HilaSyntaxError, match=r"not UTF-8 text \(byte 0xff\)") as info:
         read_source(bad)

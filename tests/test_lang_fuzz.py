@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from hila_lang.core.errors import HilaError
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
-from hila_lang.language.parser import decode_source
+from hila_lang.language.source import decode_source
 from hila_lang.language.transformer import parse_program
 
 ROOT = Path(__file__).resolve().parent.parent

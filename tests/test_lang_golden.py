@@ -22,7 +22,7 @@ from hila_lang.language.ast import dump
 from hila_lang.robot.dry import make_backend
 from hila_lang.plugins.options import RunOptions
 from hila_lang.engine.interpreter import Interpreter
-from hila_lang.language.parser import read_source
+from hila_lang.language.source import read_source
 from hila_lang.worlds.scripted.world import ScriptedWorld, load_script
 from hila_lang.language.transformer import parse_program
 

@@ -23,7 +23,7 @@ from hila_lang.language.calls import MAX_STATES
 from hila_lang.language.checker import check
 from hila_lang.language.compiler import compile_program
 from hila_lang.language.limits import MAX_NESTING
-from hila_lang.language.parser import decode_source, syntax_error
+from hila_lang.language.source import decode_source, syntax_error
 from hila_lang.language.transformer import parse_program, to_ast
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -263,3 +263,18 @@ def test_generated_programs_parse_to_the_same_ast_both_ways(stmts, gap):
             return (exc.line, exc.column, exc.message)
 
     assert outcome(lambda t: parse_program(t, "r.hila")) == outcome(_reference)
+
+
+def test_a_statement_whose_fields_are_its_rules_children_has_no_code_in_the_transformer():
+    """``let``, ``wait``, ``while``, ``until`` and ``repeat`` are built by the transformer's one
+    generic builder (their fields in the rule's order, a token as its text, then the position)."""
+    from hila_lang.language import transformer
+
+    text = "main {\n  let x = 1\n  wait e\n  while x { }\n  until x { }\n  repeat 2 { }\n}\n"
+    body = parse_program(text, "g.hila").items[0].body
+    assert body == (A.LetStmt("x", A.Number(1.0)), A.WaitStmt(A.Wait("e", ())), A.WhileStmt(A.Name(("x",)), ()),
+                    A.UntilStmt(A.Name(("x",)), ()), A.RepeatStmt(A.Number(2.0), ()))
+    assert [s.pos.line for s in body] == [2, 3, 4, 5, 6] and body[0].pos.column == 3
+    generic = {rule for rule, cls in A.RULES.items()
+               if transformer.ToAst.__dict__[rule].base_func.__qualname__.startswith("_generic")}
+    assert generic == {"let_stmt", "wait_stmt", "while_stmt", "until_stmt", "repeat_stmt"}

@@ -83,7 +83,8 @@ def test_replay_steps_back_where_icps_and_plots_without_a_simulator(game, tmp_pa
     out = proc.stdout.splitlines()
     assert out[-1] == "loaded: []"  # no simulator
     assert "breakpoint: main/mark/draw" in out
-    assert "at main/mark/draw (run): run circle.draw({main/mark:c}.*, hand = none) pen down" in out
+    assert ("at main/mark/draw (run): run circle.draw({main/mark:c}.*, hand = none) pen down track {main/mark:c} "
+            "every 100 ms threshold 1 mm blend 5 mm lift above 8 mm") in out
     assert any(line.startswith("  tl           = (") for line in out)  # the ICPs it is about to bind
     assert any(line.startswith("main/mark/draw: ") and "points" in line for line in out)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

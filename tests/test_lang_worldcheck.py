@@ -124,6 +124,48 @@ def test_help_lists_every_osila_option_a_run_can_set(capsys):
     assert sorted(OSILA_SETTABLE) == sorted(set(OPTIONS) - set(PER_STEP))
 
 
+def test_an_osila_setting_is_checked_by_its_declaration_which_osila_agrees_with():
+    """``--set osila.NAME`` is read and checked by :data:`OSILA_OPTIONS` without OSILA (no numpy
+    is imported to check it); every value a declaration takes OSILA takes, and what is of the wrong
+    kind (a fraction for a count, a word for a number) both refuse."""
+    import subprocess
+    import sys
+
+    from hila_lang.core.errors import InputError
+    from hila_lang.osila import imitate
+    from hila_lang.plugins.options import OSILA_OPTIONS, OsilaOption, osila_options
+
+    probe = ("from hila_lang.plugins.options import osila_options; import sys; "
+             "o = osila_options({'osila.rounds': '3', 'osila.smoothing': 'auto', 'osila.threshold': '2e-3', "
+             "'osila.reject': 'none', 'osila.directions': 'none'}); "
+             "print(o, 'numpy' in sys.modules, 'hila_lang.osila' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "{'rounds': 3, 'smoothing': 'auto', 'threshold': 0.002, 'reject': 'none', 'directions': None} " \
+                  "False False"
+
+    def osila_takes(name, value) -> bool:
+        try:
+            imitate([[0.0, 0.0], [1.0, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]], **{name: value})
+            return True
+        except InputError:
+            return False
+
+    for name, option in OSILA_OPTIONS.items():
+        if isinstance(option, OsilaOption):
+            taken = [option.low, option.high, (option.low + option.high) / 2, *option.words]
+            wrong = ["auto" if "auto" not in option.words else "many"] + ([2.5] if option.integer else [])
+        else:
+            taken, wrong = list(option.choices), ["sometimes"]
+        for value in taken:
+            parsed = option.parse("none" if value is None else str(int(value) if option.__class__ is OsilaOption
+                                                                       and option.integer else value))
+            assert osila_takes(name, parsed), (name, value)
+        for value in wrong:
+            with pytest.raises(InputError, match=f"bad value for --set osila.{name}"):
+                osila_options({f"osila.{name}": str(value)})
+            assert not osila_takes(name, value), (name, value)
+
+
 def test_a_pin_is_the_steps_own_and_cannot_be_set_for_a_run(capsys):
     """``osila.pin`` would replace every step's exact start/end pins (and was checked against a
     two-point path: 'stamps in [-2, 1] for a path of 2 points')."""

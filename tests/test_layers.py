@@ -133,7 +133,7 @@ TOP_ALWAYS = {"__init__", "__main__", "cli"}
 def test_the_top_of_the_package_has_at_most_five_loose_modules():
     loose = sorted(p.stem for p in PACKAGE.glob("*.py") if p.stem not in TOP_ALWAYS)
     assert len(loose) <= 5, f"loose modules at the top of hila_lang/: {loose}; give them a floor"
-    assert "metrics" in loose  # DESIGN §3's contract hila_lang.metrics stays where it is
+    assert "metrics" in loose  # docs/design.md §3's contract hila_lang.metrics stays where it is
 
 
 def _package(name: str) -> str:
@@ -283,3 +283,12 @@ def test_the_cycle_finder_finds_a_cycle():
 
 def test_no_import_cycle_in_the_package():
     assert _cycles(GRAPH) == []
+
+
+def test_no_front_end_or_world_imports_a_command():
+    """Learning is a library function (``hierarchy/learn.py``): the studio and the worlds call it,
+    not ``commands/``, whose modules only the CLI loads."""
+    wrong = sorted((a, b) for a, targets in GRAPH.items() for b in targets
+                   if _under(a, "studio", "worlds") and _under(b, "commands"))
+    assert wrong == []
+    assert any(_under(b, "hierarchy") for b in GRAPH["hila_lang.studio.demonstrate"])  # the reader saw its arrows

@@ -60,3 +60,24 @@ def test_the_relative_links_of_the_readme_and_the_pages_resolve():
     for page in pages:
         for target in re.findall(r"\]\(([^)#:]+)(?:#[^)]*)?\)", page.read_text()):
             assert (page.parent / target).exists(), f"{page.name}: {target}"
+
+
+def test_the_code_cites_only_files_and_design_sections_the_repository_has():
+    """A docstring or comment that points elsewhere points into the repository: a page that exists
+    (a page under ``docs/``, ``README.md``), a section of ``docs/design.md`` that exists (``§N``), never a
+    design file the project does not carry nor a path on someone's machine."""
+    design = (ROOT / "docs" / "design.md").read_text()
+    sections = set(re.findall(r"^#{2,3} (\d+(?:\.\d+)?)[. ]", design, re.M))
+    assert {"2.2", "3", "5", "6"} <= sections
+    outside = ("DESIGN" + ".md", "DESIGN §", "STYLE" + ".md", "/work/", "seed/000")
+    files = [p for folder in ("hila_lang", "bench", "tests") for p in sorted((ROOT / folder).rglob("*.py"))]
+    assert len(files) > 200
+    for path in files:
+        text = path.read_text()
+        name = path.relative_to(ROOT)
+        for cited in re.findall(r"docs/design\.md\s*§\s*(\d+(?:\.\d+)?)", text):
+            assert cited in sections, f"{name} cites docs/design.md §{cited}, which it does not have"
+        for page in re.findall(r"(?<![\w/.-])((?:docs/)?[\w-]+\.md)\b", text):
+            assert (ROOT / page).is_file() or (ROOT / "docs" / page).is_file(), f"{name} cites {page}"
+        for word in outside:
+            assert word not in text or path.name == "test_readme.py", f"{name} cites {word!r}, outside the repository"

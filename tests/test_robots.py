@@ -317,7 +317,7 @@ def test_the_studio_run_page_runs_and_shows_the_chosen_robot():
     """The Run page's robot choice reaches the run: the back end moves the Panda and the 3-D view
     (rendered by the simulator holding that arm) is not the iCub's."""
     pytest.importorskip("starlette")
-    from hila_lang.studio.session import RunSession
+    from hila_lang.studio.run import RunSession
 
     views = {}
     for robot in ("panda", None):

@@ -14,6 +14,7 @@
 - ``show``      ``hila show``: what a template or a world offers a program
 - ``lsp``       ``hila lsp``: the language server (stdio)
 - ``studio``    ``hila studio``: the local browser app
+- ``robot_sim`` ``hila robot-sim``: a simulated arm behind ROS 2 topics, for ``--backend ros``
 
 The top floor with the studio: a command may import anything below it; nothing below imports a command.
 """

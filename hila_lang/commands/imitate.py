@@ -77,16 +77,6 @@ def load_task(path, dim: int) -> dict:
     return {"icps": icps, "forced": doc.get("forced"), "obstacles": doc.get("obstacles"), "options": dict(options)}
 
 
-def _csv(path, times) -> str:
-    axes = "xyz"[: path.shape[1]]
-    head = ("t," if times is not None else "") + ",".join(axes)
-    rows = [head]
-    for i, p in enumerate(path):
-        cells = ([repr(float(times[i]))] if times is not None else []) + [repr(float(v)) for v in p]
-        rows.append(",".join(cells))
-    return "\n".join(rows) + "\n"
-
-
 def run(args: argparse.Namespace) -> int:
     import difflib
     import sys
@@ -96,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     from ..core.errors import InputError
     from ..core.fileio import atomic_write_text, ensure_writable
     from ..hierarchy.generate import generate
+    from ..osila.demofile import demo_csv
     from ..osila.template import END, START, load_template
     from ..core.validation import check_int, check_positive
 
@@ -130,9 +121,9 @@ def run(args: argparse.Namespace) -> int:
         options["smoothing"] = check_positive(args.smoothing, "--smoothing", allow_zero=True)
     if args.timing is not None:
         options["timing"] = check_positive(args.timing, "--timing", allow_zero=True)
-    from ..plugins.options import check_osila_ranges
+    from ..plugins.options import check_osila_options
 
-    check_osila_ranges(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
+    options = check_osila_options(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
     try:
         gen = generate(
             [step], task["icps"], forced={0: task["forced"]} if task["forced"] is not None else None,
@@ -143,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     piece = gen.pieces[0]
     path = gen.path
-    text = _csv(path, gen.times)
+    text = demo_csv(path, gen.times)
     out = sys.stdout
     if args.output:
         atomic_write_text(args.output, text)

@@ -1,10 +1,12 @@
 """``hila learn``: one demonstration -> a segmented template YAML.
 
-The demonstration comes from a CSV path plus its ICPs, or is seen through the iCub's stereo
-cameras (:mod:`hila_lang.perception.learn`): recorded frames (``--frames``, ``--left/--right``)
-or a recording made in simulation (``--from-sim``), or is a pen on the printed sheet before one
-camera (``VIDEO --sheet``, :mod:`hila_lang.perception.pen`): tracked, written as a demonstration
-CSV with its pen column and its ICPs, and learned from them as from any CSV.
+The demonstration comes from a CSV path plus its ICPs (learned by
+:func:`hila_lang.hierarchy.learn.learn_files`, the function the studio and the letters world call
+too), or is seen through the iCub's stereo cameras (:mod:`hila_lang.perception.learn`): recorded
+frames (``--frames``, ``--left/--right``) or a recording made in simulation (``--from-sim``), or is
+a pen on the printed sheet before one camera (``VIDEO --sheet``, :mod:`hila_lang.perception.pen`):
+tracked, written as a demonstration CSV with its pen column and its ICPs, and learned from them as
+from any CSV.
 """
 
 from __future__ import annotations
@@ -174,11 +176,9 @@ def _source(args: argparse.Namespace) -> str:
         raise InputError("--keep-recording goes with --from-sim")
     if source != "--from-sim" and (args.robot is not None or args.robot_settings):
         raise InputError("--robot and --set robot.KEY go with --from-sim (the robot whose eyes watch)")
-    from ..plugins.options import parse_pairs
+    from ..robot.spec import robot_pairs
 
-    stray = [k for k in parse_pairs(args.robot_settings) if not k.startswith("robot.")]
-    if stray:
-        raise InputError(f"hila learn --set takes the robot's settings only (robot.KEY=VALUE), got {stray[0]!r}")
+    robot_pairs(args.robot_settings, "hila learn")
     return source
 
 
@@ -187,9 +187,9 @@ def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
     import numpy as np
 
-    from ..core.fileio import atomic_write_text, dump_yaml, ensure_writable
+    from ..core.fileio import atomic_write_text, ensure_writable
     from ..evaluation.lasa import RATE_HZ, resample_in_time
-    from ..osila.demofile import demo_csv, load_icps
+    from ..osila.demofile import demo_csv, load_icps, write_icps
     from ..perception.pen import sheet_icps, track_video
 
     stem = out.name[:-len(out.suffix)] if out.suffix else out.name
@@ -209,8 +209,8 @@ def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     atomic_write_text(csv, f"# tracked by hila learn --sheet from {args.demo}: {track.summary()}\n"
                            "# sheet frame, metres: x right, y up the page, z off the paper; pen 1 = on the paper\n"
                       + demo_csv(path, np.arange(len(path)) / RATE_HZ, pen))
-    dump_yaml(icps_file, {k: [float(v) for v in p] for k, p in icps.items()},
-              header=f"ICPs of {csv.name}: the {track.layout.name} sheet's frame, metres")
+    write_icps(icps_file, icps,
+               header=f"ICPs of {csv.name}: the {track.layout.name} sheet's frame, metres")
     return str(csv), str(icps_file)
 
 
@@ -224,9 +224,9 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
         learn_from_sim = info.capability("recorder", "demonstration to record", "--from-sim")
         extra = {}
         if args.robot is not None:  # a recorder that takes the robot (a world's own may not): hila_lang.robot.spec
-            from ..robot.spec import resolve
+            from ..robot.spec import resolve, robot_pairs
 
-            extra["robot"] = resolve(args.robot, _robot_pairs(args))
+            extra["robot"] = resolve(args.robot, robot_pairs(args.robot_settings, "hila learn"))
         who = "the iCub's eye cameras" if args.robot is None else f"the {extra['robot'].name}'s cameras"
         print(f"recording the demonstration through {who} (about a minute) ...", flush=True)
         template = learn_from_sim(args.seed, k=k, tags=tags, contact=contact, name=name, method=args.method,
@@ -241,13 +241,6 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
     if args.description:
         template.description = args.description
     return template
-
-
-def _robot_pairs(args: argparse.Namespace) -> dict[str, str]:
-    """``--set robot.KEY=VALUE`` of ``hila learn`` (the robot's settings only)."""
-    from ..plugins.options import parse_pairs
-
-    return {k: v for k, v in parse_pairs(args.robot_settings).items() if k.startswith("robot.")}
 
 
 def _library(args: argparse.Namespace):
@@ -324,21 +317,13 @@ def _point(p) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..osila.demofile import load_icps, read_demo_csv
-    from ..core.errors import InputError
     from ..core.fileio import ensure_writable
-    from ..osila.segmentation import segment_template
-    from ..osila.segmentation import describe
-    from ..osila.template import END, START, Template, save_template
+    from ..hierarchy.learn import default_tags, learn_files
+    from ..osila.template import save_template
 
     source = _source(args)
-    tags = _split(args.tags)
+    k, tags = default_tags(_split(args.tags), args.k)
     contact = _split(args.contact, "--contact")
-    k = args.k if args.k is not None else max(len(tags), 1)
-    if k < 1:
-        raise InputError(f"expected -k >= 1, got {k}")
-    if not tags and k > 1:
-        tags = [f"s{i + 1}" for i in range(k)]
     library = _library(args)  # a bad library stops before anything is made or written
     out = ensure_writable(args.output)  # before the work: learning by perception takes a minute
     report = ensure_writable(args.report) if args.report else None
@@ -351,25 +336,12 @@ def run(args: argparse.Namespace) -> int:
     if source != "DEMO.csv":
         template = _perceived(args, source, k, tags or ["s1"], contact, name)
     else:
-        demo, times = read_demo_csv(args.demo)
+        template = learn_files(args.demo, args.icps, name=name, tags=tags, contact=contact, k=k, method=args.method,
+                               seed=args.seed, description=args.description or None)
         if args.icps is None:  # only with --library (_source): recognition needs no scene, only the path
-            icps = {START: demo[0].copy(), END: demo[-1].copy()}
-            given = "its own ends as ICPs (start, end; no --icps)"
-            print(f"no --icps: the demonstration's own ends are its ICPs: start {_point(demo[0])}, end {_point(demo[-1])}")
-        else:
-            icps = load_icps(args.icps, demo.shape[1])
-            given = f"ICPs from {args.icps}"
-        description = args.description or (f"learned from {args.demo} ({len(demo)} points) with {given}."
-                                           + (f" {describe(args.method, k)}" if tags else ""))
-        try:
-            template = Template(name, demo, icps, times=times, description=description)
-        except InputError as exc:
-            exc.file = exc.file or str(args.demo)
-            raise
-        if tags:
-            template = segment_template(template, k, tags, method=args.method, seed=args.seed, contact=contact)
-        elif contact:
-            raise InputError("--contact needs segments: give --tags (and -k)")
+            ends = template.icps
+            print(f"no --icps: the demonstration's own ends are its ICPs: start {_point(ends['start'])}, "
+                  f"end {_point(ends['end'])}")
     if library is not None:
         template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)

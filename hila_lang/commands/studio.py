@@ -49,6 +49,6 @@ def run(args: argparse.Namespace) -> int:
     except ImportError:
         raise InputError("hila studio needs Starlette and uvicorn",
                          hint="pip install 'hila-lang[studio]'") from None
-    from ..studio.server import serve
+    from ..studio.app import serve
 
     return serve(folder, args.port, open_browser=args.open)

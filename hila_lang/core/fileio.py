@@ -1,4 +1,4 @@
-"""Safe file input and output shared by every stage: atomic writes, safe YAML, CSV paths."""
+"""Safe file input and output shared by every stage: atomic writes, bounded reads, safe YAML, output folders."""
 
 from __future__ import annotations
 
@@ -218,6 +218,16 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
 
     ``image`` is RGB unless ``bgr`` (OpenCV's own channel order, for images drawn with cv2).
     """
+    try:
+        data = png_bytes(image, bgr=bgr)
+    except InputError as exc:  # pragma: no cover - OpenCV encodes any uint8 image
+        exc.file = str(path)
+        raise
+    return atomic_write_bytes(path, data)
+
+
+def png_bytes(image, *, bgr: bool = False) -> bytes:
+    """An image (H, W, 3) or (H, W) uint8 encoded as PNG; RGB unless ``bgr``."""
     import cv2
     import numpy as np
 
@@ -226,8 +236,8 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
         image = cv2.cvtColor(image, cv2.COLOR_RGB2BGR)
     ok, buf = cv2.imencode(".png", image)
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
-        raise InputError(f"cannot encode a PNG image of shape {image.shape}", file=str(path))
-    return atomic_write_bytes(path, buf.tobytes())
+        raise InputError(f"cannot encode a PNG image of shape {image.shape}")
+    return buf.tobytes()
 
 
 MB = 1 << 20
@@ -422,14 +432,19 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
             loader.dispose()
 
 
-def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
-    """Write ``data`` as block-style YAML, atomically, after an optional ``# comment`` header."""
+def yaml_text(data: Any, header: str = "") -> str:
+    """``data`` as block-style YAML after an optional ``# comment`` header."""
     import yaml
 
     body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
     if header:
         header = "".join(f"# {ln}\n" if ln else "#\n" for ln in header.splitlines())
-    return atomic_write_text(path, header + body)
+    return header + body
+
+
+def dump_yaml(path: str | os.PathLike, data: Any, header: str = "") -> Path:
+    """Write :func:`yaml_text` of ``data`` atomically."""
+    return atomic_write_text(path, yaml_text(data, header))
 
 
 def cache_folders(name: str) -> list[Path]:

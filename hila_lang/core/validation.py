@@ -3,7 +3,7 @@
 Every public numerical entry point (``osila.imitate``, ``metrics``, ``segmentation``) converts
 its inputs with these helpers, so a bad shape, NaN/inf or an empty array becomes an
 :class:`~hila_lang.core.errors.InputError` (a ``ValueError``) naming the argument, and the code
-inside can trust its arrays (STYLE.md habit 8).
+inside can trust its arrays: validated at the boundary, trusted inside.
 """
 
 from __future__ import annotations

@@ -19,7 +19,8 @@ Any other exception raised by a world, a back end or OSILA is a bug and propagat
 Bounded and interruptible (see :meth:`Interpreter.step` and :meth:`Interpreter.run`):
 
 - a failed or interrupted step is recorded in the trace too (its text says what happened), so a
-  trace file of a failed run ends with the failing state;
+  trace file of a failed run ends with the failing state; a back end that moved part of the way
+  attaches that part to its error (``exc.executed``, (T', 3)) and the entry keeps it;
 - memory stays flat however long a run is: :attr:`Interpreter.trace` keeps the newest
   :data:`TRACE_KEEP` entries (``len(trace)`` counts them all; ``observers`` see every entry as it
   is recorded, e.g. to stream a trace file);
@@ -41,7 +42,7 @@ from ..core.errors import HilaError, HilaRuntimeError, Interrupted, StepLimitErr
 from ..core.interrupts import guarded
 from ..language.fsm import FSM, RunState, SetState, State
 from ..language.limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
-from ..language.parser import source_line
+from ..language.source import source_line
 from .executors import Context, Executor, executor
 from .history import History, Snapshot
 from .run import RunExecutor
@@ -161,7 +162,7 @@ class Interpreter(History):
                 try:
                     entry = self._guard(state, lambda: self._execute(state))
                 except HilaRuntimeError as exc:
-                    self._failed(state, f"failed: {exc.message}", exc.message)
+                    self._failed(state, f"failed: {exc.message}", exc.message, getattr(exc, "executed", None))
                     raise
                 guard.hold()  # a Ctrl-C from here on waits until the step is recorded
                 self._record(entry)
@@ -186,9 +187,12 @@ class Interpreter(History):
         for observer in self.observers:
             observer(entry)
 
-    def _failed(self, state: State, text: str, why: str) -> None:
+    def _failed(self, state: State, text: str, why: str, executed=None) -> None:
+        """Record a failed or interrupted step; ``executed``: the part of a move the hand made before
+        it stopped (a back end attaches it to its error: ``exc.executed``)."""
+        executed = None if executed is None or len(executed) == 0 else np.asarray(executed, dtype=float)
         self._record(TraceEntry(self.trace.total + 1, state.name, state.kind, state.line,
-                                text.splitlines()[0], None, error=why))
+                                text.splitlines()[0], None, executed=executed, error=why))
 
     def _interrupted(self, state: State, recorded: bool, stop: BaseException) -> Interrupted:
         if recorded:  # held until the step was recorded: it happened
@@ -197,7 +201,8 @@ class Interpreter(History):
             exc = _stopped_by(stop, "before this state finished",
                               hint="if the program goes on ('step' or 'run' in hila repl), the state runs "
                                    "again from where the hand is")
-            self._failed(state, "interrupted", exc.message)
+            exc.executed = getattr(stop, "executed", None)  # what a move made before it was stopped
+            self._failed(state, "interrupted", exc.message, exc.executed)
         return self._locate(exc, state)
 
     def run(self, until=None, max_steps: int | None = None, each=None) -> list[TraceEntry]:

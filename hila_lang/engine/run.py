@@ -7,10 +7,13 @@ says the hand is, the program's ``point`` s, then the world's ``points()``), war
 ``hila imitate`` and ``hila eval --hila``: its ``start`` ICP bound to the hand unless the program
 binds it), moves the back end along the path, and calls
 ``world.notify("state_done", state=, path=, executed=, kind="run", pen_down=, icps=, template=)``
-(``template`` is the sub-template that ran).  Its ``via``/``avoid`` constraints (and those of the
+(``template`` is the sub-template that ran; a streamed run adds ``replans=``).  Its ``via``/``avoid`` constraints (and those of the
 task calls around it) are evaluated now (:meth:`RunExecutor.constraints`: a point group gives one
 per point) and go to OSILA's plan adjustment through the same step; the trace says how each was
-met.
+met.  A run with a ``track`` clause (or any run while the world's scene moves during steps) is
+streamed instead of moved in one go: :func:`hila_lang.engine.tracking.follow` keeps its tracked
+ICPs live and warps the rest of the step again when they move; each re-plan is a line of its
+trace text and a :class:`~hila_lang.engine.tracking.Replan` in ``TraceEntry.replans``.
 """
 
 from __future__ import annotations
@@ -111,26 +114,38 @@ class RunExecutor(Executor):
     def execute(self, st, n: int) -> TraceEntry:
         from ..hierarchy.step import hila_step
 
+        from .tracking import follow, streams
+
         ctx, t = self.ctx, self.template(st)
-        step = hila_step(t, self.scene_binding(st), ctx.scene.hand(), constraints=self.constraints(st),
+        binding = self.scene_binding(st)
+        step = hila_step(t, binding, ctx.scene.hand(), constraints=self.constraints(st),
                          surface=self.surface(), **ctx.osila_options)
         path, icps = step.path, step.icps
+        replans = None
         try:
-            executed = ctx.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+            if streams(ctx, st):
+                followed = follow(self, st, t, step, binding)
+                path, executed, replans = followed.path, followed.executed, followed.replans
+            else:
+                executed = ctx.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         except UnreachableError as exc:  # told as the program's target, not a waypoint index
             from ..robot.reach import name_the_target
 
             raise name_the_target(exc, icps, st.ref) from None
         executed = None if executed is None else np.asarray(executed, dtype=float)
         ctx.hold()
+        extra = {} if replans is None else {"replans": replans}
         ctx.world.notify("state_done", state=st.name, path=path, executed=executed, kind="run",
-                         pen_down=bool(st.pen_down), icps=dict(icps), template=t)
+                         pen_down=bool(st.pen_down), icps=dict(icps), template=t, **extra)
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step, executed))
         text += "".join(f"; note: {note}" for note in step.notes)
+        if st.track is not None:
+            text += f"; tracked {', '.join(A.source_text(n) for n in st.track.names)}: {len(replans)} re-plan(s)"
+            text += "".join("\n      " + r.text() for r in replans)
         return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
-                          icps=icps, pen_down=bool(st.pen_down), step_result=step)
+                          icps=icps, pen_down=bool(st.pen_down), step_result=step, replans=replans)
 
     def explain(self, st, title: str) -> list[str]:
         """What OSILA will do in run state ``st`` (:func:`hila_lang.hierarchy.explain.explain_run`)."""

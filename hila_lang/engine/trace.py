@@ -31,6 +31,8 @@ class TraceEntry:
     #: the HILA step of a run state (:class:`hila_lang.hierarchy.step.Step`: OSILA's result, constraints)
     step_result: Any = None
     error: str | None = None  # why the step failed or stopped (its text says so too)
+    #: a streamed run's re-plans (:class:`hila_lang.engine.tracking.Replan`), None when not streamed
+    replans: list | None = None
 
     def __str__(self) -> str:
         where = f"line {self.line}" if self.line else "-"

@@ -90,7 +90,6 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.fileio import atomic_write_text
 from ..osila.motion import minimum_jerk
 
 #: image size of the stand-in, pixels (the iCub cameras, paper §III.C)
@@ -330,17 +329,13 @@ def save_dataset(trials: list[Trial], folder: str | os.PathLike) -> Path:
 
     Paths get a ``t`` column at :data:`RATE_HZ` (the stand-in's camera rate).
     """
-    from ..core.fileio import dump_yaml
+    from ..osila.demofile import write_demo_csv, write_icps
 
     folder = Path(folder)
-    axes = "xyz"[: trials[0].path.shape[1]]
     for t in trials:
-        rows = ["t," + ",".join(axes)] + [
-            ",".join([repr(k / RATE_HZ)] + [repr(float(v)) for v in p]) for k, p in enumerate(t.path)
-        ]
-        atomic_write_text(folder / t.setup / f"{t.name}.csv", "\n".join(rows) + "\n")
-        icps = {name: [float(v) for v in p] for name, p in zip(t.icp_names, t.icps)}
-        dump_yaml(folder / t.setup / f"{t.name}.icps.yaml", icps, header=f"ICPs of trial {t.label} (pixels)")
+        write_demo_csv(folder / t.setup / f"{t.name}.csv", t.path, np.arange(len(t.path)) / RATE_HZ)
+        write_icps(folder / t.setup / f"{t.name}.icps.yaml", dict(zip(t.icp_names, t.icps)),
+                   header=f"ICPs of trial {t.label} (pixels)")
     return folder
 
 

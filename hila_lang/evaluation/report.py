@@ -16,12 +16,13 @@
                          same data, seed and options, whatever the backend
 - ``timings.json``       what varies from run to run: backend, wall time, ms per path
 - ``heatmap_r_osila.png``, ``heatmap_msd_osila.png``
-                         OSILA's J × J matrices, one panel per N; x = input (template) trial,
-                         y = output (task) trial, grouped by set-up as in Table II
+                         OSILA's J × J matrices of the paper's measures (``Metric.paper``: R and
+                         MSD), one panel per N; x = input (template) trial, y = output (task)
+                         trial, grouped by set-up as in Table II
 
 Every file is written atomically (:mod:`hila_lang.core.fileio`).  The PNGs are drawn with OpenCV
-(matplotlib is not a dependency): R on a fixed scale 0.5–1 (lower values clip to the darkest
-colour), MSD on a log scale 1–10⁴.
+(matplotlib is not a dependency), each on the scale of its metric's kind: a correlation on a fixed
+scale 0.5–1 (lower values clip to the darkest colour), a distance on a log scale 1–10⁴.
 """
 
 from __future__ import annotations
@@ -92,6 +93,7 @@ def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict
                 "pairs": int(stats.distinct_pairs(result).sum()), "protocol": result.protocol,
                 "setups": result.setups, "segments": list(result.segments), "methods": list(result.methods),
                 "metrics": list(result.metrics),
+                "kind": {name: metric(name).kind for name in result.metrics},
                 "better": {name: metric(name).better for name in result.metrics},
                 "time_free": {name: metric(name).time_free for name in result.metrics}, **(info or {})},
         "summary": summary,
@@ -133,17 +135,19 @@ def heatmap(result: GridResult, method: str, metric: str) -> np.ndarray:
     """A BGR image: one panel per N, set-up grid lines and names, a colour bar."""
     import cv2
 
-    data = result.r[method] if metric == "r" else result.msd[method]
-    if metric == "r":
+    from ..metrics import metric as info_of
+
+    data, info = result.metric(method, metric), info_of(metric)
+    if info.kind == "correlation":
         lo, hi = 0.5, 1.0
         ticks = [(0.0, "<=0.5"), (0.5, "0.75"), (0.8, "0.9"), (1.0, "1")]
         scaled = (data - lo) / (hi - lo)
-        title = f"{method}: correlation R (x: input/template, y: output/task)"
+        title = f"{method}: correlation {info.title} (x: input/template, y: output/task)"
     else:
         with np.errstate(divide="ignore", invalid="ignore"):
             scaled = np.log10(np.maximum(data, 1e-12)) / 4.0
         ticks = [(0.0, "<=1"), (0.25, "10"), (0.5, "100"), (0.75, "1000"), (1.0, ">=1e4")]
-        title = f"{method}: MSD, log scale (x: input/template, y: output/task)"
+        title = f"{method}: {info.title}, log scale (x: input/template, y: output/task)"
     J = data.shape[1]
     cell = max(1, PANEL // J)
     side = cell * J
@@ -187,6 +191,8 @@ def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] 
                atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n"),
                atomic_write_text(out / "timings.json", json.dumps(timings_dict(result), indent=1) + "\n")]
     if "osila" in result.methods and result.mask.all():
-        for metric in ("r", "msd"):
+        from ..metrics import metric as info_of
+
+        for metric in (name for name in result.metrics if info_of(name).paper):
             written.append(write_png(out / f"heatmap_{metric}_osila.png", heatmap(result, "osila", metric), bgr=True))
     return written

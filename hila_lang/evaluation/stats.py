@@ -80,9 +80,9 @@ def summary_rows(result: GridResult, pairs: np.ndarray | None = None) -> list[di
             row: dict[str, Any] = {"method": m, "n": n}
             for name in result.metrics:
                 row[name] = _mean(values(result, m, name, s, pairs))
-            r = values(result, m, "r", s, pairs)
-            row["pairs"] = int(r.size)
-            row["failed"] = int(np.isnan(r).sum())
+            scored = result.scores[m][s][pairs]  # (pairs, metrics): a failed pair has no score at all
+            row["pairs"] = int(len(scored))
+            row["failed"] = int(np.isnan(scored).all(axis=1).sum())
             row["ms_per_path"] = 1e3 * _mean(result.seconds[m][s][pairs])
             rows.append(row)
     return rows
@@ -230,13 +230,15 @@ _FIGURES = ("n", "osila_better_share", "tied_share", "osila_worse_share", "p_val
 
 
 def by_setup(result: GridResult) -> list[dict[str, Any]]:
-    """Per set-up (LASA: shape) of the task, method and N: mean R, MSD and Fréchet over its pairs."""
+    """Per set-up (LASA: shape) of the task, method and N: the mean of every metric that is one
+    number (not per axis) over its pairs."""
     base = distinct_pairs(result)
+    names = [x for x in result.metrics if not metric_info(x).per_axis]
     rows = []
     for k, name in enumerate(result.setups):
         pairs = base & (result.trial_setup == k)[None, :]
         for m in result.methods:
             for s, n in enumerate(result.segments):
                 rows.append({"setup": name, "method": m, "n": n,
-                             **{x: _mean(values(result, m, x, s, pairs)) for x in ("r", "msd", "frechet")}})
+                             **{x: _mean(values(result, m, x, s, pairs)) for x in names}})
     return rows

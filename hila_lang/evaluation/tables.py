@@ -196,9 +196,12 @@ def format_claims(result: GridResult, method: str = "osila") -> str:
 
 
 def _fmt(x: float, name: str) -> str:
+    """A score as the tables print it: a correlation with 3 decimals, a distance with 4 digits."""
+    from ..metrics import metric
+
     if not np.isfinite(x):
         return "n/a"
-    if name.startswith("r"):
+    if metric(name).kind == "correlation":
         return f"{x:.3f}"
     return f"{x:.4g}" if abs(x) < 1000 else f"{x:.0f}"
 
@@ -258,18 +261,19 @@ def format_metric_table(result: GridResult, metric: str) -> str:
                 cells.append(_fmt(v, metric) + mark)
             body.append([m, *cells])
     unit = f" ({info.unit})" if info.unit else ""
-    title = (f"{metric.upper() if metric != 'frechet' else 'Fréchet'}{unit}, {info.better} is better; "
+    title = (f"{info.title}{unit}, {info.better} is better; "
              f"mean over pairs of different trials; * best of OSILA, controls and baselines; '= m': the same "
              f"as method m on every pair")
     return "\n".join([title, *_table(head, body)])
 
 
 def format_summary(result: GridResult) -> str:
-    """Per method and N: the mean of every metric but R (R stays in results.json); time; failures."""
+    """Per method and N: the mean of every distance (the correlations stay in results.json); time;
+    failures."""
     from ..metrics import metric as info_of
     from .protocols import leaks_time
 
-    names = [n for n in result.metrics if not n.startswith("r")]
+    names = [n for n in result.metrics if info_of(n).kind == "distance"]
 
     def cell(row: dict[str, Any], name: str) -> str:
         if not info_of(name).time_free and leaks_time(result.protocol, row["n"]):

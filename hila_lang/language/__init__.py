@@ -1,8 +1,8 @@
 """The hila language's front end: grammar -> AST -> checked program -> FSM.
 
 The front end is one object, :class:`.environment.Environment` (the grammar, the template
-loader and its cache, the plug-in registry); every stage is callable on its own (STYLE.md
-habit 2)::
+loader and its cache, the plug-in registry); every stage is callable on its own, and a
+flag stops early (``stop=``)::
 
     from hila_lang.language.environment import Environment
     env = Environment.default()
@@ -10,16 +10,17 @@ habit 2)::
     checked = env.check(program)                     # resolves imports, raises CheckError
     checked, machine = env.compile(text, "x.hila")   # fsm.FSM, plain data (stop="ast"|"check": earlier)
 
-Modules: :mod:`.parser` (reading text, syntax errors), :mod:`.transformer` (the grammar and the
-AST builder), :mod:`.loader` (templates), :mod:`.checker`, :mod:`.compiler`, :mod:`.environment`.
+Modules: :mod:`.source` (reading program text, syntax errors), :mod:`.transformer` (the grammar,
+the parser and the AST builder), :mod:`.loader` (templates), :mod:`.checker`, :mod:`.compiler`,
+:mod:`.environment`.
 ``load_program(path)`` runs the whole front end; :mod:`hila_lang.engine` steps the FSM over a
 world and a back end, and :mod:`hila_lang.session` wires a run (runner, REPL, recording, replay).
 
 One line each:
 
 - ``ast``          the program's frozen dataclasses, built while parsing
-- ``parser``       reading text; syntax errors with line and column
-- ``transformer``  the grammar and the AST builder
+- ``source``       reading program text; syntax errors with line and column, in words
+- ``transformer``  the grammar, its one parser (text -> AST while parsing) and the AST builder
 - ``loader``       templates by name, from the search path
 - ``environment``  THE front end: one grammar, one template loader and cache, the plug-in registry
 - ``checker``      names, ICP bindings, reachability; structured diagnostics

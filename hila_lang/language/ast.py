@@ -167,6 +167,44 @@ class Constraint:
         return f"{self.kind} {source_text(self.value)}{radius}"
 
 
+@dataclass(frozen=True)
+class TrackOption:
+    """One option of a ``track`` clause: ``every N ms``, ``threshold N mm``, ``blend N mm`` or
+    ``lift above N mm`` (``kind`` is its first word, ``value`` the number as written, in the unit
+    written after it)."""
+
+    kind: str  # "every", "threshold", "blend" or "lift"
+    value: float
+    pos: Pos = _pos()
+
+    #: the unit each option is written in
+    UNITS = {"every": "ms", "threshold": "mm", "blend": "mm", "lift": "mm"}
+
+    def text(self) -> str:
+        return f"{self.kind}{' above' if self.kind == 'lift' else ''} {number_text(self.value)} {self.UNITS[self.kind]}"
+
+
+@dataclass(frozen=True)
+class Track:
+    """``track c[, d] [every N ms] [threshold N mm] [blend N mm] [lift above N mm]`` after a
+    ``run``: the ICPs bound through ``c`` (a point group or a point) are perceived again while the
+    step runs, and the rest of the step is warped again onto them when they move
+    (:mod:`hila_lang.engine.tracking`)."""
+
+    names: tuple[Name, ...]
+    options: tuple[TrackOption, ...] = ()
+    pos: Pos = _pos()
+
+    def option(self, kind: str) -> "TrackOption | None":
+        """The option of ``kind`` as written (the first, if written twice), or None."""
+        return next((o for o in self.options if o.kind == kind), None)
+
+    def text(self) -> str:
+        """As the user wrote it (variables by name)."""
+        return " ".join(["track " + ", ".join(source_text(n) for n in self.names)]
+                        + [o.text() for o in self.options])
+
+
 #: grammar rule -> the statement class it writes (:func:`statement`)
 RULES: dict[str, type] = {}
 
@@ -195,7 +233,7 @@ def _constraints():
 @statement("run_stmt")
 @dataclass(frozen=True)
 class RunStmt:
-    """``run TEMPLATE[.TAG](bindings) [pen up|down] [via P] [avoid P radius R] ...``."""
+    """``run TEMPLATE[.TAG](bindings) [pen up|down] [via P] [avoid P radius R] ... [track c ...]``."""
 
     template: str
     tag: str | None
@@ -204,6 +242,7 @@ class RunStmt:
     pos: Pos = _pos()
     ref_pos: Pos = _pos()  # where ``TEMPLATE.TAG`` is written
     constraints: tuple[Constraint, ...] = _constraints()
+    track: Track | None = field(default=None, metadata={"omit_empty": True})
 
     @property
     def ref(self) -> str:

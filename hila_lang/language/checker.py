@@ -11,6 +11,10 @@ the source position, the source line and a "did you mean" where one helps.  What
   of that sub-template (or a group prefix: ``cell`` binds ``cell.tl``, ``cell.tr``, ...), no
   ICP is bound twice, and every scene ICP is bound (``start`` defaults to the hand, ``end`` is
   optional, ``icp = none`` leaves one out on purpose);
+- ``run ... track c every N ms [threshold N mm] [blend N mm] [lift above N mm]``: each tracked
+  name is known and binds at least one of the run's ICPs, each option is given once and within
+  its range (:data:`TRACK_RANGES`), and the world and the back end can follow a moving scene
+  (:meth:`~hila_lang.language.worldcheck.WorldCheck.track`);
 - task calls name a task, with the right number of arguments, and no task calls itself
   (tasks are compiled inline);
 - a plain (undotted) name is a parameter, a ``let`` before it, a ``point``, or ``hand``;
@@ -27,7 +31,8 @@ from . import ast as A
 from ..core.errors import CheckError, HilaError, did_you_mean
 from ..plugins import registry
 from .loader import TemplateLoader
-from .parser import source_line
+from .source import source_line
+from .fsm import TRACK_THRESHOLD
 from .worldcheck import WorldCheck
 
 START, END = "start", "end"
@@ -60,6 +65,10 @@ def loader_of(templates) -> TemplateLoader:
     loader.load = templates
     return loader
 RESERVED = {"hand", "main"}
+#: what a ``track`` option may be, in the unit it is written in: (lowest, highest, lowest allowed)
+#: -- a tick shorter than PyBullet's control step (1/240 s) would look twice between two moves
+TRACK_RANGES = {"every": (5.0, 10000.0, True), "threshold": (0.0, 1000.0, False), "blend": (0.0, 1000.0, True),
+                "lift": (0.0, 1000.0, False)}
 
 
 @dataclass
@@ -321,12 +330,44 @@ class _Checker(A.Visitor):
                         and value.parts[0] not in defined.dims):  # a parameter: checked at each call
                     self.param_uses.setdefault((defined.task, value.parts[0]), []).append((s.ref, dim, b.icp))
         self.constraints(s.constraints, defined)
+        if s.track is not None:
+            self.track(s, defined)
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
         if unbound:
             raise self.error(
                 f"unbound ICP{'s' if len(unbound) > 1 else ''} {', '.join(repr(u) for u in unbound)} of '{s.ref}'",
                 s.pos, f"bind {'them' if len(unbound) > 1 else 'it'}, e.g. {unbound[0]} = POINT, "
                 f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
+
+    def track(self, s: A.RunStmt, defined: set[str]) -> None:
+        """A run's ``track`` clause (see the module docstring)."""
+        track = s.track
+        self.world.track(track.pos)
+        for name in track.names:
+            self.expr(name, defined, track.pos)
+            if not any(_tracks(b.value, name) for b in s.bindings):
+                bound = sorted({A.source_text(n) for b in s.bindings for n in _names_in(b.value)})
+                raise self.error(f"'track {A.source_text(name)}': no ICP of '{s.ref}' is bound through "
+                                 f"'{A.source_text(name)}'", name.pos if name.pos.line else track.pos,
+                                 f"track what the run binds ({', '.join(bound)})" if bound else
+                                 "track a point group or point the run binds its ICPs to")
+        seen: dict[str, A.TrackOption] = {}
+        for o in track.options:
+            if o.kind in seen:
+                raise self.error(f"'{o.kind}' is given twice in one 'track'", o.pos,
+                                 f"first given at column {seen[o.kind].pos.column}")
+            seen[o.kind] = o
+            low, high, closed = TRACK_RANGES[o.kind]
+            if o.value > high or o.value < low or (o.value == low and not closed):
+                unit = o.UNITS[o.kind]
+                raise self.error(f"'{o.text()}': expected {'at least' if closed else 'more than'} {low:g} {unit} and "
+                                 f"at most {high:g} {unit}", o.pos)
+        lift, threshold = seen.get("lift"), seen.get("threshold")
+        limit = threshold.value if threshold is not None else TRACK_THRESHOLD * 1000
+        if lift is not None and lift.value < limit:
+            raise self.error(f"'{lift.text()}' is below the threshold of {limit:g} mm: a move that small is not "
+                             "followed at all, so the pen would never lift for it", lift.pos,
+                             "lift above a larger move, or lower the threshold ('threshold N mm')")
 
     def constraints(self, constraints, defined: set[str]) -> None:
         """``via P`` takes no radius, ``avoid P`` needs one (a number of metres > 0 when written
@@ -421,6 +462,12 @@ class _Checker(A.Visitor):
             self.warnings.append(Diagnostic(
                 "unused-task", f"task '{name}' is never called", self.p.file,
                 A.Pos(t.pos.line, t.pos.column, t.pos.line, t.pos.column + len("task"))))
+
+
+def _tracks(value, tracked: A.Name) -> bool:
+    """Whether the binding ``value`` goes through the tracked name (``c`` tracks ``c``, ``c.tl``)."""
+    n = len(tracked.parts)
+    return any(name.parts[:n] == tracked.parts for name in _names_in(value))
 
 
 def _names_in(e) -> list:

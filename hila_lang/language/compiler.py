@@ -17,8 +17,9 @@ from collections import Counter, deque
 from . import ast as A
 from ..core.errors import CheckError
 from .checker import CheckedProgram
-from .fsm import END_STATE, FSM, BranchState, CallState, EndState, RunState, SetState, State, WaitState
-from .parser import source_line
+from .fsm import (END_STATE, FSM, TRACK_BLEND, TRACK_EVERY, TRACK_THRESHOLD, BranchState, CallState, EndState,
+                  RunState, SetState, State, Tracking, WaitState)
+from .source import source_line
 
 
 def _base(s) -> str | None:
@@ -61,6 +62,13 @@ class _Scope:
             for c in constraints)
 
 
+def _tracking(track: A.Track, scope: _Scope) -> Tracking:
+    """A run's ``track`` clause as the FSM keeps it: names resolved, SI units, defaults filled in."""
+    given = {o.kind: o.value / 1000.0 for o in track.options}  # ms -> s, mm -> m
+    return Tracking(tuple(scope.resolve(n) for n in track.names), given.get("every", TRACK_EVERY),
+                    given.get("threshold", TRACK_THRESHOLD), given.get("blend", TRACK_BLEND), given.get("lift"))
+
+
 class _Compiler(A.Visitor):
     """``visit(stmt, scope)`` compiles one statement: returns (entry state name or None, dangling
     [(state, attribute)] that the next statement's entry completes)."""
@@ -100,7 +108,8 @@ class _Compiler(A.Visitor):
             pen = any(seg.contact for seg in template.segments)
         st = self.add(RunState(scope.name(s.tag or s.template), template=s.template, tag=s.tag,
                                bindings=tuple((b.icp, scope.resolve(b.value)) for b in s.bindings),
-                               pen_down=pen, constraints=scope.constraints(s.constraints)), s.pos)
+                               pen_down=pen, constraints=scope.constraints(s.constraints),
+                               track=None if s.track is None else _tracking(s.track, scope)), s.pos)
         return st.name, [(st, "next")]
 
     def visit_CallStmt(self, s: A.CallStmt, scope: _Scope):

@@ -93,7 +93,7 @@ class Environment:
         :func:`hila_lang.core.resources.find_program`); OS failures are InputError, bad UTF-8 a
         located syntax error."""
         from ..core.resources import find_program
-        from .parser import read_source
+        from .source import read_source
 
         path = find_program(path)
         return str(path), read_source(path)

@@ -6,7 +6,8 @@ One class per kind of state (its ``kind`` string names it in JSON):
   hand along it.  ``template``/``tag`` name it, ``bindings`` map ICP names (or group prefixes)
   to expressions, ``pen_down`` says whether it touches the paper (the template's ``contact``
   unless overridden), ``constraints`` are its ``via``/``avoid`` constraints (those of the task
-  calls around it first), each with the line and column it was written at.
+  calls around it first), each with the line and column it was written at; ``track`` (a
+  :class:`Tracking`, or None) keeps ICPs live while it runs (``track c every 100 ms``).
 - :class:`CallState` (``call``): enter a task; ``assign`` binds its parameters (slots
   ``PREFIX:NAME``).
 - :class:`SetState` (``set``): ``let`` and loop counters; ``assign`` maps slots to expressions.
@@ -131,6 +132,60 @@ def _constraint_from_dict(d: dict):
                       Pos(int(d.get("line", 0)), int(d.get("column", 0))))
 
 
+#: ``track`` without ``every``: perceive the tracked points every 100 ms (a re-warp at 100 ms closes
+#: the issue-34 circle within 2 mm: ``bench/replan.py``; each tick costs the PyBullet robot one eye image)
+TRACK_EVERY = 0.1
+#: ``track`` without ``threshold``: re-warp when a tracked point moved more than 1 mm (the robot's
+#: sheet estimate from one eye image jitters by less: docs/language.md, "Moving scenes")
+TRACK_THRESHOLD = 0.001
+#: ``track`` without ``blend``: the new plan is blended in over 5 mm of the path
+TRACK_BLEND = 0.005
+
+
+@dataclass(frozen=True)
+class Tracking:
+    """A run's ``track`` clause, with its defaults filled in.
+
+    Attributes
+    ----------
+    names : tuple of Expr
+        The tracked groups or points, variables resolved to slots.
+    every : float
+        Seconds between two looks.
+    threshold : float
+        A tracked point moved more than this (metres) from where the plan put it: warp again.
+    blend : float
+        Metres of path over which the new plan takes over (minimum jerk).
+    lift : float or None
+        A move larger than this (metres) lifts a pen that is down, travels and puts it down
+        where its ink stopped; None: never.
+    """
+
+    names: tuple = ()
+    every: float = TRACK_EVERY
+    threshold: float = TRACK_THRESHOLD
+    blend: float = TRACK_BLEND
+    lift: float | None = None
+
+    def text(self) -> str:
+        words = [f"track {', '.join(expr_text(n) for n in self.names)} every {self.every * 1000:g} ms",
+                 f"threshold {self.threshold * 1000:g} mm", f"blend {self.blend * 1000:g} mm"]
+        if self.lift is not None:
+            words.append(f"lift above {self.lift * 1000:g} mm")
+        return " ".join(words)
+
+    def to_dict(self) -> dict:
+        return {"names": [expr_text(n) for n in self.names], "every": self.every, "threshold": self.threshold,
+                "blend": self.blend, "lift": self.lift}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Tracking":
+        from .transformer import parse_expr
+
+        return cls(tuple(parse_expr(n) for n in d["names"]), float(d["every"]), float(d["threshold"]),
+                   float(d["blend"]), None if d.get("lift") is None else float(d["lift"]))
+
+
 @dataclass(eq=True)
 class RunState(State):
     template: str | None = None
@@ -138,6 +193,7 @@ class RunState(State):
     bindings: tuple = ()  # ((icp, Expr), ...)
     pen_down: bool | None = None
     constraints: tuple = ()  # (ast.Constraint with slots resolved, ...)
+    track: Tracking | None = None
 
     kind: ClassVar[str] = "run"
     shape: ClassVar[str] = "box"
@@ -153,20 +209,24 @@ class RunState(State):
     def describe(self) -> str:
         binds = ", ".join(f"{expr_text(v)}.*" if k == "*" else f"{k} = {expr_text(v)}" for k, v in self.bindings)
         limits = "".join(" " + _constraint_text(c) for c in self.constraints)
-        return f"run {self.ref}({binds}) pen {'down' if self.pen_down else 'up'}{limits}"
+        track = "" if self.track is None else " " + self.track.text()
+        return f"run {self.ref}({binds}) pen {'down' if self.pen_down else 'up'}{limits}{track}"
 
     def _fields_to_dict(self) -> dict:
         d = {"template": self.template, "tag": self.tag, "pen_down": self.pen_down,
              "bindings": _exprs_to_dict(self.bindings)}
         if self.constraints:  # only when there are some: older dumps stay as they were
             d["constraints"] = [_constraint_to_dict(c) for c in self.constraints]
+        if self.track is not None:  # likewise
+            d["track"] = self.track.to_dict()
         return d
 
     @classmethod
     def _fields_from_dict(cls, d: dict) -> dict:
         return {"template": d["template"], "tag": d.get("tag"), "pen_down": d.get("pen_down"),
                 "bindings": _exprs_from_dict(d.get("bindings")),
-                "constraints": tuple(_constraint_from_dict(c) for c in d.get("constraints") or ())}
+                "constraints": tuple(_constraint_from_dict(c) for c in d.get("constraints") or ()),
+                "track": None if d.get("track") is None else Tracking.from_dict(d["track"])}
 
 
 @dataclass(eq=True)

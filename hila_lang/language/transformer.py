@@ -14,7 +14,7 @@ from lark.exceptions import VisitError
 from . import ast as A
 from ..core.errors import HilaError, HilaSyntaxError
 from .limits import MAX_NESTING
-from .parser import source_line
+from .source import source_line
 
 
 def _pos(meta) -> A.Pos:
@@ -37,7 +37,9 @@ def _items(children) -> tuple:
 
 class ToAst(Transformer):
     """Builds the frozen dataclasses bottom-up.  A statement registered with
-    :func:`hila_lang.language.ast.statement` and no method here is built by :func:`_generic`."""
+    :func:`hila_lang.language.ast.statement` and no method here is built by :func:`_generic` (its
+    fields are its rule's children: ``let``, ``wait``, ``while``, ``until``, ``repeat``); ``run``,
+    ``call`` and ``if`` have methods, their children needing more than that."""
 
     # ---- expressions
     def number(self, meta, ch):
@@ -105,20 +107,22 @@ class ToAst(Transformer):
         kind, value, radius = ch
         return A.Constraint(str(kind), value, radius, _pos(meta))
 
+    def track_option(self, meta, ch):
+        kind, number = ch
+        return A.TrackOption(str(kind), float(number), _pos(meta))
+
+    def track(self, meta, ch):
+        names = tuple(c for c in ch if isinstance(c, A.Name))
+        return A.Track(names, tuple(c for c in ch if isinstance(c, A.TrackOption)), _pos(meta))
+
     def run_stmt(self, meta, ch):
-        ref, bindings, pen, *constraints = ch
+        ref, bindings, pen, *constraints, track = ch
         template, tag = ref.parts[0], (".".join(ref.parts[1:]) or None)
-        return A.RunStmt(template, tag, bindings or (), pen, _pos(meta), ref.pos, tuple(constraints))
+        return A.RunStmt(template, tag, bindings or (), pen, _pos(meta), ref.pos, tuple(constraints), track)
 
     def call_stmt(self, meta, ch):
         name, args, *constraints = ch
         return A.CallStmt(str(name), args or (), _pos(meta), tuple(constraints))
-
-    def let_stmt(self, meta, ch):
-        return A.LetStmt(str(ch[0]), ch[1], _pos(meta))
-
-    def wait_stmt(self, meta, ch):
-        return A.WaitStmt(ch[0], _pos(meta))
 
     def elif_clause(self, meta, ch):
         return (ch[0], ch[1])
@@ -135,15 +139,6 @@ class ToAst(Transformer):
             elif c is not None:
                 orelse = c
         return A.IfStmt(tuple(branches), orelse, _pos(meta))
-
-    def while_stmt(self, meta, ch):
-        return A.WhileStmt(ch[0], ch[1], _pos(meta))
-
-    def until_stmt(self, meta, ch):
-        return A.UntilStmt(ch[0], ch[1], _pos(meta))
-
-    def repeat_stmt(self, meta, ch):
-        return A.RepeatStmt(ch[0], ch[1], _pos(meta))
 
     # ---- top level
     def world_decl(self, meta, ch):
@@ -453,10 +448,20 @@ def grammar():
     """THE lark parser of ``grammar/hila.lark`` (LALR, positions kept), loaded once per process:
     the only ``Lark`` construction in hila (:class:`~hila_lang.language.environment.Environment`
     owns it).  Its parses return AST nodes, not trees (see the comment above); it starts at
-    ``start`` (a program) or ``expr`` (one expression)."""
+    ``start`` (a program) or ``expr`` (one expression).  A ``lark`` module older than 1.0 (the
+    ``lark-parser`` 0.12 that ROS 2's message wheels pull in installs one over lark 1.x) is
+    refused with how to put lark 1.x back."""
+    import lark as lark_module
     from lark import Lark
 
+    from ..core.errors import HilaError
     from ..core.resources import grammar_path
+
+    version = getattr(lark_module, "__version__", "0")
+    if not version.split(".")[0].isdigit() or int(version.split(".")[0]) < 1:
+        raise HilaError(f"hila needs lark 1.x, but the installed 'lark' module is {version} (lark-parser, which "
+                        "ros-rosidl-parser depends on, installs one over it)",
+                        hint="pip install --force-reinstall --no-deps 'lark>=1.1,<2'")
 
     streaming = Streaming()
     lark = Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,
@@ -597,7 +602,7 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
     """
     from lark.exceptions import UnexpectedInput
 
-    from .parser import syntax_error
+    from .source import syntax_error
 
     text = text.removeprefix("\ufeff")
     try:

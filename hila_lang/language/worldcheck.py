@@ -13,7 +13,10 @@ world must answer:
   binding, or the task call whose argument becomes the target), with its distances;
 - the points bound to a template's ICPs: a 3-D template takes 3-D points; a 2-D template runs on
   the world's drawing surface (the scene points bound to it are projected onto the surface, see
-  :func:`hila_lang.hierarchy.step.hila_step`), so a world without one refuses it, with the reason.
+  :func:`hila_lang.hierarchy.step.hila_step`), so a world without one refuses it, with the reason;
+- a ``track`` clause: the world must show the robot its points again while a step runs
+  (``WorldInfo.tracking``) and the back end must follow a path that changes as it moves
+  (``BackendInfo.streaming``); either missing is refused, with the reason.
 
 The ``--set`` pairs are split and parsed here too (:func:`hila_lang.plugins.options.split_settings`),
 so ``hila check`` and ``hila exec`` refuse a bad value alike, before anything is built.  When the
@@ -42,6 +45,7 @@ class WorldCheck:
         #: ((x, y, z), radius): the ball the back end's hand stays in, or None
         self.reach_ball = backend_info.reach
         self.backend_name = backend_info.name
+        self.backend_streams = backend_info.streaming
         self.robot_name = "the iCub"
         if settings is not None:
             from ..plugins.options import split_settings
@@ -129,6 +133,21 @@ class WorldCheck:
             raise self.error(f"{what} {where}{via}, which the arm cannot reach: {why}", pos,
                              f"back end {self.backend_name!r} moves {self.robot_name}'s arm: targets must be above the table, "
                              "in front of the robot (x 0.20-0.45 m, y -0.30-0.10 m works at table height)")
+
+    # ------------------------------------------------------------------ moving scenes
+    def track(self, pos: A.Pos) -> None:
+        """A ``track`` clause: refused unless the world can be tracked and the back end streams."""
+        if not self.info.tracking:
+            can = [w.name for w in registry.declarations("world") if w.tracking]
+            raise self.error(f"'track' needs a world that shows the robot its points again while a step runs; world "
+                             f"'{self.world}' cannot: it tells its points only between steps", pos,
+                             "remove the 'track' clause" + (f", or run in a world that can ({', '.join(can)})"
+                                                            if can else ""))
+        if not self.backend_streams:
+            can = [b.name for b in registry.declarations("back end") if b.streaming]
+            raise self.error(f"'track' needs a back end that can change the path it follows while the arm moves; back "
+                             f"end '{self.backend_name}' cannot: it takes a whole path and runs it to the end", pos,
+                             (f"run it with --backend {' or '.join(can)}, or " if can else "") + "remove the 'track' clause")
 
     # ------------------------------------------------------------------ dimensions
     def value_dim(self, kind: str, name: str) -> int | None:

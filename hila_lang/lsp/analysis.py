@@ -283,6 +283,10 @@ class Document:
                 return self._hover(f"**ICP {node.icp}** of `{parent.template}.{parent.tag}`: template point"
                                    f"{'s' if len(members) > 1 else ''} {shown}", node.pos, width=len(node.icp))
             return None
+        if isinstance(node, A.TrackOption):
+            return self._hover(f"**{node.text()}**: {TRACK_HOVER[node.kind]}", node.pos)
+        if isinstance(node, A.Track):
+            return self._hover(f"**{node.text()}**: {TRACK_HOVER['track']}", node.pos, width=len("track"))
         if isinstance(node, (A.CallStmt, A.TaskDef)):
             t = self.tasks().get(node.task if isinstance(node, A.CallStmt) else node.name)
             if t is None or (isinstance(node, A.TaskDef) and line + 1 != node.pos.line):
@@ -402,6 +406,21 @@ class Document:
         out += [Completion(t.name, "task", f"task {t.name}({', '.join(t.params)})") for t in self.tasks().values()]
         out += [Completion(p, "point", A.expr_text(d.value)) for p, d in self.points().items()]
         return out
+
+
+#: hover texts of a ``track`` clause and its options (docs/language.md, "Moving scenes")
+TRACK_HOVER = {
+    "track": "keeps the ICPs bound through these names live while the step runs: the robot perceives them "
+             "again every tick and, when one moved more than the threshold, warps the rest of the step again "
+             "with OSILA from where the pen is (needs a world that can show its points while the robot moves "
+             "and a streaming back end)",
+    "every": "how often the robot looks again while the step runs (default 100 ms)",
+    "threshold": "a tracked ICP must move more than this before the rest of the step is warped again (default 1 mm)",
+    "blend": "the new plan takes over from the pen's measured position over this much path, with a minimum-jerk "
+             "weight (default 5 mm)",
+    "lift": "when the scene under a pen that is down moved more than this at once, the pen lifts, travels and "
+            "is put down where its ink stopped (default: never)",
+}
 
 
 def _inside(pos: A.Pos, line: int, column: int) -> bool:

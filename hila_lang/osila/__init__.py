@@ -1,4 +1,4 @@
-"""OSILA: one-shot imitation of a template path in a new scene (DESIGN.md §1).
+"""OSILA: one-shot imitation of a template path in a new scene (docs/design.md §2.2).
 
 :func:`imitate` is the contract: re-estimate which part of the template passes an ICP that lies
 on its path and carries the task's time (:mod:`.timing`), warp the template with a thin plate

@@ -1,4 +1,4 @@
-"""Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (DESIGN.md §1.3).
+"""Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (docs/design.md §2.2).
 
 First, ICPs whose template point lies on the template path and that carry the task's time (a
 boundary of an equal-time split, a point at a time fraction: option ``task_times``) are re-timed

@@ -2,7 +2,7 @@
 
 Why a ball: adding one more pair (p_t -> q) to an exact TPS raises its bending energy in
 proportion to |q - f(p_t)|², so "distortion <= threshold" is the ball of radius ``threshold``
-around the mapped point f(p_t) (DESIGN.md §1; the paper's 2-pixel relaxation).
+around the mapped point f(p_t) (docs/design.md §2.2; the paper's 2-pixel relaxation).
 
 The set is the centre plus ``shells`` concentric shells at radii threshold·i/shells,
 i = 1..shells, each with ``directions`` unit directions: evenly spaced angles in 2-D (every other

@@ -1,4 +1,4 @@
-"""Demonstration files: a path as CSV and its scene ICPs as YAML (``hila learn``, ``hila eval``).
+"""Demonstration files: a path as CSV and its scene ICPs as YAML, read and written here only.
 
 CSV: a header line ``t,x,y``, ``t,x,y,z``, ``x,y`` or ``x,y,z`` (t in seconds, strictly
 increasing; x, y, z in metres or pixels), optionally followed by a ``pen`` column, then one row per
@@ -8,6 +8,12 @@ drawing's pointer events say (``pointerdown`` / ``pointerup``) and what a camera
 tracks; ``hila learn`` then cuts where the pen touches and leaves the paper
 (:func:`hila_lang.osila.segmentation.contact_segments`).  ICPs: a YAML mapping
 ``name: [x, y(, z)]``, or a task file's ``icps:`` mapping.
+
+The readers (:func:`read_demo`, :func:`read_demo_csv`, :func:`load_icps`) serve ``hila learn`` and
+``hila eval``; the writers (:func:`demo_csv`, :func:`write_demo_csv`, :func:`icps_text`,
+:func:`write_icps`) serve everything that makes such files -- ``hila imitate``'s output, the
+studio's saved demonstrations, ``hila learn --sheet``'s tracked pen, the letters' handwriting
+model, ``hila eval``'s stand-in data set -- so every one is a file the readers take.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.fileio import load_yaml, read_text
+from ..core.fileio import atomic_write_text, load_yaml, read_text, yaml_text
 from .template import MAX_COORDINATE, check_coordinates
 
 #: the headers a demonstration CSV may have (each also with a last column ``pen``)
@@ -110,18 +116,6 @@ def read_demo(path: str | Path) -> Demo:
     return Demo(arr, None, pen)
 
 
-def demo_csv(path: np.ndarray, times: np.ndarray | None = None, pen: np.ndarray | None = None) -> str:
-    """The CSV text :func:`read_demo` reads: ``path`` (T, D), optional ``times`` (T,) and ``pen``
-    (T,) bool; floats written with ``repr`` precision (a round trip is exact)."""
-    path = np.asarray(path, dtype=float)
-    header = ["t"] * (times is not None) + ["x", "y", "z"][:path.shape[1]] + ["pen"] * (pen is not None)
-    rows = [",".join(header)]
-    for i, p in enumerate(path):
-        cells = ([repr(float(times[i]))] if times is not None else []) + [repr(float(v)) for v in p]
-        rows.append(",".join(cells + ([str(int(bool(pen[i])))] if pen is not None else [])))
-    return "\n".join(rows) + "\n"
-
-
 def load_icps(path: str | Path, dim: int) -> dict:
     """Read ICPs from YAML: a mapping name -> [x, y(, z)], or a task file's 'icps' mapping."""
     doc = load_yaml(path, "scene ICP file", unique_keys=True)
@@ -137,3 +131,47 @@ def load_icps(path: str | Path, dim: int) -> dict:
             raise InputError(f"expected finite numbers for ICP {name!r}, got {point!r}", file=str(path))
         check_coordinates(point, f"ICP {name!r}", str(path))
     return {str(k): v for k, v in doc.items()}
+
+
+def demo_csv(path, times=None, pen=None, *, decimals: int | None = None, time_decimals: int | None = None) -> str:
+    """The CSV text :func:`read_demo` reads: ``path`` (T, D), optional ``times`` (T,) and ``pen``
+    (T,) bool; the header ``t,x,y[,z][,pen]`` (without ``t`` when there are no times), one row per
+    waypoint.
+
+    Floats are written exactly (``repr`` round-trips) unless ``decimals`` (coordinates) and
+    ``time_decimals`` (times; default ``decimals``) fix the digits after the point.
+    """
+    path = np.asarray(path, float)
+    times = None if times is None else np.asarray(times, float)
+    pen = None if pen is None else np.asarray(pen, bool)
+    if path.ndim != 2 or path.shape[1] not in (2, 3) or any(a is not None and a.shape != (len(path),)
+                                                             for a in (times, pen)):
+        raise InputError(f"expected a path (T, 2 or 3) and T times, got {path.shape} and "
+                         f"{None if times is None else times.shape}"
+                         + ("" if pen is None else f" and {pen.shape} pen states"))
+    time_decimals = decimals if time_decimals is None else time_decimals
+
+    def cell(v: float, digits: int | None) -> str:
+        return repr(float(v)) if digits is None else f"{v:.{digits}f}"
+
+    header = ["t"] * (times is not None) + ["x", "y", "z"][: path.shape[1]] + ["pen"] * (pen is not None)
+    rows = [",".join(header)]
+    for i, p in enumerate(path):
+        cells = ([cell(times[i], time_decimals)] if times is not None else []) + [cell(v, decimals) for v in p]
+        rows.append(",".join(cells + ([str(int(pen[i]))] if pen is not None else [])))
+    return "\n".join(rows) + "\n"
+
+
+def write_demo_csv(file: str | Path, path, times=None, pen=None, **digits) -> Path:
+    """Write :func:`demo_csv` to ``file`` atomically; ``digits`` as there."""
+    return atomic_write_text(file, demo_csv(path, times, pen, **digits))
+
+
+def icps_text(icps: dict, header: str = "") -> str:
+    """Scene ICPs ``name -> point`` as the YAML mapping :func:`load_icps` reads."""
+    return yaml_text({str(k): [float(v) for v in p] for k, p in icps.items()}, header=header)
+
+
+def write_icps(file: str | Path, icps: dict, header: str = "") -> Path:
+    """Write :func:`icps_text` to ``file`` atomically."""
+    return atomic_write_text(file, icps_text(icps, header))

@@ -342,13 +342,20 @@ def load_template(path: str | os.PathLike) -> Template:
     return template_from_dict(doc, str(path))
 
 
-def save_template(template: Template, path: str | os.PathLike) -> Path:
-    """Write ``template`` as human-readable YAML, atomically; returns the path written."""
-    from ..core.fileio import dump_yaml
+def template_text(template: Template) -> str:
+    """``template`` as the human-readable YAML :func:`load_template` reads, with a header comment."""
+    from ..core.fileio import yaml_text
 
     _validate(template)
     header = (
         f"hila template {template.name!r} (schema {SCHEMA_VERSION}); edit by hand freely.\n"
         "segments: ordered, contiguous, stop exclusive; icps: name -> point; path: one row per waypoint."
     )
-    return dump_yaml(path, template_to_dict(template), header=header)
+    return yaml_text(template_to_dict(template), header=header)
+
+
+def save_template(template: Template, path: str | os.PathLike) -> Path:
+    """Write ``template`` as human-readable YAML (:func:`template_text`), atomically; returns the path written."""
+    from ..core.fileio import atomic_write_text
+
+    return atomic_write_text(path, template_text(template))

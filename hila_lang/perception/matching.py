@@ -1,7 +1,7 @@
 """Scene matching: ICP pairs between a demonstration scene and a task scene, from the eyes' images.
 
 The paper assumes "a given scene-matching algorithm, such as SIFT" gives the ICPs.  This is it,
-with OpenCV, on what the robot has (DESIGN §6, §7): its eye images, its own calibration of each
+with OpenCV, on what the robot has (docs/design.md §4): its eye images, its own calibration of each
 eye (``CameraImage.K``, ``dist``) and the eyes' poses from its joint angles
 (``CameraImage.world_T_camera``).  Nothing here reads the simulator's truth.
 

@@ -10,7 +10,9 @@
   and ``hila.backends``;
 - :mod:`~hila_lang.plugins.options`: :class:`RunOptions`, what ``hila exec``/``hila repl`` pass;
 - :mod:`~hila_lang.plugins.names`: a world's points, questions and events, declared once;
-- :mod:`~hila_lang.plugins.snapshots`: a ``Snapshots`` capability for state held in attributes.
+- :mod:`~hila_lang.plugins.snapshots`: a ``Snapshots`` capability for state held in attributes;
+- :mod:`~hila_lang.plugins.studio`: what a world shows in ``hila studio`` (a scene to draw on, its
+  board during a run, the settings the Run page offers).
 
 A third-party package adds a world with one entry point in its own ``pyproject.toml``::
 

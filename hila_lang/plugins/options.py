@@ -2,11 +2,12 @@
 are split among OSILA, the robot, the world and the back end and parsed -- before anything is built, by
 ``hila check`` as by ``hila exec``: a bad value is exit status 2 naming the option.
 
-``osila.KEY`` goes to :func:`hila_lang.osila.imitate` (values read as YAML scalars: ``0.002``,
-``true``, ``[1, 2]``) and is validated by OSILA itself on a two-point path, so the rules live in
-one place; ``robot`` (``--robot NAME|PATH``) and ``robot.KEY`` name the robot
-(:func:`hila_lang.robot.spec.resolve` reads them); any other key goes to the world or the back
-end that declares it.
+``osila.KEY`` goes to :func:`hila_lang.osila.imitate`, read and checked by its declaration here
+(:data:`OSILA_OPTIONS`: a number in a range, a whole number, or a word such as ``auto``), the
+way a world's or a back end's setting is checked by its :class:`~hila_lang.plugins.settings.Setting`
+-- OSILA is not run to validate a value; ``robot`` (``--robot NAME|PATH``) and ``robot.KEY`` name
+the robot (:func:`hila_lang.robot.spec.resolve` reads them); any other key goes to the world or
+the back end that declares it.
 """
 
 from __future__ import annotations
@@ -49,68 +50,132 @@ class RunOptions:
     robot: Any = None
 
 
-#: the range of every numeric OSILA option a run may be given by ``--set osila.NAME=VALUE``,
-#: checked before OSILA is called at all (issue 20: ``shells=100000000`` hung and grew,
-#: ``directions=1e8`` ran out of memory).  The route search costs O(T·M²) time and memory in
-#: M = 1 + shells·directions candidates per waypoint: M = 2001 took 1.5 s and 130 MB on the
-#: 84-point circle template here (the default M = 29 takes 2 ms), so shells·directions is at
-#: most :data:`MAX_CANDIDATES`; the other bounds are far beyond any use (a threshold, margin in
-#: the template's units, metres or pixels).
-OSILA_RANGES: dict[str, tuple[float, float, str]] = {
-    "threshold": (0, 1e3, "a distance in the template's units"),
-    "rounds": (1, 1000, "plan-adjustment rounds"),
-    "smoothing": (0, 1e6, "TPS smoothing"),
-    "seed": (0, 2**32 - 1, "a seed"),
-    "distortion": (0, 1e6, "a weight"),
-    "margin": (0, 1e3, "a distance in the template's units"),
-    "shells": (0, 100, "candidate shells"),
-    "directions": (1, 2000, "candidate directions per shell"),
-    "timing": (0, 1e6, "a weight"),
-    "stretch": (1, 1e6, "a ratio of route lengths"),
-    "precision": (0, 1e3, "a distance in the template's units"),
-}
+@dataclass(frozen=True)
+class OsilaOption:
+    """The declaration of one OSILA option a run may be given (``--set osila.NAME=VALUE``, a task
+    file's ``options``): what it is, its range, whether it is a whole number, and the words it takes
+    besides a number (``"auto"``; None: OSILA's own default).  :meth:`check` validates a value,
+    :meth:`parse` the text a person typed -- before anything runs, without running OSILA."""
+
+    name: str
+    what: str
+    low: float = 0.0
+    high: float = 1e6
+    integer: bool = False
+    words: tuple = ()
+
+    def check(self, value: Any) -> Any:
+        """``value`` if this option takes it; a ValueError saying what it expected otherwise."""
+        if value in self.words and not isinstance(value, bool):
+            return value
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"expected {self.name} as {'an integer' if self.integer else 'a number'}, got {value!r}")
+        if self.integer and value != int(value):
+            raise ValueError(f"expected {self.name} as an integer, got {value!r}")
+        if not self.low <= value <= self.high:  # NaN fails too
+            raise ValueError(f"expected {self.what} from {self.low:g} to {self.high:g}")
+        return int(value) if self.integer else float(value)
+
+    def parse(self, text: str) -> Any:
+        """The typed text: a number (``0.002``, ``1e8``), or one of :attr:`words` (``auto``;
+        ``none`` for OSILA's own default)."""
+        t = text.strip()
+        if None in self.words and t.lower() in ("", "~", "null", "none"):
+            return None
+        if t in self.words:
+            return t
+        try:
+            value: float = int(t)
+        except ValueError:
+            try:
+                value = float(t)
+            except ValueError:
+                raise ValueError(f"expected {self.name} as {'an integer' if self.integer else 'a number'}, "
+                                 f"got {t!r}") from None
+        return self.check(value)
+
+
+@dataclass(frozen=True)
+class OsilaChoice:
+    """An OSILA option that is one of a few words (``reject``)."""
+
+    name: str
+    what: str
+    choices: tuple
+
+    def check(self, value: Any) -> Any:
+        if value not in self.choices or isinstance(value, bool):
+            raise ValueError(f"expected {self.name} as one of {', '.join(self.choices)}, got {value!r}")
+        return value
+
+    def parse(self, text: str) -> Any:
+        return self.check(text.strip())
+
+
+#: every OSILA option a run may set, declared: the rules a value is checked by before anything is
+#: built (issue 20: ``shells=100000000`` hung and grew, ``directions=1e8`` ran out of memory).  The
+#: route search costs O(T·M²) time and memory in M = 1 + shells·directions candidates per
+#: waypoint: M = 2001 took 1.5 s and 130 MB on the 84-point circle template here (the default
+#: M = 29 takes 2 ms), so shells·directions is at most :data:`MAX_CANDIDATES`; the other bounds
+#: are far beyond any use (a threshold, a margin in the template's units, metres or pixels).
+#: These are OSILA's own rules (:func:`hila_lang.osila.imitate`) -- ``tests/test_lang_worldcheck.py``
+#: holds the two together -- named here so neither ``--help`` nor ``hila check`` imports OSILA.
+OSILA_OPTIONS: dict[str, OsilaOption | OsilaChoice] = {o.name: o for o in (
+    OsilaOption("threshold", "a distance in the template's units", 0, 1e3, words=(None,)),
+    OsilaOption("rounds", "plan-adjustment rounds", 1, 1000, integer=True),
+    OsilaOption("smoothing", "TPS smoothing", 0, 1e6, words=("auto",)),
+    OsilaOption("seed", "a seed", 0, 2**32 - 1, integer=True),
+    OsilaOption("distortion", "a weight", 0, 1e6),
+    OsilaOption("margin", "a distance in the template's units", 0, 1e3),
+    OsilaOption("shells", "candidate shells", 0, 100, integer=True),
+    OsilaOption("directions", "candidate directions per shell", 1, 2000, integer=True, words=(None,)),
+    OsilaOption("timing", "a weight", 0, 1e6),
+    OsilaOption("stretch", "a ratio of route lengths", 1, 1e6),
+    OsilaOption("precision", "a distance in the template's units", 0, 1e3, words=(None,)),
+    OsilaChoice("reject", "outlier rejection among the ICP pairs", ("auto", "none", "loo", "lmeds")),
+)}
 #: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but those of
-#: one step's own pairs, ``hila_lang.osila.PER_STEP``: ``pin`` and ``task_times``), named here so
-#: ``--help`` need not import OSILA; a test keeps it in step
-OSILA_SETTABLE = (*OSILA_RANGES, "reject")
-#: most candidate offsets around a waypoint, shells x directions (see :data:`OSILA_RANGES`)
+#: one step's own pairs, ``hila_lang.osila.PER_STEP``: ``pin`` and ``task_times``); a test keeps it in step
+OSILA_SETTABLE = tuple(OSILA_OPTIONS)
+#: most candidate offsets around a waypoint, shells x directions (see :data:`OSILA_OPTIONS`)
 MAX_CANDIDATES = 2000
 
 
-def check_osila_ranges(options: dict, flag=lambda name: f"--set osila.{name}", typed: dict | None = None) -> None:
-    """Refuse an OSILA option outside :data:`OSILA_RANGES` (and shells x directions above
-    :data:`MAX_CANDIDATES`) before any work: an :class:`InputError` naming ``flag(name)``.
-    Values that are not numbers are left to OSILA's own checks; ``typed`` gives a value as the
-    user typed it, for the message."""
+def check_osila_options(options: dict, flag=lambda name: f"--set osila.{name}", typed: dict | None = None) -> dict:
+    """``options`` checked by their declarations (:data:`OSILA_OPTIONS`) and shells x directions
+    bounded by :data:`MAX_CANDIDATES`, before any work; an :class:`InputError` names
+    ``flag(name)`` and the value (``typed[name]``, as the person typed it, when given).  Options
+    not declared here are left to OSILA."""
     from ..core.errors import InputError
 
+    out = dict(options)
     for name, value in options.items():
-        if name not in OSILA_RANGES or isinstance(value, bool) or not isinstance(value, (int, float)):
-            continue
-        low, high, what = OSILA_RANGES[name]
-        if not low <= value <= high:  # NaN fails too
-            shown = (typed or {}).get(name, value)
-            raise InputError(f"bad value for {flag(name)}={shown}: expected {what} from {low:g} to {high:g}")
-    shells = options.get("shells", 2)
-    directions = options.get("directions") or 14
+        if name in OSILA_OPTIONS:
+            try:
+                out[name] = OSILA_OPTIONS[name].check(value)
+            except ValueError as exc:
+                shown = (typed or {}).get(name, value)
+                raise InputError(f"bad value for {flag(name)}={shown}: {exc}",
+                                 hint="the OSILA options are described in 'hila imitate --help'") from None
+    shells = out.get("shells", 2)
+    directions = out.get("directions") or 14
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (shells, directions)) \
             and shells * directions > MAX_CANDIDATES:
         raise InputError(f"bad value for {flag('shells')} and {flag('directions')}: {shells} x {directions} = "
                          f"{shells * directions:g} candidates around each waypoint, at most {MAX_CANDIDATES} "
                          "(the route search grows with its square)")
+    return out
 
 
 def osila_options(settings: dict[str, str]) -> dict:
-    """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}`` (other keys are ignored);
-    an unknown option or a value OSILA refuses is an InputError naming ``--set KEY=VALUE``."""
+    """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}`` (other keys are ignored), each
+    value read and checked by its declaration (:data:`OSILA_OPTIONS`); an unknown option or a bad
+    value is an InputError naming ``--set KEY=VALUE``."""
     import difflib
 
-    import yaml
-
     from ..core.errors import InputError
-    from ..osila import OPTIONS, PER_STEP, imitate
 
-    out = {}
+    out, typed = {}, {}
     for key, text in settings.items():
         if not key.startswith("osila."):
             continue
@@ -122,28 +187,17 @@ def osila_options(settings: dict[str, str]) -> dict:
         if name == "task_times":
             raise InputError("--set osila.task_times: task times belong to one step's ICP pairs (when the task "
                              "passes each), so they cannot be set for a whole run")
-        if name not in OPTIONS:
-            settable = [o for o in OPTIONS if o not in PER_STEP]
-            close = difflib.get_close_matches(name, settable, n=1)
-            raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(settable)}",
+        if name not in OSILA_OPTIONS:
+            close = difflib.get_close_matches(name, OSILA_SETTABLE, n=1)
+            raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(OSILA_SETTABLE)}",
                              hint=f"did you mean 'osila.{close[0]}'?" if close else None)
         try:
-            out[name] = yaml.safe_load(text)
-        except yaml.YAMLError:
-            raise InputError(f"cannot read --set {key}={text}: expected a number, true/false or a list") from None
-        if isinstance(out[name], str):  # YAML 1.1 reads 1e8 (no dot) as text: a number all the same
-            try:
-                out[name] = float(out[name])
-            except ValueError:
-                pass
-        check_osila_ranges({name: out[name]}, typed={name: text})
-        try:  # OSILA's own checks, on a path of two points
-            imitate([[0.0, 0.0], [1.0, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]], **{name: out[name]})
-        except InputError as exc:
-            raise InputError(f"bad value for --set {key}={text}: {exc.message}",
+            out[name] = OSILA_OPTIONS[name].parse(text)
+        except ValueError as exc:
+            raise InputError(f"bad value for --set {key}={text}: {exc}",
                              hint="the OSILA options are described in 'hila imitate --help'") from None
-    check_osila_ranges(out)  # together: shells x directions
-    return out
+        typed[name] = text
+    return check_osila_options(out, typed=typed)  # together: shells x directions
 
 
 def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict, dict]:

@@ -10,8 +10,12 @@ What only some back ends have is a *capability*: an attribute of the back end ho
 that implements a small protocol, or None.  ``backend.eyes`` (:class:`Eyes`: the robot's
 cameras), ``backend.ink`` (:class:`Ink`: a drawing surface that keeps the ink and can be moved),
 ``backend.overview`` (:class:`Overview`: a camera outside the robot, for reports and never for
-decisions) and ``backend.lighting`` (:class:`Lighting`: the simulated scene's light, which a
-world may change).  A world asks ``if backend.eyes is not None`` -- it never probes for methods.
+decisions), ``backend.lighting`` (:class:`Lighting`: the simulated scene's light, which a
+world may change) and ``backend.streaming`` (:class:`Streaming`: following a path whose tail
+changes while the arm moves, for the ``track`` clause).  A world asks ``if backend.eyes is not
+None`` -- it never probes for methods.  A world's ``tracking`` (:class:`Tracking`: it shows the
+robot its points again while a step runs, and its scene may move meanwhile) is optional: a world
+without the attribute cannot be tracked (``hila check`` reads ``WorldInfo.tracking``).
 ``backend.view`` (:class:`View`) is a window a person watches (``--gui``).
 Worlds and back ends both declare ``snapshots`` (:class:`Snapshots`: save what they are now and
 restore it later, for the REPL's ``back``; :class:`hila_lang.plugins.snapshots.AttributeSnapshots`
@@ -32,7 +36,7 @@ paths are arrays of shape (T, 3).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence, runtime_checkable
+from typing import TYPE_CHECKING, Any, Mapping, NamedTuple, Protocol, Sequence, runtime_checkable
 
 if TYPE_CHECKING:  # numpy and the scene types only for annotations: importing this stays light
     import numpy as np
@@ -108,6 +112,84 @@ class Lighting(Protocol):
         ...
 
 
+class StreamProgress(NamedTuple):
+    """Where a stream (:class:`Streaming`) is: ``t`` seconds since it began, ``index`` the first
+    waypoint of its path not yet passed (``len(path)`` at the end), ``done`` when the path's end is
+    reached (the arm may still settle in :meth:`Streaming.finish`)."""
+
+    t: float
+    index: int
+    done: bool
+
+
+@runtime_checkable
+class Streaming(Protocol):
+    """Following a path that may change while the arm moves along it (the ``track`` clause).
+
+    One stream at a time: :meth:`begin` a path, :meth:`advance` the clock (the arm moves),
+    :meth:`replace` the path's tail from a waypoint not yet passed, and :meth:`finish` it (or
+    :meth:`stop` it where it is, after an error).  The clock is the back end's: whole control
+    steps of ``dt`` seconds, the same for every run of the same command.
+    """
+
+    #: seconds per control step
+    dt: float
+
+    def begin(self, path: "np.ndarray", *, pen_down: bool = False, label: str = "") -> float:
+        """Start following ``path`` (T, 3) from where the pen is; returns the planned duration,
+        seconds.  Checks the path as :meth:`Backend.move` does (UnreachableError: the arm does not
+        move)."""
+        ...
+
+    def advance(self, seconds: float, each_step: Any = None) -> StreamProgress:
+        """Move on for ``seconds`` (whole control steps; fewer when the path ends), calling
+        ``each_step(t)`` after every control step with the seconds since :meth:`begin`."""
+        ...
+
+    def replace(self, index: int, tail: "np.ndarray") -> None:
+        """From waypoint ``index`` on (not yet passed) the path is ``tail`` (N, 3): the arm goes on
+        from where it is towards ``tail[0]``.  UnreachableError when the arm cannot follow it (it
+        then holds where it is)."""
+        ...
+
+    def finish(self, each_step: Any = None) -> "np.ndarray":
+        """Run to the end of the path and settle (``each_step`` as :meth:`advance`); the executed
+        pen-tip trace (T', 3), recorded and inked as :meth:`Backend.move` does."""
+        ...
+
+    def stop(self) -> "np.ndarray":
+        """Stop where the arm is (after an error); the executed trace so far, recorded and inked."""
+        ...
+
+
+@runtime_checkable
+class Tracking(Protocol):
+    """A world that shows the robot its points again while a step runs (the ``track`` clause),
+    and whose scene may move meanwhile (the world is the scene's referee: it moves things in
+    :meth:`elapse`, never the robot)."""
+
+    #: the scene moves while the robot moves (e.g. ``board.slide``): every step on a streaming back
+    #: end is then streamed, tracked or not, so that the world's clock runs
+    moving: bool
+
+    def begin(self, state: str, pen_down: bool, seconds: float) -> None:
+        """A step starts moving the arm for a planned ``seconds``."""
+        ...
+
+    def elapse(self, t: float) -> None:
+        """``t`` seconds of the step have passed (after every control step)."""
+        ...
+
+    def look(self) -> None:
+        """The robot perceives the scene again, with its own senses; :meth:`World.points`
+        answers from what it perceived until it looks again."""
+        ...
+
+    def end(self) -> None:
+        """The step is over."""
+        ...
+
+
 @runtime_checkable
 class Overview(Protocol):
     """A camera outside the robot, for reports only (never for the robot's decisions)."""
@@ -158,6 +240,7 @@ class Backend(Protocol):
     snapshots: "Snapshots | None"
     view: "View | None"
     lighting: "Lighting | None"
+    streaming: "Streaming | None"
 
     def hand_position(self) -> "np.ndarray":
         """Current pen-tip position, shape (3,), metres, world frame."""
@@ -173,7 +256,9 @@ class Backend(Protocol):
         ``pen_down`` says the segment is meant to touch the paper (drawing): ink is laid only
         where the pen is down and the tip touches the surface.  ``label`` names the FSM state,
         for traces and error messages.  Raises :class:`~hila_lang.core.errors.UnreachableError`
-        when a waypoint cannot be reached.
+        when a waypoint cannot be reached.  A back end that stops part of the way (an error, or
+        Ctrl-C while a real arm moves) may attach the part the hand made to the exception as
+        ``exc.executed`` (T', 3): the run's trace and recording keep it.
         """
         ...
 
@@ -213,7 +298,8 @@ class World(Protocol):
 
     def notify(self, event: str, **data: Any) -> None:
         """Told what the robot did: ``"state_done"`` (state, path, executed, kind, pen_down, icps,
-        template) after each run state, ``"program_done"`` at the end."""
+        template, and ``replans`` for a streamed run: :class:`hila_lang.engine.tracking.Replan` s)
+        after each run state, ``"program_done"`` at the end."""
         ...
 
     def finish(self, trace: Sequence[Any], *, fsm: Any = None) -> "dict | None":
@@ -223,9 +309,9 @@ class World(Protocol):
 
 #: the capability attributes of a back end and the protocol each must implement when not None
 CAPABILITIES = {"eyes": Eyes, "ink": Ink, "overview": Overview, "lighting": Lighting, "snapshots": Snapshots,
-                "view": View}
-#: the same for a world
-WORLD_CAPABILITIES = {"snapshots": Snapshots}
+                "view": View, "streaming": Streaming}
+#: the same for a world (``tracking`` may also be missing: the world cannot be tracked)
+WORLD_CAPABILITIES = {"snapshots": Snapshots, "tracking": Tracking}
 
 
 def _members(protocol: type) -> list[str]:

@@ -24,6 +24,7 @@ from typing import Any, Mapping
 
 from ..core.errors import InputError
 from .settings import Setting, parse_settings
+from .studio import StudioView
 
 GROUPS = {"world": "hila.worlds", "back end": "hila.backends", "robot": "hila.robots"}
 #: the world of a program without ``world NAME``
@@ -122,6 +123,13 @@ class WorldInfo:
         ``"module:callable"``: reads a demonstration scene's ICPs from recorded frames
         (``hila learn --frames/--left/--right --world NAME``), the ``read_icps`` of
         :func:`hila_lang.perception.learn.template_from_frames`.
+    studio : StudioView or None
+        What the world shows in ``hila studio`` (:mod:`hila_lang.plugins.studio`): a scene to
+        demonstrate on, its board during a run, the settings the Run page offers; None: nothing.
+    tracking : bool
+        The world shows the robot its points again while a step runs (its worlds have a
+        ``tracking`` capability, :class:`hila_lang.plugins.protocols.Tracking`): ``hila check``
+        refuses a ``track`` clause in a world that does not declare it.
     """
 
     name: str
@@ -137,6 +145,8 @@ class WorldInfo:
     points: Mapping[str, str] = field(default_factory=dict)
     recorder: str | None = None
     icp_reader: str | None = None
+    studio: StudioView | None = None
+    tracking: bool = False
 
     def __post_init__(self) -> None:
         from .names import Names
@@ -196,6 +206,10 @@ class BackendInfo:
         statement that binds it (:mod:`hila_lang.language.worldcheck`).  None: no such bound.
         The iCub's; a run that names its robot (``--robot``) is checked against that robot's
         reach instead (:meth:`hila_lang.robot.spec.RobotSpec.reach`).
+    streaming : bool
+        Its back ends can change the path they follow while the arm moves (a ``streaming``
+        capability, :class:`hila_lang.plugins.protocols.Streaming`): ``hila check`` refuses a
+        ``track`` clause on a back end that does not declare it.
     """
 
     name: str
@@ -203,6 +217,7 @@ class BackendInfo:
     doc: str
     settings: tuple[Setting, ...] = ()
     reach: tuple | None = None
+    streaming: bool = False
 
     def parse(self, given: dict[str, str]) -> dict[str, Any]:
         return parse_settings(self.settings, given, f"back end {self.name}")

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..osila.template import Segment, Template
-from .library import REFERENCE_POINTS, entries_of
+from .library import REFERENCE_POINTS
 from .search import Part
 from .shape import arc_length, arc_resample, similarity_map, smooth
 
@@ -129,11 +129,3 @@ def library_parts(template: Template) -> list[str]:
     if own:  # a sub-template: its segment only
         found = [f for f in found if f["tag"] == own.group(1)]
     return [f"{f['part']} (from {f['file']}, recognised at distance {f['distance']}) as {f['tag']}" for f in found]
-
-
-def library_entries(templates: list[Template]):
-    """(name -> template, parts) of in-memory templates (tests, the bench, the game)."""
-    entries = []
-    for t in templates:
-        entries += entries_of(t)
-    return {t.name: t for t in templates}, entries

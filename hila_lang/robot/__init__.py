@@ -13,9 +13,11 @@
 - :mod:`hila_lang.robot.paper`     ink on the paper (``ink``), the camera above it (``overview``)
 - :mod:`hila_lang.robot.backend`   :class:`PyBulletBackend`, the thin façade the interpreter drives
 - :mod:`hila_lang.robot.dry`       :class:`DryBackend`: kinematic, no physics
+- :mod:`hila_lang.robot.streaming` following a path whose tail changes while the arm moves (``streaming``)
 - :mod:`hila_lang.robot.reach`     the arm's reach without a simulator, the checks of a planned path
 - :mod:`hila_lang.robot.lens`      the eyes' fish-eye lenses and the robot's own calibration of them
 - :mod:`hila_lang.robot.window`    the PyBullet window of a run with ``--gui``
+- :mod:`hila_lang.robot.kinematic_arm` the arm as its description gives it: joints, FK/IK, limits, speed caps
 
 The robot knows a neutral drawing surface (:class:`hila_lang.sim.surface.Surface`): what is
 printed on it is a world's business.  ``DRY`` and ``PYBULLET`` declare the two back ends (entry
@@ -37,6 +39,7 @@ DRY = BackendInfo(
     doc="kinematic, no physics: the hand follows every path exactly",
     settings=(Setting("hand", "where the hand starts when the world does not say", point, metavar="X,Y,Z"),),
     reach=REACH,  # it checks planned paths as PyBullet's arm does
+    streaming=True,  # its hand follows a changing path too (:mod:`hila_lang.robot.streaming`), deterministically
 )
 
 PYBULLET = BackendInfo(
@@ -50,6 +53,7 @@ PYBULLET = BackendInfo(
                                "same; headless runs are not paced)", number(0.1, 100.0), default=1.0, metavar="N",
                       flag="--speed"),),
     reach=REACH,
+    streaming=True,  # the arm retargets inside its 240 Hz loop (:mod:`hila_lang.robot.streaming`)
 )
 
 ICUB = RobotInfo(name="icub", factory="hila_lang.robot.model:spec",

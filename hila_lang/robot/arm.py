@@ -43,9 +43,60 @@ LIMIT_CHECK_TOLERANCE = 1e-3
 #: position-controller gains
 POSITION_GAIN = 0.3
 VELOCITY_GAIN = 1.0
+#: after a path the arm holds its last target until the tip is this near it, metres, for at most
+#: SETTLE_STEPS control steps (0.25 s)
+SETTLED = 5e-5
+SETTLE_STEPS = int(0.25 * SIM_RATE)
 #: physics solver iterations per step (PyBullet's default 50 costs 60 % more time for a
 #: tracking gain of 0.002 mm)
 SOLVER_ITERATIONS = 20
+
+
+def accept(result: ik.IKResult) -> ik.IKResult:
+    """``result`` with ``converged`` judged by the arm's own thresholds (:data:`IK_ACCEPT_ERROR`,
+    :data:`IK_ACCEPT_TILT`), looser than the solver's stopping tolerances."""
+    converged = result.error <= IK_ACCEPT_ERROR and result.tilt <= IK_ACCEPT_TILT
+    if converged == result.converged:
+        return result
+    return ik.IKResult(result.q, result.position, result.error, result.tilt, result.iterations, converged)
+
+
+def raise_if_unreachable(result: ik.IKResult, point, k: int, total: int, label: str) -> None:
+    """An :class:`UnreachableError` for waypoint ``k`` of ``total`` (``point``) when ``result`` did
+    not converge: how close the pen gets, and its tilt."""
+    if result.converged:
+        return
+    tilt = f", pen tilted {math.degrees(result.tilt):.1f} deg" if result.tilt > IK_ACCEPT_TILT else ""
+    distance = np.linalg.norm(result.position - np.asarray(point, dtype=float))
+    raise unreachable(point, f"the pen gets no closer than {distance * 1000:.1f} mm, to "
+                             f"{_fmt(result.position)}{tilt}", distance, label,
+                      where=f" (waypoint {k + 1} of {total})")
+
+
+def solve_along(solve, tip, q_start: np.ndarray, planned: np.ndarray, label: str = ""):
+    """IK along ``planned`` (T, 3) from the joint angles ``q_start`` (n,): the path prefixed with the
+    tip at ``q_start``, densified to :data:`WAYPOINT_SPACING`, every point solved warm-started from
+    the one before.  ``solve(target, q0) -> IKResult`` (accepted or not), ``tip(q) -> (3,)``.
+
+    Returns ``(dense (M, 3), origin (M,), arc (M,) metres, qs (M, n))``: ``origin[i]`` is the
+    index of the waypoint of ``planned`` that ``dense[i]`` leads to.  Raises
+    :class:`UnreachableError` naming the waypoint on the way to which the IK fails, and how close
+    it got.
+    """
+    dense, origin_index, arc = densify(np.vstack([tip(q_start), planned]), WAYPOINT_SPACING)
+    qs = np.empty((len(dense), len(q_start)))
+    qs[0] = q_start
+    for i in range(1, len(dense)):
+        result = solve(dense[i], qs[i - 1])
+        if not result.converged:
+            # dense[i] lies on the way to waypoint k: report how near to *it* the pen gets
+            k = int(origin_index[i])
+            last = tip(qs[i - 1])
+            if np.linalg.norm(last - planned[k]) < np.linalg.norm(result.position - planned[k]):
+                result = ik.IKResult(qs[i - 1], last, result.error, result.tilt, result.iterations, False)
+            raise_if_unreachable(result, planned[k], k, len(planned), label)
+        qs[i] = result.q
+    return dense, origin_index, arc, qs
 
 
 @dataclass
@@ -104,6 +155,7 @@ class Arm:
         self.ik_lower, self.ik_upper = lo, hi
         #: called with the pen tip (3,) after every simulation step of a move (a window draws it)
         self.observer = None
+        self._pace = [time.perf_counter(), 0]
         self.weights = spec.joint_weights()
         self.seed_posture = spec.posture("seed")
         self.rest_posture = np.clip(spec.posture("rest"), lo, hi)
@@ -127,23 +179,20 @@ class Arm:
         return self.chain.tip_position(self.joint_positions())
 
     def _solve(self, target: np.ndarray, q0: np.ndarray) -> ik.IKResult:
-        result = ik.solve(self.chain, target, q0, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights)
-        converged = result.error <= IK_ACCEPT_ERROR and result.tilt <= IK_ACCEPT_TILT
-        if converged != result.converged:
-            result = ik.IKResult(result.q, result.position, result.error, result.tilt, result.iterations, converged)
-        return result
+        return accept(ik.solve(self.chain, target, q0, lower=self.ik_lower, upper=self.ik_upper, weights=self.weights))
 
     def _check_above_table(self, point: np.ndarray, k: int, total: int, label: str) -> None:
         check_planned(np.asarray(point, dtype=float)[None], self.surface_z, label, self.reach)
 
     def _raise_if_unreachable(self, result: ik.IKResult, point, k: int, total: int, label: str) -> None:
-        if result.converged:
-            return
-        tilt = f", pen tilted {math.degrees(result.tilt):.1f} deg" if result.tilt > IK_ACCEPT_TILT else ""
-        distance = np.linalg.norm(result.position - np.asarray(point, dtype=float))
-        raise unreachable(point, f"the pen gets no closer than {distance * 1000:.1f} mm, to "
-                                 f"{_fmt(result.position)}{tilt}", distance, label,
-                          where=f" (waypoint {k + 1} of {total})")
+        raise_if_unreachable(result, point, k, total, label)
+
+    def solve_at(self, target: np.ndarray, q0: np.ndarray, k: int = 0, total: int = 1, label: str = "") -> np.ndarray:
+        """The joint angles (n,) that put the pen vertically at ``target`` (3,), warm-started from
+        ``q0``; :class:`UnreachableError` names it as waypoint ``k`` of ``total`` when none does."""
+        result = self._solve(np.asarray(target, dtype=float), q0)
+        self._raise_if_unreachable(result, target, k, total, label)
+        return result.q
 
     def reset_hand(self, target: np.ndarray) -> np.ndarray:
         """Put the pen tip at ``target`` (3,) at once (no motion, no trace); returns the angles (n,).
@@ -158,40 +207,65 @@ class Arm:
         self.body.set_arm(result.q)
         return result.q
 
+    def plan(self, planned: np.ndarray, label: str = "") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """IK along ``planned`` (T, 3) (checked) from where the pen is, before anything moves.
+
+        Returns the densified points (M, 3) (the pen first), for each the index of the waypoint
+        of ``planned`` it leads to (M,), their arc lengths (M,), metres, and the joint angles
+        solved at each (M, n).  Raises :class:`UnreachableError` naming the waypoint.
+        """
+        check_planned(planned, self.surface_z, label, self.reach)  # the reach bound and the paper, as the dry back end checks
+        clock = time.perf_counter()
+        dense, origin_index, arc, qs = solve_along(self._solve, self.chain.tip_position, self.joint_positions(), planned, label)
+        self.stats["ik_solves"] += len(dense) - 1
+        self.stats["ik_seconds"] += time.perf_counter() - clock
+        return dense, origin_index, arc, qs
+
     def move(self, planned: np.ndarray, *, pen_down: bool = False, label: str = "") -> Trace:
         """Follow ``planned`` (T, 3) (checked) from where the pen is; the executed move.
 
         Raises :class:`UnreachableError` (the arm does not move) when a waypoint cannot be
         reached, :class:`HilaRuntimeError` if a joint leaves its limits during execution.
         """
-        check_planned(planned, self.surface_z, label, self.reach)  # the reach bound and the paper, as the dry back end checks
-        q_start = self.joint_positions()
-        start = self.chain.tip_position(q_start)
-        dense, origin_index, arc = densify(np.vstack([start, planned]), WAYPOINT_SPACING)
-        qs = np.empty((len(dense), self.chain.dof))
-        qs[0] = q_start
-        clock = time.perf_counter()
-        for i in range(1, len(dense)):
-            result = self._solve(dense[i], qs[i - 1])
-            if not result.converged:
-                # dense[i] lies on the way to waypoint k: report how near to *it* the pen gets
-                k = int(origin_index[i])
-                last = self.chain.tip_position(qs[i - 1])
-                if np.linalg.norm(last - planned[k]) < np.linalg.norm(result.position - planned[k]):
-                    result = ik.IKResult(qs[i - 1], last, result.error, result.tilt, result.iterations, False)
-                self._raise_if_unreachable(result, planned[k], k, len(planned), label)
-            qs[i] = result.q
-        self.stats["ik_solves"] += len(dense) - 1
-        self.stats["ik_seconds"] += time.perf_counter() - clock
+        dense, _, arc, qs = self.plan(planned, label)
         clock = time.perf_counter()
         executed, joints, reference = self._execute(qs, dense, arc, DRAW_SPEED if pen_down else TRAVEL_SPEED)
         self.stats["steps"] += len(executed)
         self.stats["step_seconds"] += time.perf_counter() - clock
         return Trace(label, bool(pen_down), planned, executed, joints, reference)
 
+    def pace_from_now(self) -> None:
+        """Start pacing the control steps that follow (``realtime``: a window watches)."""
+        self._pace = [time.perf_counter(), 0]
+
+    def control_step(self, q_target: np.ndarray, qd_target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One control step: the motors aim at ``q_target`` (n,) with the feed-forward velocity
+        ``qd_target`` (n,), the simulation steps once; returns the joint angles (n,) and the
+        pen tip (3,) after it.  Joint limits are checked (HilaRuntimeError), the ``observer``
+        told, and with a window the step is paced (:meth:`pace_from_now`)."""
+        pb, c = self.body.sim.pb, self.body.sim.client
+        self.body.command(q_target, qd_target, POSITION_GAIN, VELOCITY_GAIN)
+        pb.stepSimulation(physicsClientId=c)
+        if self.realtime:  # a window shows the motion at real speed, or --speed N times it
+            self._pace[1] += 1
+            ahead = self._pace[1] / SIM_RATE / float(self.realtime) - (time.perf_counter() - self._pace[0])
+            if ahead > 0:
+                time.sleep(ahead)
+        q = self.joint_positions()
+        lower, upper = self.chain.lower - LIMIT_CHECK_TOLERANCE, self.chain.upper + LIMIT_CHECK_TOLERANCE
+        if np.any(q < lower) or np.any(q > upper):
+            bad = int(np.argmax(np.maximum(lower - q, q - upper)))
+            raise HilaRuntimeError(
+                f"joint {self.chain.names[bad]} left its limits during a move "
+                f"({q[bad]:.3f} rad, limits {self.chain.lower[bad]:.3f}..{self.chain.upper[bad]:.3f})"
+            )
+        tip = self.body.link_position(self.tip_link)
+        if self.observer is not None:
+            self.observer(tip)
+        return q, tip
+
     def _execute(self, qs: np.ndarray, dense: np.ndarray, arc: np.ndarray, speed: float):
         """Run the joint path ``qs`` (M, n) through ``dense`` (M, 3) at arc lengths ``arc`` (M,)."""
-        pb, c = self.body.sim.pb, self.body.sim.client
         dt = 1.0 / SIM_RATE
         times = trapezoid_profile(arc[-1], speed, ACCELERATION, dt)
         executed, joints, reference = [], [], []
@@ -201,28 +275,13 @@ class Arm:
             ds = np.diff(arc)
             slopes[:-1] = np.diff(qs, axis=0) / np.where(ds > 0, ds, 1.0)[:, None]
             slopes[-1] = slopes[-2]
-        lower, upper = self.chain.lower - LIMIT_CHECK_TOLERANCE, self.chain.upper + LIMIT_CHECK_TOLERANCE
-        started = time.perf_counter()
+        self.pace_from_now()
 
         def step(q_target, qd_target, point):
             reference.append(point)
-            self.body.command(q_target, qd_target, POSITION_GAIN, VELOCITY_GAIN)
-            pb.stepSimulation(physicsClientId=c)
-            if self.realtime:  # a window shows the motion at real speed, or --speed N times it
-                ahead = len(reference) * dt / float(self.realtime) - (time.perf_counter() - started)
-                if ahead > 0:
-                    time.sleep(ahead)
-            q = self.joint_positions()
-            if np.any(q < lower) or np.any(q > upper):
-                bad = int(np.argmax(np.maximum(lower - q, q - upper)))
-                raise HilaRuntimeError(
-                    f"joint {self.chain.names[bad]} left its limits during a move "
-                    f"({q[bad]:.3f} rad, limits {self.chain.lower[bad]:.3f}..{self.chain.upper[bad]:.3f})"
-                )
+            q, tip = self.control_step(q_target, qd_target)
             joints.append(q)
-            executed.append(self.body.link_position(self.tip_link))
-            if self.observer is not None:
-                self.observer(executed[-1])
+            executed.append(tip)
 
         def along(s):
             i = min(int(np.searchsorted(arc, s, side="right")) - 1, len(arc) - 2)
@@ -241,8 +300,8 @@ class Arm:
                 step(qs[0], np.zeros(self.chain.dof), dense[0])
             previous = s
         # settle: hold the last target until the tip is within 0.05 mm (at most 0.25 s)
-        for _ in range(int(0.25 * SIM_RATE)):
-            if executed and np.linalg.norm(executed[-1] - final) < 5e-5:
+        for _ in range(SETTLE_STEPS):
+            if executed and np.linalg.norm(executed[-1] - final) < SETTLED:
                 break
             step(qs[-1], np.zeros(self.chain.dof), final)
         return (

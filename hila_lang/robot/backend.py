@@ -13,6 +13,8 @@ owns one :class:`~hila_lang.sim.scene.SimScene` (a PyBullet client, ``DIRECT`` b
   from the joint angles) or a stereo rig on a stand (:class:`~hila_lang.robot.rig.RigEyes`),
 - the scene's light (:class:`~hila_lang.sim.scene.Lights`, the ``lighting`` capability: a
   world may change it during a run),
+- the ``streaming`` capability (:class:`~hila_lang.robot.streaming.ArmStream`: a path whose tail
+  changes while the arm moves, retargeted inside the 240 Hz loop; the ``track`` clause),
 - snapshots for the REPL's ``back`` (:class:`SimSnapshots`: PyBullet's ``saveState`` /
   ``restoreState`` plus what PyBullet does not save: the ink, the paper's pose, the held head
   joints, the gaze target, the light, the eyes' noise generator, the list of executed moves).
@@ -95,6 +97,7 @@ class PyBulletBackend:
     overview : TopView
     lighting : Lights
     snapshots : SimSnapshots
+    streaming : ArmStream
     view : Window or None
         The window (``gui``): framed, paths drawn, the state written, the left eye's image.
     traces : BoundedLog of Trace
@@ -140,6 +143,9 @@ class PyBulletBackend:
             self.eyes = self._make_eyes(centre, eye_noise, seed)
             self.lighting = Lights(self.sim)
             self.snapshots = SimSnapshots(self)
+            from .streaming import ArmStream
+
+            self.streaming = ArmStream(self)
             self.view = self._open_window() if gui else None
         except BaseException:
             self.close()

@@ -5,7 +5,9 @@ Where the hand starts: the world's ``scene.home`` (a point) if it has one, else
 above the paper's centre (:func:`hila_lang.robot.workspace.ready_point`); a program's
 ``hand at POINT`` then moves it there with :meth:`DryBackend.reset_hand` before the first state.
 It has no eyes, no ink, no overview camera, no lights and no window (those capabilities are None);
-its ``snapshots`` copy where the hand is and cut the list of moves back.
+its ``snapshots`` copy where the hand is and cut the list of moves back; its ``streaming``
+(:class:`~hila_lang.robot.streaming.DryStream`) follows a path whose tail changes, at the arm's
+pen speeds, deterministically (the ``track`` clause).
 
 It checks what PyBullet's arm checks of a planned path before it moves
 (:func:`hila_lang.robot.reach.check_planned`): every waypoint within the arm's kinematic reach
@@ -48,6 +50,9 @@ class DryBackend:
         #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.core.bounded.BoundedLog`)
         self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
         self.snapshots = AttributeSnapshots(self, ("_hand",), append_only=("moves",))
+        from .streaming import DryStream
+
+        self.streaming = DryStream(self)
 
     def hand_position(self) -> np.ndarray:
         return self._hand.copy()

@@ -5,7 +5,7 @@ The chain is read from the robot's URDF (:mod:`hila_lang.robot.spec`; the iCub's
 root link to the pen tip, with their fixed origins, axes and limits.  Forward kinematics and the
 geometric Jacobian are computed here from those joint frames and axes; PyBullet's
 ``calculateJacobian`` disagreed with finite differences on this model and its IK treats limits
-as soft (``DESIGN.md`` section 4), so neither is used.
+as soft (docs/design.md §5), so neither is used.
 
 Task: put the pen tip at a point and keep the pen vertical (its axis, +z of the tip frame,
 pointing down -z world); rotation about the pen axis is free.  That is 5 constraints for 10
@@ -155,6 +155,24 @@ class KinematicChain:
     def tip_position(self, q: np.ndarray) -> np.ndarray:
         """Tip position (3,), world frame, metres."""
         return self.forward(q)[0][:3, 3]
+
+    def tip_positions(self, qs: np.ndarray) -> np.ndarray:
+        """Tip positions (K, 3) at each row of ``qs`` (K, n): :meth:`tip_position` for many postures
+        at once (one matrix product per joint over all of them; a trajectory's check samples
+        thousands)."""
+        qs = np.asarray(qs, dtype=float).reshape(-1, self.dof)
+        frames = np.broadcast_to(np.eye(4), (len(qs), 4, 4)).copy()
+        for i in range(self.dof):
+            frames = frames @ self.origins[i]
+            x, y, z = self.axes[i]
+            c, s = np.cos(qs[:, i]), np.sin(qs[:, i])
+            t = 1.0 - c
+            rot = np.empty((len(qs), 3, 3))  # Rodrigues, as _axis_rotation
+            rot[:, 0, 0], rot[:, 0, 1], rot[:, 0, 2] = c + x * x * t, x * y * t - z * s, x * z * t + y * s
+            rot[:, 1, 0], rot[:, 1, 1], rot[:, 1, 2] = y * x * t + z * s, c + y * y * t, y * z * t - x * s
+            rot[:, 2, 0], rot[:, 2, 1], rot[:, 2, 2] = z * x * t - y * s, z * y * t + x * s, c + z * z * t
+            frames[:, :3, :3] = frames[:, :3, :3] @ rot
+        return (frames @ self.tip)[:, :3, 3]
 
     def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Geometric Jacobian of the tip, shape (6, n): rows 0-2 linear, rows 3-5 angular.

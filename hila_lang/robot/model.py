@@ -1,7 +1,7 @@
 """The iCub URDF, generated at run time from the installed ``icub-models`` package.
 
 ``iCubGazeboV2_5`` is the model that renders in colour, but PyBullet cannot use it as shipped
-(``getLinkState`` fails once its 212 links are loaded; ``DESIGN.md`` section 4).  This module
+(``getLinkState`` fails once its 212 links are loaded; docs/design.md §5).  This module
 rewrites it into a cache folder:
 
 - every fixed *leaf* link without a visual (skin patches, force sensors, IMUs, dh frames) is

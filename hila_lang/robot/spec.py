@@ -489,6 +489,18 @@ def robot_settings(settings: dict[str, str]) -> dict[str, str]:
     return out
 
 
+def robot_pairs(pairs: list[str] | None, command: str) -> dict[str, str]:
+    """The ``--set robot.KEY=VALUE`` pairs of a command that takes the robot's settings only
+    (``hila learn``, ``hila robot-sim``) as ``{"robot.KEY": VALUE}``; any other key is an InputError."""
+    from ..plugins.options import parse_pairs
+
+    settings = parse_pairs(pairs)
+    stray = [k for k in settings if not k.startswith("robot.")]
+    if stray:
+        raise InputError(f"{command} --set takes the robot's settings only (robot.KEY=VALUE), got {stray[0]!r}")
+    return settings
+
+
 def resolve(robot: str | None = None, settings: dict[str, str] | None = None) -> RobotSpec:
     """The robot ``--robot NAME|PATH`` names (None: :data:`DEFAULT_ROBOT`), with the
     ``--set robot.KEY=VALUE`` of ``settings``: a registered name, a ``.yaml`` spec file or a

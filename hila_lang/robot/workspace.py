@@ -1,4 +1,4 @@
-"""hila's table, where every robot works (measured for the iCub first, DESIGN.md section 4).
+"""hila's table, where every robot works (measured for the iCub first, docs/design.md §5).
 
 World frame: metres, z up, origin on the floor.  The table top is at z = 0.57 with its front
 edge at x = 0.12; a robot stands on its -x side facing +x, its right side towards -y (the

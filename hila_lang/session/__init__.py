@@ -11,4 +11,5 @@ One line each:
 - ``recording``  a run written to one file
 - ``replay``     stepping through a recording, or verifying it
 - ``plot``       a generated path drawn with OpenCV (top and side views)
+- ``view3d``     the 3-D view of a run the simulator renders (the studio's Run page)
 """

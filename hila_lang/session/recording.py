@@ -9,7 +9,11 @@ finished or failed) that any ZIP tool opens, with
   where the hand started, then one entry per step: state, kind, line, trace text, next state,
   value, the variables it set, the ICPs bound, the planned and the executed path (metres, full
   float precision), OSILA's account of a run state (map, threshold, rounds, constraint pairs
-  added, the constraints and options) and where the hand ended; last, how the run ended;
+  added, the constraints and options), where the hand ended, and for a streamed run (``track``)
+  its re-plans (time, how far the tracked points moved, where the new plan took over, the blend,
+  whether the pen lifted, where the tracked points were taken to be and the new tail); last, how
+  the run ended (a failed run: the error, its exit status, the state, and -- when a back end
+  stopped part of the way through a move -- the path the hand made, ``executed``);
 - ``eyes/NNNN.png``: the left eye's image after each run state (``--record-eyes``).
 
 :func:`read_record` reads it back without a simulator (numpy arrays for points and paths);
@@ -143,6 +147,8 @@ class Recorder:
         }
         if entry.step_result is not None:
             record["osila"] = osila_record(entry.step_result)
+        if entry.replans is not None:
+            record["replans"] = [r.to_dict() for r in entry.replans]
         if self.eyes and entry.kind == "run":
             record["eye"] = self.eye_image(entry.step)
         self.steps.append(record)
@@ -168,6 +174,8 @@ class Recorder:
             result = {"status": "finished" if it.done else "stopped"}
         elif isinstance(error, HilaError):
             result = {"status": "failed", "error": str(error), "exit": error.exit_code, "state": it.current}
+            if getattr(error, "executed", None) is not None:  # the part of the move made before it stopped
+                result["executed"] = _array(error.executed)
         else:
             result = {"status": "failed", "error": f"{type(error).__name__}: {error}", "exit": 3, "state": it.current}
         from .. import __version__
@@ -384,6 +392,8 @@ def _validate(doc) -> None:
     if status == "failed":
         _need(result, "error", str, "its 'result'")
         _need(result, "exit", int, "its 'result'")
+        if result.get("executed") is not None:  # the part of the failing move that was made
+            result["executed"] = _points(result["executed"], "its result's 'executed'", "path")
     state = _need(result, "state", (str, type(None)), "its 'result'", optional=True)
     if state is not None and state not in states:
         raise _Damaged(f"its result names state {state!r}, which its FSM does not have")

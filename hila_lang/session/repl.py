@@ -200,7 +200,7 @@ class Repl(cmd.Cmd):
         st = it.state
         self.say(f"at {st.name} ({st.kind}): {st.describe()}")
         if st.line:
-            from ..language.parser import source_line
+            from ..language.source import source_line
 
             src = source_line(it.checked.program.source, st.line) or ""
             self.say(f"  {it.fsm.file}:{st.line}: {src.strip()}")

@@ -8,7 +8,8 @@ it unchanged: ``step``, ``run``/``continue`` to a breakpoint, ``back``, ``where`
 
 :func:`verify` runs the recorded command again (the program and templates as they are now, the
 recorded seed, settings and typed input) and compares every step with the recording: state,
-transition, ICPs, planned and executed paths (within a tolerance, metres), value and trace text.
+transition, ICPs, planned and executed paths (within a tolerance, metres), a streamed run's
+re-plans (when, from where, the points perceived, the new tail), value and trace text.
 It reports the first difference, and notes the files that changed since the recording.
 """
 
@@ -32,8 +33,14 @@ INTERRUPTED_EXITS = (130, 129, 143)
 
 
 def _entry(s: dict) -> TraceEntry:
+    replans = None
+    if s.get("replans") is not None:
+        from ..engine.tracking import Replan
+
+        replans = [Replan.from_dict(r) for r in s["replans"]]
     return TraceEntry(s["step"], s["state"], s["kind"], s["line"], s["text"], s["next"], path=s["path"],
-                      executed=s["executed"], icps=dict(s["icps"]), pen_down=s["pen_down"], value=s["value"])
+                      executed=s["executed"], icps=dict(s["icps"]), pen_down=s["pen_down"], value=s["value"],
+                      replans=replans)
 
 
 class ReplayEngine:
@@ -225,6 +232,9 @@ def step_difference(s: dict, entry: TraceEntry, tolerance: float) -> str | None:
         why = _path_difference(what, s[key], getattr(entry, key), tolerance)
         if why:
             return why
+    why = replan_difference(s.get("replans"), entry.replans, tolerance)
+    if why:
+        return why
     a, b = s["value"], entry.value
     same = (isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape
             and np.abs(a - b).max() <= tolerance) or (not isinstance(a, np.ndarray) and a == b)
@@ -235,6 +245,25 @@ def step_difference(s: dict, entry: TraceEntry, tolerance: float) -> str | None:
         return f"value: recorded {a!r}, now {b!r}"
     if entry.text != s["text"]:
         return f"trace text: recorded {s['text']!r}, now {entry.text!r}"
+    return None
+
+
+def replan_difference(recorded, now, tolerance: float) -> str | None:
+    """How a streamed run's re-plans differ from the recorded ones (the first thing), or None.
+    ``recorded``: the record's dicts (None: not streamed); ``now``: :class:`~hila_lang.engine.tracking.Replan` s."""
+    if recorded is None and now is None:
+        return None
+    recorded, now = recorded or [], now or []
+    if len(recorded) != len(now):
+        return f"re-plans: recorded {len(recorded)}, now {len(now)}"
+    for i, (r, n) in enumerate(zip(recorded, now), 1):
+        if abs(r["t"] - n.t) > 1e-9 or r["stamp"] != n.stamp or r["index"] != n.index or r["lifted"] != n.lifted:
+            return (f"re-plan {i}: recorded at {r['t']:.3f} s from point {r['stamp']}, now at {n.t:.3f} s from point "
+                    f"{n.stamp}")
+        tail = np.asarray(r["tail"], dtype=float).reshape(-1, 3)
+        why = _path_difference(f"re-plan {i}'s new tail", tail, np.asarray(n.tail, dtype=float), tolerance)
+        if why:
+            return why
     return None
 
 

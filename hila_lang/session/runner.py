@@ -57,7 +57,7 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
 
 def show_states(interp: Interpreter) -> None:
     """Tell the back end's view (a window) each state as it starts: its name and program line."""
-    from ..language.parser import source_line
+    from ..language.source import source_line
 
     def show(name: str | None) -> None:
         if name is None:

@@ -8,7 +8,7 @@ world frame, metres; poses cross into PyBullet as (position, quaternion xyzw) he
 else (:mod:`hila_lang.core.rotation`).
 
 Textured quads: ``createVisualShape`` with vertices and uvs + ``loadTexture`` +
-``changeVisualShape`` (DESIGN.md section 4).  PyBullet caches textures by file name, so every
+``changeVisualShape`` (docs/design.md §5).  PyBullet caches textures by file name, so every
 upload writes a new file, and each ``loadTexture`` leaks a little memory: upload once per
 change (a stroke), not per simulation step.
 """

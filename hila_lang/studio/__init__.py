@@ -1,16 +1,19 @@
 """``hila studio``: a local browser app to demonstrate, imitate live, and run and watch programs.
 
-Modules, one per stage:
+The app is its pages; a page is its Python module here (its routes and websocket, its
+:class:`.page.Page`), its ES module in ``static/`` and its test (``tests/test_studio_NAME.py``).
+Modules, one line each:
 
-- :mod:`.security`: the token, the Host/Origin check (DNS rebinding) and paths kept inside the
-  studio's folder -- the rules of DESIGN.md §7 ("local first, like Jupyter");
-- :mod:`.server`: the Starlette app (HTTP routes and websockets) and :func:`.server.serve`;
-- :mod:`.frontend`: the ONE adapter through which the studio parses and checks programs;
-- :mod:`.demonstrate`: scenes to draw on, pointer samples -> a timed path (3-D on a world's
-  surface, lifted by a stated rule while the pen is up), saving through ``hila learn``'s code;
-- :mod:`.imitate`: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason;
-- :mod:`.session`: a program run (or a recording) driven through the REPL's own commands;
-- :mod:`.view3d`: the 3-D view of a run (the iCub, the table, the paper and its ink).
+- ``app``          the Starlette app assembled from the pages (failures answered by its exception handlers); ``serve``
+- ``page``         what every page shares: its declaration, the studio's folder, the door requests come in by
+- ``files``        the folder's files: listed, read, written (every write the studio makes), uploaded
+- ``security``     the token, the Host/Origin check (DNS rebinding), paths kept inside the folder (docs/design.md §6)
+- ``demonstrate``  page 1: scenes to draw on, pointer samples -> a timed path, saved as ``hila learn`` does
+- ``imitate``      page 2: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason
+- ``run``          page 3: a program checked as typed, run (or a recording replayed) and watched
 
-Every script and style the page uses is in ``static/`` (no CDN); nothing is fetched at run time.
+Every script and style the page uses is in ``static/`` (``common.js`` shared by the pages' ES
+modules; no build step, no CDN); nothing is fetched at run time.  What a world shows here (a scene
+to draw on, its board, the settings offered) comes from its plug-in
+(:class:`hila_lang.plugins.studio.StudioView`): the studio names no world.
 """

@@ -1,42 +1,50 @@
-"""Demonstrate: scenes to draw on, pointer samples -> a timed path, and saving it as ``hila learn`` does.
+"""The Demonstrate page: scenes to draw on, pointer samples -> a timed path, saved as ``hila learn`` does.
 
-Scenes (:func:`scene`): ``blank`` (a white sheet), ``upload:NAME`` (a picture in the studio's
-folder) and ``tictactoe`` (the demonstration grid as the iCub's left eye sees it while it
-watches, :func:`hila_lang.worlds.tictactoe.recording.demonstration_rig`).  Each comes with
-``H``, the 3x3 homography from the drawing plane's (x, y) in metres to the picture's pixels; the
-page inverts it for a click.  A sheet or a picture is a 2-D plane at
-:data:`SHEET_M_PER_PX` metres per pixel; the tic-tac-toe scene is the paper's plane z =
-``surface_z`` seen through the eye's pinhole (the paper is flat, so the map is a homography).
+Scenes (:func:`scenes`, :func:`scene`): ``blank`` (a white sheet), ``upload:NAME`` (a picture in
+the studio's folder) and ``world:NAME``, the scene a world plug-in offers
+(:class:`hila_lang.plugins.studio.DrawingScene`, e.g. a sheet as the robot's eye sees it).  Each
+comes with ``H``, the 3x3 homography from the drawing plane's (x, y) in metres to the picture's
+pixels; the page inverts it for a click.  A sheet or a picture is a 2-D plane at
+:data:`SHEET_M_PER_PX` metres per pixel; a world's scene may be a plane at a height ``z`` seen
+through a camera, so a drawing on it is a 3-D path.
 
 A demonstration is the person's pointer samples, each ``{x, y, t, down, p}``: plane point
 (metres), the event's own time stamp (milliseconds), pen on the paper or not, pressure.  Pen-up
 moves between strokes are part of the path (the paper's reach / draw / retract).  On a 3-D
 surface a pen-up sample is lifted by :func:`lift`: it rises at 45 degrees from where the pen
-left the paper and comes down at 45 degrees to where it next touches, no higher than
-:data:`LIFT_MAX`.  The path is then resampled in time at 20 Hz, the eye cameras' rate (the rate
+left the paper and comes down at 45 degrees to where it next touches, no higher than the scene's
+``lift``.  The path is then resampled in time at 20 Hz, the eye cameras' rate (the rate
 of every demonstration in hila: :data:`hila_lang.evaluation.lasa.RATE_HZ`).
 
 Saving (:func:`save`) writes the demonstration as ``NAME.demo.csv`` and its ICPs as
-``NAME.icps.yaml`` in the studio's folder and runs ``hila learn``'s own command on them, so the
-template is byte for byte what ``hila learn NAME.demo.csv --icps NAME.icps.yaml ...`` writes.  Cuts
-the person dragged away from the method's replace its segments afterwards (the description says so).
+``NAME.icps.yaml`` in the studio's folder and learns them with ``hila learn``'s own function
+(:func:`hila_lang.hierarchy.learn.learn_files`), so the template is byte for byte what ``hila
+learn NAME.demo.csv --icps NAME.icps.yaml ...`` writes.  Cuts the person dragged away from the
+method's replace its segments afterwards (the description says so).
+
+Routes: ``GET /api/scenes``, ``GET /api/scene?name=``, ``GET /api/scene-image?name=``, ``POST
+/api/demonstration`` (samples -> path, times, speed and proposed cuts), ``POST /api/save``, ``GET
+/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``.
 """
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 
 import numpy as np
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route
 
 from ..core.errors import InputError
+from . import files
+from .page import Page, read_json, studio_of, template_json
+from .security import inside
 
 #: metres per pixel of a blank sheet or an uploaded picture: 0.25 mm, so an 840-pixel-wide
 #: canvas is an A4 sheet's width (0.21 m)
 SHEET_M_PER_PX = 0.00025
-#: highest lift of the pen above the paper while it is up, metres: the tic-tac-toe world's
-#: highest park height above the paper (hila_lang.worlds.tictactoe.world.PARK_HEIGHT)
-LIFT_MAX = 0.13
 SHEET_SIZE = (840, 600)
 
 
@@ -46,76 +54,54 @@ def _sheet_H(height: int) -> np.ndarray:
     return np.array([[s, 0.0, 0.0], [0.0, -s, float(height)], [0.0, 0.0, 1.0]])
 
 
-@functools.lru_cache(maxsize=1)
-def _tictactoe():
-    """(PNG bytes, camera, grid spec) of the demonstration sheet seen by the left eye, at twice
-    the eye's resolution (rendered once per studio: it starts a PyBullet client)."""
-    import cv2
+def scenes() -> list[dict]:
+    """What the page offers to draw on: ``[{name, label}]``, a blank sheet and every world's scene."""
+    from ..plugins import registry
 
-    from ..worlds.tictactoe.board import Grid
-    from ..worlds.tictactoe.recording import DemonstrationScene, demonstration_rig
-
-    spec = Grid.demonstration()
-    eye = demonstration_rig(spec).left
-    camera = eye.with_size(eye.width * 2, eye.height * 2, scale=2.0)
-    with DemonstrationScene(spec, marker=False) as sc:
-        rgb = sc.render(camera)
-    ok, png = cv2.imencode(".png", np.ascontiguousarray(rgb[:, :, ::-1]))
-    return png.tobytes(), camera, spec
+    return [dict(name="blank", label="blank sheet")] + [
+        dict(name=f"world:{info.name}", label=info.studio.scene_label or info.name)
+        for info in registry.declarations("world") if info.studio is not None and info.studio.scene]
 
 
-def plane_homography(camera, z: float) -> np.ndarray:
-    """3x3 H with pixel ~ H @ (x, y, 1) for world points (x, y, z) of the plane at height z."""
-    camera_T_world = np.linalg.inv(camera.world_T_camera)
-    R, t = camera_T_world[:3, :3], camera_T_world[:3, 3]
-    H = camera.K @ np.column_stack([R[:, 0], R[:, 1], R[:, 2] * z + t])
-    return H / H[2, 2]
+def _world_scene(name: str):
+    """The :class:`~hila_lang.plugins.studio.DrawingScene` world ``name`` offers."""
+    from ..plugins import registry
 
-
-def tictactoe_features(spec) -> list[dict]:
-    """Every cell's corners (the grid's 16 line crossings, each named by every cell it is a corner
-    of: ``cell5.tl`` is ``cell1.br``), as the places an ICP snaps to."""
-    from ..worlds.tictactoe.board import cell_corners
-
-    return [{"name": f"cell{cell}.{corner}", "point": [float(v) for v in p]}
-            for cell in range(1, 10) for corner, p in cell_corners(spec, cell).items()]
+    info = registry.world(name)
+    if info.studio is None or not info.studio.scene:
+        raise InputError(f"world {name!r} offers no scene to draw on")
+    return info.studio.load("scene")()
 
 
 def scene(name: str, folder: Path) -> dict:
-    """What the page draws on: ``{name, image, width, height, H, z, features}`` (``image`` is the
-    URL path of the picture, or None for a blank sheet; ``z`` the surface height of a 3-D scene)."""
-    from .security import inside
-
+    """What the page draws on: ``{name, image, width, height, H, z, lift, features}`` (``image`` is
+    the URL path of the picture, or None for a blank sheet; ``z`` the surface height of a 3-D scene
+    and ``lift`` the pen's highest rise above it; ``features`` the points an ICP snaps to,
+    ``[{name, point}]``)."""
     if name == "blank":
         w, h = SHEET_SIZE
-        return dict(name=name, image=None, width=w, height=h, H=_sheet_H(h).tolist(), z=None, features=[])
-    if name == "tictactoe":
-        png, camera, spec = _tictactoe()
-        return dict(name=name, image="/api/scene-image/tictactoe", width=camera.width, height=camera.height,
-                    H=plane_homography(camera, spec.surface_z).tolist(), z=spec.surface_z,
-                    features=tictactoe_features(spec))
+        return dict(name=name, image=None, width=w, height=h, H=_sheet_H(h).tolist(), z=None, features=[], lift=None)
+    if name.startswith("world:"):
+        sc = _world_scene(name[len("world:"):])
+        return dict(name=name, image=f"/api/scene-image?name={name}", width=sc.width, height=sc.height,
+                    H=np.asarray(sc.H, float).tolist(), z=sc.z, lift=sc.lift,
+                    features=[dict(name=n, point=list(p)) for n, p in sc.features])
     if name.startswith("upload:"):
-        import cv2
+        from ..core.images import read_picture
 
-        path = inside(folder, name[len("upload:"):])
-        from ..core.fileio import read_bytes
-
-        image = cv2.imdecode(np.frombuffer(read_bytes(path, "picture"), np.uint8), cv2.IMREAD_COLOR)
-        if image is None:
-            raise InputError(f"{name[7:]}: not a picture (expected a PNG or JPEG file)")
-        h, w = image.shape[:2]
+        h, w = read_picture(inside(folder, name[len("upload:"):]), "uploaded image").shape[:2]
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=w, height=h, H=_sheet_H(h).tolist(),
-                    z=None, features=[])
-    raise InputError(f"unknown scene {name!r}; expected blank, tictactoe or upload:FILE")
+                    z=None, features=[], lift=None)
+    raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
 
 
 def scene_image(name: str) -> bytes:
-    if name != "tictactoe":
+    if not name.startswith("world:"):
         raise InputError(f"no rendered scene {name!r}")
-    return _tictactoe()[0]
+    return _world_scene(name[len("world:"):]).png
 
 
-def lift(xy: np.ndarray, down: np.ndarray, z: float, lift_max: float = LIFT_MAX) -> np.ndarray:
+def lift(xy: np.ndarray, down: np.ndarray, z: float, lift_max: float) -> np.ndarray:
     """3-D points of a drawing on the plane at height ``z``: pen-down samples on it, pen-up
     samples above it by min(lift_max, arc length in the plane since the pen left the paper,
     arc length until it next touches) -- 45 degrees up and down.  Before the first touch and
@@ -146,8 +132,9 @@ def lift(xy: np.ndarray, down: np.ndarray, z: float, lift_max: float = LIFT_MAX)
     return np.column_stack([xy, z + height])
 
 
-def demonstration_path(samples: list, z: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """Pointer samples -> (path (T, D), times (T,) seconds from 0), resampled at 20 Hz.
+def demonstration_path(samples: list, z: float | None, lift_max: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Pointer samples -> (path (T, D), times (T,) seconds from 0), resampled at 20 Hz; on the plane
+    at height ``z`` (None: 2-D) pen-up samples are lifted (:func:`lift`) up to ``lift_max``.
 
     Samples whose time stamp does not increase are dropped (a coalesced duplicate);
     fewer than 2 left is an InputError.
@@ -156,6 +143,8 @@ def demonstration_path(samples: list, z: float | None) -> tuple[np.ndarray, np.n
 
     if not isinstance(samples, list):
         raise InputError("expected the demonstration as a list of pointer samples")
+    if z is not None and lift_max is None:
+        raise InputError("a demonstration on a plane at a height (z) needs the pen's highest lift above it (lift)")
     rows = []
     for i, s in enumerate(samples):
         try:
@@ -171,7 +160,7 @@ def demonstration_path(samples: list, z: float | None) -> tuple[np.ndarray, np.n
     arr = np.array([r[:3] for r in kept])
     down = np.array([r[3] for r in kept])
     t = (arr[:, 0] - arr[0, 0]) / 1000.0
-    pts = arr[:, 1:] if z is None else lift(arr[:, 1:], down, z)
+    pts = arr[:, 1:] if z is None else lift(arr[:, 1:], down, float(z), float(lift_max))
     path = resample_in_time(t, pts, RATE_HZ)
     return path, np.arange(len(path)) / RATE_HZ
 
@@ -187,32 +176,17 @@ def proposal(path, times, k: int, method: str, seed: int = 0) -> dict:
     return dict(cuts=[int(a) for a, _ in ranges[1:]], speed=[float(v) for v in speed(path, times)])
 
 
-def _csv(path: np.ndarray, times: np.ndarray | None) -> str:
-    """The demonstration CSV ``hila learn`` reads (floats written exactly: repr round-trips)."""
-    header = ("" if times is None else "t,") + "x,y" + (",z" if path.shape[1] == 3 else "")
-    rows = [",".join(repr(float(v)) for v in ((() if times is None else (times[i],)) + tuple(p)))
-            for i, p in enumerate(path)]
-    return "\n".join([header, *rows]) + "\n"
-
-
 def save(folder: Path, req: dict) -> dict:
-    """Write ``NAME.demo.csv``, ``NAME.icps.yaml`` and ``NAME.yaml`` (through ``hila learn``'s
-    command) in ``folder``; returns ``{template, demo, icps, command, segments}``.
+    """Write ``NAME.demo.csv`` and ``NAME.icps.yaml``, learn them as ``hila learn`` does and write
+    ``NAME.yaml`` in ``folder``; returns ``{template, demo, icps, command, segments}``.
 
     ``req``: ``name``, ``path`` (T, D), ``times`` (T,), ``icps`` {name: point}, ``tags``
     (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
     """
-    import argparse
-    import contextlib
-    import io
-
-    import yaml
-
-    from ..commands import learn
-    from ..core.fileio import atomic_write_text
+    from ..hierarchy.learn import learn_files
     from ..language.transformer import usable_as_tag
-    from ..osila.template import Segment, check_segments, load_template, save_template
-    from .security import inside
+    from ..osila.demofile import demo_csv, icps_text
+    from ..osila.template import Segment, check_segments, template_text
 
     name = str(req.get("name", "")).strip()
     if not usable_as_tag(name):
@@ -227,26 +201,17 @@ def save(folder: Path, req: dict) -> dict:
         raise InputError("place at least one ICP (click on the scene) before saving")
     tags = [str(t) for t in req.get("tags") or []]
     contact = [str(t) for t in req.get("contact") or []]
-    method = str(req.get("method", "speed"))
+    method, seed = str(req.get("method", "speed")), int(req.get("seed", 0))
     target = inside(folder, f"{name}.yaml")
-    demo = inside(folder, f"{name}.demo.csv")
-    icps_file = inside(folder, f"{name}.icps.yaml")
-    atomic_write_text(demo, _csv(path, times))
-    atomic_write_text(icps_file, yaml.safe_dump({str(k): [float(v) for v in p] for k, p in icps.items()},
-                                                sort_keys=False, default_flow_style=None))
-    argv = [str(demo), "--icps", str(icps_file), "-k", str(max(len(tags), 1)), "--method", method,
-            "--seed", str(int(req.get("seed", 0))), "-o", str(target)]
-    if tags:
-        argv += ["--tags", ",".join(tags)]
-    if contact:
-        argv += ["--contact", ",".join(contact)]
-    parser = argparse.ArgumentParser(prog="hila learn")
-    learn.add_arguments(parser)
-    with contextlib.redirect_stdout(io.StringIO()):
-        learn.run(parser.parse_args(argv))
-    command = "hila learn " + " ".join(argv)
+    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv(path, times),
+                                           f"{name}.icps.yaml": icps_text(icps)})
+    k = max(len(tags), 1)
+    template = learn_files(str(demo), str(icps_file), name=name, tags=tags, contact=contact, k=k, method=method,
+                           seed=seed)
+    argv = [str(demo), "--icps", str(icps_file), "-k", str(k), "--method", method, "--seed", str(seed),
+            "-o", str(target)] + (["--tags", ",".join(tags)] if tags else []) + \
+        (["--contact", ",".join(contact)] if contact else [])
     cuts = req.get("cuts")
-    template = load_template(target)
     proposed = [s.start for s in template.segments[1:]]
     if cuts is not None and tags and [int(c) for c in cuts] != proposed:
         bounds = [0, *[int(c) for c in cuts], len(path)]
@@ -254,26 +219,15 @@ def save(folder: Path, req: dict) -> dict:
         check_segments(segs, len(path), "cuts")
         template.segments = segs
         template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
-        save_template(template, target)
-    return dict(template=target.name, demo=demo.name, icps=icps_file.name, command=command,
+    files.write(folder, {target.name: template_text(template)})
+    return dict(template=target.name, demo=demo.name, icps=icps_file.name, command="hila learn " + " ".join(argv),
                 segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments])
-
-
-def template_json(template) -> dict:
-    """A template as the page draws it."""
-    return dict(name=template.name, path=template.path.tolist(),
-                times=None if template.times is None else template.times.tolist(),
-                icps={k: v.tolist() for k, v in template.icps.items()},
-                segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments],
-                description=template.description, dim=int(template.path.shape[1]))
 
 
 def open_source(folder: Path, kind: str, name: str) -> dict:
     """An existing demonstration to edit: ``template`` (a YAML in the folder), ``csv`` (a
     demonstration CSV in the folder, ICPs from ``NAME.icps.yaml`` beside it when there is one)
     or ``lasa`` (a LASA shape's first demonstration, resampled at 20 Hz as ``hila eval`` does)."""
-    from .security import inside
-
     if kind == "template":
         from ..osila.template import load_template
 
@@ -298,3 +252,65 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
         return dict(name=name, path=path.tolist(), times=(np.arange(len(path)) / lasa.RATE_HZ).tolist(),
                     icps={}, segments=[], description=f"LASA {name}, demo 1 (the data set's own units)", dim=2)
     raise InputError(f"unknown source {kind!r}; expected template, csv or lasa")
+
+
+def demonstration(doc: dict) -> dict:
+    """``{samples, z, lift}`` (pointer samples on a scene) or ``{path, times}`` -> the path, its
+    times, the hand's speed and the cuts proposed for ``k`` segments by ``method``."""
+    if "samples" in doc:
+        path, times = demonstration_path(doc["samples"], doc.get("z"), doc.get("lift"))
+    else:
+        path = np.asarray(doc["path"], float)
+        times = np.asarray(doc["times"] if doc.get("times") is not None else np.arange(len(path)) * 0.05)
+    out = dict(path=path.tolist(), times=times.tolist())
+    out.update(proposal(path, times, int(doc.get("k", 3)), doc.get("method", "speed"), doc.get("seed", 0)))
+    return out
+
+
+# ----------------------------------------------------------------------------- routes
+
+
+async def _scenes(request: Request) -> Response:
+    return JSONResponse(await run_in_threadpool(scenes))
+
+
+async def _scene(request: Request) -> Response:
+    name = request.query_params.get("name", "blank")
+    return JSONResponse(await run_in_threadpool(scene, name, studio_of(request).folder))
+
+
+async def _scene_image(request: Request) -> Response:
+    data = await run_in_threadpool(scene_image, request.query_params.get("name", ""))
+    return Response(data, media_type="image/png")
+
+
+async def _demonstration(request: Request) -> Response:
+    return JSONResponse(await run_in_threadpool(demonstration, await read_json(request)))
+
+
+async def _save(request: Request) -> Response:
+    doc = await read_json(request)
+    return JSONResponse(await run_in_threadpool(save, studio_of(request).folder, doc))
+
+
+async def _open(request: Request) -> Response:
+    q = request.query_params
+    return JSONResponse(await run_in_threadpool(open_source, studio_of(request).folder, q.get("kind", ""),
+                                                q.get("name", "")))
+
+
+async def _lasa(request: Request) -> Response:
+    from ..evaluation import lasa as data
+
+    return JSONResponse({"shapes": list(data.all_shapes()) if data.available() else []})
+
+
+PAGE = Page("demo", "1 Demonstrate", "demonstrate.js", routes=[
+    Route("/api/scenes", _scenes),
+    Route("/api/scene", _scene),
+    Route("/api/scene-image", _scene_image),
+    Route("/api/demonstration", _demonstration, methods=["POST"]),
+    Route("/api/save", _save, methods=["POST"]),
+    Route("/api/open", _open),
+    Route("/api/lasa", _lasa),
+])

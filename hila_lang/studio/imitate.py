@@ -1,20 +1,32 @@
-"""Imitate, live: the task scene's ICPs, ``via`` points and ``avoid`` discs as the person drags them,
+"""The Imitate page: the task scene's ICPs, ``via`` points and ``avoid`` discs as the person drags them,
 and OSILA's path through THE HILA step (:func:`hila_lang.hierarchy.step.hila_step`, the one every
 ``run`` state, ``hila imitate`` and ``hila eval`` use), with the reason for its map and plan
 adjustment in ``hila explain``'s words (:func:`hila_lang.hierarchy.explain.warp_reason`; the full account,
 :func:`hila_lang.hierarchy.explain.explain_run`, when the drag ends).  The evaluation's controls (bare TPS,
 similarity, aligned DMP: :func:`hila_lang.evaluation.controls.generator`) on the same pairs can
 be drawn beside it.
+
+Routes: ``GET /api/template?path=`` (a template as the page draws it), ``POST
+/api/imitate/export`` (the path as CSV and the scene as a ``.hila`` program), ``POST
+/api/imitate/explain`` (``hila explain``'s account); websocket ``/ws/imitate``: a scene in,
+OSILA's path (or the reason there is none) out, answered with the scene's ``seq``.
 """
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
 import numpy as np
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route, WebSocketRoute
+from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError
+from .page import JSONSocket, Page, read_json, studio_of, template_json
 
 #: the controls drawn beside OSILA (names of hila_lang.evaluation.controls)
 CONTROLS = ("tps", "similarity", "dmp-aligned")
@@ -144,14 +156,53 @@ def snippet(template, req: dict, import_name: str) -> str:
     return "\n".join(lines)
 
 
-def path_csv(path, times) -> str:
-    from .demonstrate import _csv
-
-    return _csv(np.asarray(path, float), None if times is None else np.asarray(times, float))
-
-
 def load(folder: Path, name: str):
     from ..osila.template import load_template
     from .security import inside
 
     return load_template(inside(folder, name))
+
+
+# ----------------------------------------------------------------------------- routes
+
+
+async def _template(request: Request) -> Response:
+    return JSONResponse(template_json(studio_of(request).template(request.query_params.get("path", ""))))
+
+
+async def _export(request: Request) -> Response:
+    from ..osila.demofile import demo_csv
+
+    doc = await read_json(request)
+    name = str(doc.get("template", ""))
+    t = studio_of(request).template(name)
+    result = await run_in_threadpool(imitate, t, doc)
+    if "error" in result:
+        raise InputError(result["error"])
+    return JSONResponse({"csv": demo_csv(result["path"], t.times), "hila": snippet(t, doc, Path(name).stem)})
+
+
+async def _explain(request: Request) -> Response:
+    doc = await read_json(request)
+    t = studio_of(request).template(str(doc.get("template", "")))
+    return JSONResponse({"lines": await run_in_threadpool(explain, t, doc)})
+
+
+class ImitateSocket(JSONSocket):
+    """A scene in, OSILA's path out (:func:`imitate`), each answer with the scene's ``seq``."""
+
+    async def on_message(self, websocket: WebSocket, doc: dict) -> None:
+        template = studio_of(websocket).template(str(doc.get("template", "")))
+        out = await run_in_threadpool(imitate, template, doc)
+        await websocket.send_text(json.dumps(dict(out, seq=doc.get("seq"))))
+
+    async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:
+        await websocket.send_text(json.dumps({"error": text, "seq": doc.get("seq")}))
+
+
+PAGE = Page("imitate", "2 Imitate", "imitate.js", routes=[
+    Route("/api/template", _template),
+    Route("/api/imitate/export", _export, methods=["POST"]),
+    Route("/api/imitate/explain", _explain, methods=["POST"]),
+    WebSocketRoute("/ws/imitate", ImitateSocket),
+])

@@ -1,6 +1,6 @@
 """The studio's guard: a token on every request, loopback Host/Origin only, files only inside FOLDER.
 
-DESIGN.md §7: ``hila studio`` serves 127.0.0.1 only, like Jupyter; a web page elsewhere must not
+docs/design.md §6: ``hila studio`` serves 127.0.0.1 only, like Jupyter; a web page elsewhere must not
 be able to drive it (no token), nor reach it through a name that resolves to 127.0.0.1 (DNS
 rebinding: the Host header is not ours), nor open its websocket from another origin.
 

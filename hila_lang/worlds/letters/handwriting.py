@@ -33,8 +33,9 @@ Make the demonstrations and learn them::
     python -m hila_lang.worlds.letters.handwriting --out primitives/letters
 
 writes ``primitives/letters/demos/<L>.csv`` (t, x, y, z) and ``demos/box.yaml`` (the ICPs) and
-runs, for every letter, ``hila learn demos/<L>.csv --icps demos/box.yaml --tags write --contact
-write --name <L> -o <L>.yaml``.
+learns every letter through :func:`hila_lang.hierarchy.learn.learn_files`, in process: the file
+``hila learn demos/<L>.csv --icps demos/box.yaml --tags write --contact write --name <L> -o
+<L>.yaml`` writes.
 """
 
 from __future__ import annotations
@@ -162,35 +163,26 @@ def write_letter(letter: str, seed: int = 0, corners: dict[str, np.ndarray] | No
     return path, np.arange(len(path)) / RATE_HZ, contact
 
 
-def _csv(path: np.ndarray, times: np.ndarray) -> str:
-    rows = ["t,x,y,z"] + [f"{t:.4f},{x:.7f},{y:.7f},{z:.7f}" for t, (x, y, z) in zip(times, path)]
-    return "\n".join(rows) + "\n"
-
-
 def main(argv: list[str] | None = None) -> int:
-    """Write every letter's demonstration and learn it with ``hila learn`` (see the module docstring)."""
-    import subprocess
-    import sys
-
-    from ...core.fileio import atomic_write_text, dump_yaml
-
-    def hila(argv: list[str]) -> int:  # the command line in a child process: no import runs up to cli
-        return subprocess.run([sys.executable, "-m", "hila_lang", *argv]).returncode
+    """Write every letter's demonstration and learn it as ``hila learn`` does (see the module docstring)."""
+    from ...hierarchy.learn import learn_files
+    from ...osila.demofile import write_demo_csv, write_icps
+    from ...osila.template import save_template
 
     ap = argparse.ArgumentParser(prog="python -m hila_lang.worlds.letters.handwriting",
-                                 description="Make the letters' demonstrations and learn them with hila learn.")
+                                 description="Make the letters' demonstrations and learn them as hila learn does.")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("primitives/letters"))
     ap.add_argument("--letters", default=ALPHABET, help="which letters (default: all)")
     args = ap.parse_args(argv)
     demos = args.out / "demos"
     box = demos / "box.yaml"
-    dump_yaml(box, {k: [round(float(v), 6) for v in p] for k, p in box_corners().items()},
-              header="the demonstrator's letter box: ICPs tl, tr, br, bl (world frame, metres)")
+    write_icps(box, {k: [round(float(v), 6) for v in p] for k, p in box_corners().items()},
+               header="the demonstrator's letter box: ICPs tl, tr, br, bl (world frame, metres)")
     for letter in args.letters.upper():
         path, times, _ = write_letter(letter, args.seed)
         csv = demos / f"{letter}.csv"
-        atomic_write_text(csv, _csv(path, times))
+        write_demo_csv(csv, path, times, decimals=7, time_decimals=4)  # 0.1 um, 0.1 ms: far below the tremor
         command = ["learn", str(csv), "--icps", str(box), "--tags", "write", "--contact", "write",
                    "--name", letter, "-o", str(args.out / f"{letter}.yaml")]
         description = (
@@ -200,8 +192,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{TREMOR * 1000:g} mm tremor, {RATE_HZ:g} Hz) in a {BOX[0] * 1000:g} x {BOX[1] * 1000:g} mm box "
             f"whose corners are the ICPs. Made by: python -m hila_lang.worlds.letters.handwriting; "
             f"learned by: hila {' '.join(command[:-2])} -o {letter}.yaml")
-        if hila(command + ["--description", description]) != 0:
-            return 1
+        template = learn_files(csv, box, name=letter, tags=["write"], contact=["write"], description=description)
+        save_template(template, args.out / f"{letter}.yaml")
+        print(f"{letter}: {len(path)} points -> {args.out / f'{letter}.yaml'}", flush=True)
     return 0
 
 

@@ -1,7 +1,7 @@
 """Where the robot writes: an A4 sheet on its table and a box (a *slot*) per letter.
 
-The sheet lies landscape in front of the robot, centred at (0.30, -0.09) (well within reach:
-DESIGN.md section 4).  The word is written on one line across it, upright for the robot (a
+The sheet lies landscape in front of the robot, centred at (0.30, -0.09) (every point of it within
+the arm's reach: docs/design.md §5).  The word is written on one line across it, upright for the robot (a
 letter's top is away from it) and read from the robot's left to its right, centred on the sheet.
 Each letter's box has the demonstrations' proportions (:data:`.handwriting.BOX`, width = 0.8 x
 height); a space is an empty box; boxes are :data:`GAP` letter heights apart.  A slot's corners

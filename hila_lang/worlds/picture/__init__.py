@@ -4,6 +4,7 @@
 - :mod:`.scenes` -- the demonstration and task scenes (sheet poses, bends, distractors, light),
   the seeded route, what the robot's eyes see, and the referee's truth and route error
 - :mod:`.demonstration` -- the demonstration and the template learned from it (``primitives/picture.yaml``)
+- :mod:`.tracking` -- the map moving while the robot draws, and the robot following it (``track``)
 - :mod:`.world` -- the ``picture`` world ``hila exec programs/picture.hila`` runs in
 
 :data:`WORLD` declares it (entry point ``hila.worlds: picture``); ``bench/picture.py`` scores
@@ -12,7 +13,7 @@ the matching over seeded scenes (``docs/scene-matching.md``).
 
 from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
-from ...plugins.settings import Setting, boolean, choice
+from ...plugins.settings import Setting, boolean, choice, number
 
 WORLD = WorldInfo(
     name="picture",
@@ -25,6 +26,12 @@ WORLD = WorldInfo(
                 choice("local", "homography", "none"), default="local", metavar="local|homography|none"),
         Setting("report", "write the output folder (report.json, route.png, eyes.png)", boolean, default=True,
                 metavar="yes|no"),
+        Setting("map.slide", "while the robot draws, the map slides D metres in a seeded direction over 1.5 s, from "
+                             "a seeded 20-60 % of the stroke", number(0.0, 0.05), default=0.0, metavar="D"),
+        Setting("map.turn", "while the robot draws, the map turns DEG degrees (seeded sign) over 1.5 s",
+                number(0.0, 30.0), default=0.0, metavar="DEG"),
+        Setting("map.jump", "while the robot draws, the map jumps D metres at once (seeded direction)",
+                number(0.0, 0.04), default=0.0, metavar="D"),
     ),
     questions=Names("question", [
         Name("matched", "look, match the eyes' images against the demonstration's and answer the point group "
@@ -33,4 +40,5 @@ WORLD = WorldInfo(
         Name("pairs", "how many matched pairs were kept (0 before 'matched')", answer="ask_pairs"),
     ]),
     default_backend="pybullet",  # its questions are all declared; its points (match.fNNN) are made as it runs
+    tracking=True,  # the robot matches again while it draws (``track m``; :mod:`.tracking`)
 )

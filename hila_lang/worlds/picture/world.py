@@ -8,7 +8,9 @@ demonstration as it was recorded, :func:`.demonstration.recorded_demonstration`,
 the task with its own eyes); the world refuses a
 template whose ICPs are not those features (named ``f000``, ...).  Then the task scene is laid
 out from ``--seed``: the sheet moved, turned, scaled and (``--set bent=yes``, the default) bent,
-three distractor boxes beside it, the light changed (:mod:`.scenes`).
+three distractor boxes beside it, the light changed (:mod:`.scenes`).  With ``--set map.slide=D``
+(``map.turn``, ``map.jump``) the sheet moves while the robot draws, and a program that tracks its
+match (``track m``) follows it (:mod:`.tracking`).
 
 Question ``matched``: the robot looks with both eyes, matches its images against the
 demonstration's (:func:`hila_lang.perception.matching.match_scenes`, verification
@@ -63,7 +65,14 @@ class PictureWorld:
         self.drawn: list[dict] = []
         self.points_now: dict[str, np.ndarray | None] = {}
         self.light = 1.0
-        self.snapshots = AttributeSnapshots(self, ("pairs", "points_now"), append_only=("drawn",))
+        self.task = None  # the task sheet (the truth), where it is now
+        self.matched_task = None  # ... and where it was at the robot's last match (the pairs' referee)
+        from .tracking import PictureTracking
+
+        #: the map moving while the robot draws (``map.slide`` ...), and the robot following it (``track``)
+        self.tracking = PictureTracking(self, settings)
+        self.snapshots = AttributeSnapshots(self, ("pairs", "points_now", "task", "matched_task"),
+                                            append_only=("drawn",))
 
     # -- plug-in hooks -----------------------------------------------------------------------
     def attach(self, backend) -> None:
@@ -82,7 +91,8 @@ class PictureWorld:
         self.texture = map_texture(S.SIZE, TEXTURE_SEED)
         self.task = S.task_sheet(self.seed, self.mat.z, self.bent)
         boxes = [(h, [p[0], p[1], self.mat.z + p[2]], c) for h, p, c in S.distractors(self.seed)]
-        S.show(backend, self.task, self.texture, boxes)
+        self.sheet_body = S.show(backend, self.task, self.texture, boxes)[0]
+        self.tracking.lay(self.task)
         light = float(np.random.default_rng([self.seed, 2404]).uniform(0.6, 1.0))
         backend.lighting.set_light(light)
         self.light = light
@@ -104,17 +114,21 @@ class PictureWorld:
     def ask_pairs(self) -> int:
         return 0 if self.pairs is None else int(self.pairs.kept.sum())
 
-    def _match(self) -> None:
+    def _match(self, move_arm: bool = True) -> None:
+        """The robot looks with both eyes and matches; ``move_arm``: first take the hand out of the
+        way (not while it draws: its own arm is masked anyway)."""
         from ...perception.matching import match_scenes, scene_features
 
         if self.backend is None or self.backend.eyes is None or getattr(self.backend, "sim", None) is None:
             raise InputError("the picture world's robot matches what its eyes see: run it with --backend pybullet "
                              f"(this back end, {getattr(self.backend, 'name', None)!r}, has no eyes)")
-        self.backend.reset_hand(S.HOME)  # out of the way (its own arm is masked anyway)
+        if move_arm:
+            self.backend.reset_hand(S.HOME)
         (left, right), self.task_camera = S.look(self.backend)
         self.task_left = left
         task = scene_features(left, right, hidden=S.own_body(self.backend))
         self.pairs = match_scenes(self.seen, task, self.model)
+        self.matched_task = self.task
         points = dict.fromkeys(f"match.{n}" for n in self.names)
         for i, p, keep in zip(self.pairs.template_index, self.pairs.task_points, self.pairs.kept):
             if keep:
@@ -134,7 +148,9 @@ class PictureWorld:
         if data.get("pen_down"):
             executed = data.get("executed")
             self.drawn.append({"state": data.get("state"), "path": np.asarray(data["path"], float),
-                               "executed": None if executed is None else np.asarray(executed, float)})
+                               "executed": None if executed is None else
+                               self.tracking.carried(np.asarray(executed, float)),
+                               "replans": len(data.get("replans") or ())})
 
     def _check_template(self, template) -> None:
         mine = {n: p for n, p in zip(self.names, self.seen.points)}
@@ -157,14 +173,14 @@ class PictureWorld:
             out["route_error_mm"] = {"median": round(float(np.median(err)), 2),
                                      "p95": round(float(np.percentile(err, 95)), 2), "points": int(len(drawn))}
         if self.pairs is not None:
-            true_demo, true_task, true = S.referee_pairs(self.pairs, self.demo, self.task, self.demo_camera,
+            true_demo, true_task, true = S.referee_pairs(self.pairs, self.demo, self.matched_task, self.demo_camera,
                                                          self.task_camera)
             k = self.pairs.kept
             out["matching"] = {**self.pairs.counts, "verification": self.model,
                                "precision_before": round(float(true.mean()), 3) if len(true) else None,
                                "precision_after": round(float(true[k].mean()), 3) if k.any() else None,
                                "median_confidence": round(float(np.median(self.pairs.confidence[k])), 3) if k.any() else None}
-            sets = S.control_sets(self.pairs, self.demo, self.task, true_demo, true_task)
+            sets = S.control_sets(self.pairs, self.demo, self.matched_task, true_demo, true_task)
             path = demonstrated_path(self.demo)
             errors = S.control_errors(path, slice(REACH, REACH + DRAW), sets, goal, S.HOME)
             out["controls_planned_mm"] = {n: {"median": round(m, 2), "p95": round(p, 2)} for n, (m, p) in errors.items()}
@@ -213,11 +229,15 @@ class PictureWorld:
         return cv2.resize(img, None, fx=2, fy=2, interpolation=cv2.INTER_NEAREST)
 
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
-        task = S.task_sheet(self.seed, self.mat.z, self.bent)
+        task = getattr(self, "task", None) or S.task_sheet(self.seed, self.mat.z, self.bent)
         report = {"world": "picture", "seed": self.seed, "bent_m": round(task.bend, 4), "light": round(self.light, 3),
                   "task_sheet": {"center": list(task.center), "rotation_deg": round(float(np.degrees(task.rotation)), 2),
                                  "size": list(task.size)},
                   "backend": None if self.backend is None else self.backend.name}
+        motion = self.tracking.motion
+        if motion is not None and motion.active:
+            report["map_moves"] = motion.moves
+            report["replans"] = [d["replans"] for d in self.drawn]
         seen = hasattr(self, "seen")
         if seen:
             report.update(self._score())

@@ -7,10 +7,14 @@
   that runs out is a runtime error, so a test fails loudly instead of looping;
 - ``events``: event -> list of values handed out in order by ``wait``.
 
+- ``motion``: moves of the points while the robot moves (:mod:`.motion`): the world's ``tracking``
+  capability shows the robot where they are at each look of a ``track`` clause.
+
 Every ``notify`` is kept in :attr:`log` as ``(event, data)`` (the newest :data:`KEEP_LOG`).  From the command line,
 ``--set script=FILE.yaml`` loads a YAML mapping with the keys ``points``, ``answers``,
-``events`` (and optionally ``home``: where the back end starts the hand, ``scene.home``); without
-a script the world is empty and a program supplies its points with ``point NAME = (x, y, z)``.
+``events`` (and optionally ``home``: where the back end starts the hand, ``scene.home``, and
+``motion``); without a script the world is empty and a program supplies its points with
+``point NAME = (x, y, z)``.
 A question or event the script does not name is an :class:`~hila_lang.core.errors.UnknownNameError`.
 """
 
@@ -33,22 +37,29 @@ KEEP_LOG = 1000
 class ScriptedWorld:
     """Implements :class:`hila_lang.plugins.protocols.World` from a script (see the module docstring)."""
 
-    def __init__(self, points=None, answers=None, events=None, home=None, stdout=None) -> None:
+    def __init__(self, points=None, answers=None, events=None, home=None, stdout=None, motion=None) -> None:
+        from .motion import ScriptedTracking
+
         #: where :meth:`finish` prints the result line (None: it prints nothing)
         self.stdout = stdout
-        self._points = {str(k): _point(v, f"point {k!r}") for k, v in (points or {}).items()}
+        #: the points as they are, and as the robot last saw them while a step runs (None between steps)
+        self._true = {str(k): _point(v, f"point {k!r}") for k, v in (points or {}).items()}
+        self._seen: dict | None = None
+        if motion is not None and not isinstance(motion, list):
+            raise InputError(f"expected 'motion' as a list of moves, got {_kind(motion)}")
+        self.tracking = ScriptedTracking(self, motion)
         self.answers = {k: (list(v) if isinstance(v, list) else v) for k, v in (answers or {}).items()}
         self.events = {k: list(v) for k, v in (events or {}).items()}
         self.home = None if home is None else _point(home, "home")
         self.scene = None if self.home is None else Scene(home=self.home)
         self.log: BoundedLog = BoundedLog(KEEP_LOG)  # every notification; the newest kept
-        self.snapshots = AttributeSnapshots(self, ("answers", "events"), append_only=("log",))
+        self.snapshots = AttributeSnapshots(self, ("answers", "events", "_true", "tracking.visits"), append_only=("log",))
 
     def attach(self, backend) -> None:
         pass
 
     def points(self) -> dict[str, np.ndarray]:
-        return dict(self._points)
+        return dict(self._true if self._seen is None else self._seen)
 
     def query(self, name: str, *args: Any) -> Any:
         if name not in self.answers:
@@ -108,13 +119,14 @@ def load_script(path, stdout=None) -> ScriptedWorld:
     doc = load_yaml(path, "world script", unique_keys=True) or {}
     if not isinstance(doc, dict):
         raise InputError("expected a world script mapping with keys points, answers, events, home", file=str(path))
-    unknown = set(doc) - {"points", "answers", "events", "home"}
+    unknown = set(doc) - {"points", "answers", "events", "home", "motion"}
     if unknown:
-        raise InputError(f"unknown key {sorted(unknown)[0]!r} in world script; expected points, answers, events, home",
-                         file=str(path))
+        raise InputError(f"unknown key {sorted(unknown)[0]!r} in world script; expected points, answers, events, home, "
+                         "motion", file=str(path))
     try:
         _check_shape(doc)
-        return ScriptedWorld(doc.get("points"), doc.get("answers"), doc.get("events"), doc.get("home"), stdout)
+        return ScriptedWorld(doc.get("points"), doc.get("answers"), doc.get("events"), doc.get("home"), stdout,
+                             doc.get("motion"))
     except InputError as exc:
         exc.file = str(path)
         raise

@@ -7,10 +7,12 @@
 - :mod:`.vision` -- the robot reads the board through its eyes and decides when to look again;
 - :mod:`.player` -- the robot's side: what it saw and did, and what it decides from that;
 - :mod:`.referee` -- the game's record, the opponent's moves, the perturbations, the scores;
+- :mod:`.tracking` -- the robot following the sheet through its eyes while it draws (``track``);
 - :mod:`.recording` -- the circle demonstration seen by the iCub's eyes: scene, recording, learning;
 - :mod:`.demonstration` -- the seeded human-like demonstration behind ``primitives/circle.yaml``;
 - :mod:`.world` -- the ``tictactoe`` world ``hila exec programs/game.hila`` runs in;
-- :mod:`.report` -- the output folder of a game.
+- :mod:`.report` -- the output folder of a game;
+- :mod:`.studio` -- the game in ``hila studio``: the demonstration sheet to draw on, the board to click.
 
 :data:`WORLD` declares it (entry point ``hila.worlds: tictactoe``).
 """
@@ -18,6 +20,7 @@
 from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
 from ...plugins.settings import Setting, boolean, choice, number
+from ...plugins.studio import StudioView
 
 WORLD = WorldInfo(
     name="tictactoe",
@@ -33,6 +36,13 @@ WORLD = WorldInfo(
                 metavar="yes|no"),
         Setting("board.bump", "after each opponent move the sheet is pushed up to D metres from where it was laid "
                               "and turned up to 15 deg (seeded)", number(0.0, 0.05), default=0.0, metavar="D"),
+        Setting("board.slide", "while the robot draws, the sheet slides D metres in a seeded direction over 1.5 s, "
+                               "from a seeded 20-60 % of the stroke (the robot sees it only through its eyes)",
+                number(0.0, 0.05), default=0.0, metavar="D"),
+        Setting("board.turn", "while the robot draws, the sheet turns DEG degrees (seeded sign) over 1.5 s, with "
+                              "board.slide or alone", number(0.0, 30.0), default=0.0, metavar="DEG"),
+        Setting("board.jump", "while the robot draws, the sheet jumps D metres at once (seeded direction) at a "
+                              "seeded 20-60 % of the stroke", number(0.0, 0.04), default=0.0, metavar="D"),
         Setting("light", "after each opponent move the light changes to a seeded level between F and 1 of the "
                          "original, from a seeded direction", number(0.3, 2.0), default=1.0, metavar="F"),
         Setting("crosses", "how the opponent draws its crosses: neat, or sloppy (off-centre, turned, over a grid "
@@ -63,4 +73,10 @@ WORLD = WorldInfo(
     ]),
     default_backend="pybullet",
     drawing_surface=True,
+    studio=StudioView(
+        scene="hila_lang.worlds.tictactoe.studio:scene", scene_label="tic-tac-toe (robot's eye)",
+        board="hila_lang.worlds.tictactoe.studio:board",
+        settings={"opponent": {"human": "you (click a cell)", "minimax": "minimax", "random": "random"}},
+        hint="In tic-tac-toe you play the crosses: click a cell when asked."),
+    tracking=True,  # the robot follows the sheet through its eyes while it draws (:mod:`.tracking`)
 )

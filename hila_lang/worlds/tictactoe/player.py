@@ -17,7 +17,10 @@ its own sightings and memory:
 
 It looks again whenever something may have changed since its last look: after each of its own
 circles and each move the opponent announces (it does not know when the board is pushed: it
-notices a moved board because it looks before every decision that follows a move).
+notices a moved board because it looks before every decision that follows a move).  While it
+draws with a ``track`` clause it glances at the grid with one eye at every tick
+(:class:`~.tracking.SheetTracker`): the corners it binds are then the grid where it last glanced
+it, until its next full look.
 """
 
 from __future__ import annotations
@@ -104,6 +107,11 @@ class Player:
         self._blind_board: ttt.Board = ttt.empty_board()
         self._since = 0
         self._stale = True
+        #: the grid's corners from its latest glance while drawing (None: its last look is newer)
+        self.glanced: dict | None = None
+        self.tracker = None
+        #: every glance (:attr:`.tracking.SheetTracker.glances`)
+        self.glances: list[dict] = []
 
     @property
     def sees(self) -> bool:
@@ -153,6 +161,7 @@ class Player:
                  "seconds": time.perf_counter() - clock}
         self.sightings.append(entry)
         self._since, self._stale = 0, False
+        self.glanced = None
         return entry
 
     def board(self) -> ttt.Board:
@@ -169,7 +178,30 @@ class Player:
                 raise HilaRuntimeError("the robot has not seen the board yet: it has no corners to bind")
             return {cell: cell_corners(self.layout, cell) for cell in range(1, 10)}
         press = np.array([0.0, 0.0, PEN_PRESS])
-        return {cell: {name: p - press for name, p in names.items()} for cell, names in sight["corners"].items()}
+        return {cell: {name: p - press for name, p in names.items()} for cell, names in self._known().items()}
+
+    def _known(self) -> dict[int, dict[str, np.ndarray]]:
+        """The grid's corners as the robot last perceived them: its latest glance, else its latest look."""
+        return self.glanced if self.glanced is not None else self.sightings[-1]["corners"]
+
+    # -- following the sheet while drawing (a ``track`` clause) --------------------------------------
+    def track_begin(self) -> None:
+        """A tracked step begins: follow the grid from where the robot knows it to be."""
+        from .tracking import SheetTracker
+
+        self.tracker = None if not self.sees or not self.sightings else SheetTracker(self._known(), self.table.z)
+
+    def glance(self) -> None:
+        """One look with the left eye while drawing: the grid where it is now, as far as it shows."""
+        if self.tracker is None:
+            return
+        corners = self.tracker.glance(self.eyes)
+        self.glances.append(self.tracker.glances[-1])
+        if corners is not None:
+            self.glanced = corners
+
+    def track_end(self) -> None:
+        self.tracker = None
 
     # -- decisions -------------------------------------------------------------------------------
     def to_move(self) -> str | None:
@@ -215,7 +247,7 @@ class Player:
         height; before the first sighting, beside where the eyes look (the back end first aims
         them at the middle of the sheet it was handed: where to look, not what is there)."""
         if self.sightings:
-            c = self.sightings[-1]["corners"]
+            c = self._known()
             right = c[9]["br"] - c[9]["bl"]
             point = c[9]["br"] + ASIDE_MARGIN * right / np.linalg.norm(right)
         else:
@@ -226,7 +258,7 @@ class Player:
         """The cell (1..9) holding ``point`` in the grid as the robot knows it, or None."""
         if not self.sightings:
             return None if self.layout is None else cell_at(self.layout, point)
-        c = self.sightings[-1]["corners"]
+        c = self._known()
         origin = c[1]["tl"]
         right = c[3]["tr"] - origin
         near = c[7]["bl"] - origin

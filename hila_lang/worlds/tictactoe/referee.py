@@ -24,6 +24,11 @@ Perturbations (world settings, seeded by ``--seed``), after each of the opponent
   seeded direction;
 - ``crosses=sloppy``: the opponent's crosses are off-centre, turned and over a grid line
   (:func:`.marks.cross_strokes`).
+
+And during each of the robot's pen-down strokes: ``board.slide=D``, ``board.turn=DEG``,
+``board.jump=D`` (:class:`hila_lang.sim.motion.SheetMotion`, :attr:`Referee.motion`; the grid's
+centre and turn are the sheet's pose, :func:`pose_of`); a circle drawn while
+the sheet moved is scored where its ink lies on the sheet in its final position.
 """
 
 from __future__ import annotations
@@ -112,12 +117,17 @@ class Referee:
     """
 
     def __init__(self, layout: Grid, first: str, seed: int, *, bump: float = 0.0, light: float = 1.0,
-                 sloppy: bool = False) -> None:
+                 sloppy: bool = False, slide: float = 0.0, turn: float = 0.0, jump: float = 0.0) -> None:
+        from ...sim.motion import SheetMotion
+
         self.layout = layout
         self.grid = layout
         self.first = first
         self.bump, self.light, self.sloppy = float(bump), float(light), bool(sloppy)
         self.rng = np.random.default_rng([int(seed), 14, 1])
+        #: the sheet's moves while the robot draws (its own generator: the other draws stay as they were)
+        self.motion = SheetMotion(pose_of(layout), np.random.default_rng([int(seed), 34]), slide=slide, turn=turn,
+                                  jump=jump)
         self.record = Record()
         self.backend = None
         self.marks: list[dict[str, Any]] = []      # the robot's circles, scored
@@ -220,9 +230,13 @@ class Referee:
         """Score the robot's circle (a finished pen-down state) and record it where its ink is."""
         from .marks import mark_correlation, outside_cell, tracking_error  # metrics: lazy
 
+        from ...sim.motion import carried
+
         drawn = entry["executed"] if entry["executed"] is not None else entry["planned"]
         if drawn is None or len(drawn) == 0:
             raise HilaRuntimeError("the robot drew, but the back end reported no path", state=entry["state"])
+        if entry.get("during"):  # the sheet moved under the pen: the ink where it lies on the sheet now
+            drawn = carried(drawn, entry["during"], pose_of(self.grid))
         touching = on_paper(drawn, self.grid.surface_z)
         ink = touching if len(touching) >= 3 else drawn
         cell = cell_at(self.grid, np.median(ink, axis=0))
@@ -255,6 +269,16 @@ class Referee:
         else:
             self._record(ROBOT, cell, t)
         return mark
+
+
+def pose_of(grid: Grid) -> tuple:
+    """The sheet's pose (x, y, rotation) as :mod:`hila_lang.sim.motion` moves it: the grid's centre and turn."""
+    return (grid.grid_center[0], grid.grid_center[1], grid.grid_rotation)
+
+
+def grid_at(layout: Grid, pose: tuple) -> Grid:
+    """``layout`` moved to ``pose`` (x, y, rotation)."""
+    return replace(layout, grid_center=(pose[0], pose[1]), grid_rotation=pose[2])
 
 
 def corner_errors(corners: dict[int, dict[str, np.ndarray]], grid: Grid) -> np.ndarray:

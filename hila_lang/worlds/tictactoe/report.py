@@ -4,8 +4,11 @@ Files (all written atomically through :mod:`hila_lang.core.fileio`):
 
 - ``report.json``: seed, opponent, who started, the moves, the final board, the result, per-mark
   R of each drawn circle against the demonstrated one (after similarity alignment), how far each
-  circle strays outside its cell (on the sheet where it was then), tracking error (planned
-  against executed pen path), wall time, the perturbations (settings and what happened when),
+  circle strays outside its cell (on the sheet where it was then; for a circle drawn while the
+  sheet moved, where its ink lies on the sheet in its final position), each circle's re-plans
+  (``track``: time, how far the cell moved, from which point, the blend, whether the pen lifted),
+  tracking error (planned against executed pen path), wall time, the perturbations (settings and
+  what happened when, the sheet's moves during strokes included),
   the referee's ``fouls``, and ``vision``: whether the robot read the board with its eye cameras
   or played blind (dry back end); with eyes, every ``misread`` the referee found (look, cell,
   what the robot saw, what was there), the perceived grid corners' distance from the true ones
@@ -13,7 +16,8 @@ Files (all written atomically through :mod:`hila_lang.core.fileio`):
   views it took and why;
 - ``eye.png``: the final left eye-camera image (PyBullet back end only);
 - ``top.png``: the board from above with the planned paths (green) and the executed pen paths
-  (blue) drawn over it -- a rendered camera view with the PyBullet back end (the arm may hide
+  (blue) drawn over it, each where it lies on the sheet now (a stroke drawn while the sheet moved
+  shows its executed path only: its plan changed with the sheet) -- a rendered camera view with the PyBullet back end (the arm may hide
   part of the board), the paper's ink otherwise;
 - ``paper.png``: the sheet straight from above -- its ink (what the cameras see on the paper)
   with the same planned and executed paths over it, never hidden by the arm;
@@ -65,6 +69,7 @@ def build_report(world, trace=None) -> dict[str, Any]:
             "contact_points": m["contact_points"],
             "tracking_median_mm": _mm(m.get("tracking_median_m")),
             "tracking_max_mm": _mm(m.get("tracking_max_m")),
+            "replans": m.get("replans") or [],
         })
     rs = [m["r"] for m in marks if m["r"] is not None]
     backend = world.backend
@@ -84,6 +89,8 @@ def build_report(world, trace=None) -> dict[str, Any]:
         },
         "perturbations": {
             "board.bump": world.referee.bump, "light": world.referee.light,
+            "board.slide": world.referee.motion.slide, "board.turn": world.referee.motion.turn,
+            "board.jump": world.referee.motion.jump, "sheet_moves": world.referee.motion.moves,
             "crosses": "sloppy" if world.referee.sloppy else "neat",
             "eyes.noise": None if not world.sees else float(backend.eyes.noise),
             "events": world.referee.perturbations,
@@ -189,12 +196,18 @@ def _overlay(rgb: np.ndarray, world, project) -> np.ndarray:
     if scale > 1:
         rgb = cv2.resize(rgb, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
     bgr = np.ascontiguousarray(rgb[:, :, ::-1])
+    from ...sim.motion import carried
+    from .referee import pose_of
+
     for st in world.states:
         for kind, colour in (("planned", PLANNED_BGR), ("executed", EXECUTED_BGR)):
             pts = st[kind]
-            if pts is None or len(pts) < 2:
+            if pts is None or len(pts) < 2 or (kind == "planned" and st.get("during")):
                 continue
-            pts = _on_sheet_now(np.asarray(pts, dtype=float), st.get("sheet"), world.spec)
+            pts = np.asarray(pts, dtype=float)
+            if st.get("during"):  # drawn while the sheet moved: each sample where it lies on the sheet
+                pts = carried(pts, st["during"], pose_of(st["sheet"]))
+            pts = _on_sheet_now(pts, st.get("sheet"), world.spec)
             px = np.asarray(project(pts), dtype=float) * scale
             px = px[np.isfinite(px).all(axis=1)]
             if len(px) >= 2:

@@ -33,8 +33,10 @@ Settings (``--set key=value``, declared in :mod:`hila_lang.worlds.tictactoe`):
 ``opponent=random|minimax|human`` (default minimax; ``--opponent`` is an alias),
 ``first=robot|opponent`` (default robot, as in the paper), ``report=yes|no`` (write the output
 folder, default yes), and the perturbations, seeded by ``--seed``: ``board.bump=D`` (metres),
-``light=F``, ``crosses=neat|sloppy`` (:mod:`.referee`); the back end's ``eyes.noise=SIGMA``
-adds sensor noise.  Each circle is compared with the demonstration it was warped from: the
+``light=F``, ``crosses=neat|sloppy`` (:mod:`.referee`), and while the robot draws
+``board.slide=D``, ``board.turn=DEG``, ``board.jump=D`` (:mod:`hila_lang.sim.motion`: a program that tracks
+its cell, ``track c``, follows the sheet through its eyes, :mod:`.tracking`); the back end's
+``eyes.noise=SIGMA`` adds sensor noise.  Each circle is compared with the demonstration it was warped from: the
 path of the program's pen-down sub-template.
 """
 
@@ -112,9 +114,15 @@ class TicTacToeWorld:
         self.opponent = make_opponent(self.settings["opponent"], self.seed, options.stdin, options.stdout)
         self.stdout = options.stdout
         self.referee = Referee(layout, self.first, self.seed, bump=self.settings["board.bump"],
-                               light=self.settings["light"], sloppy=self.settings["crosses"] == "sloppy")
+                               light=self.settings["light"], sloppy=self.settings["crosses"] == "sloppy",
+                               slide=self.settings["board.slide"], turn=self.settings["board.turn"],
+                               jump=self.settings["board.jump"])
         self.player = Player(self.first, self.park, layout=layout)
         self.states: list[dict[str, Any]] = []
+        from .tracking import TicTacToeTracking
+
+        #: following the sheet while the robot draws (``track``), and moving it (``board.slide``)
+        self.tracking = TicTacToeTracking(self)
         self.backend = None
         self.fsm = None
         self._scored = 0
@@ -125,10 +133,12 @@ class TicTacToeWorld:
         self.snapshots = AttributeSnapshots(
             self,
             ("rng", "opponent._rng", "_scored", "_idle", "referee.grid", "referee.rng", "referee.record._board",
-             "referee.stray",
-             "player.table", "player.own", "player.choice", "player._blind_board", "player._since", "player._stale"),
+             "referee.stray", "referee.motion.rng",
+             "player.table", "player.own", "player.choice", "player._blind_board", "player._since", "player._stale",
+             "player.glanced"),
             append_only=("states", "referee.record._moves", "referee.marks", "referee.crosses", "referee.looks",
-                         "referee.misreads", "referee.fouls", "referee.perturbations", "player.sightings"))
+                         "referee.misreads", "referee.fouls", "referee.perturbations", "player.sightings",
+                         "referee.motion.moves", "player.glances"))
 
     # -- the referee's view, for reports and tests -------------------------------------------
     @property
@@ -178,6 +188,13 @@ class TicTacToeWorld:
         if needs and missing:
             raise InputError(f"--set {' and '.join(needs)} changes the scene between moves, which only a back end "
                              f"with eyes, a paper and lights can show; back end {backend.name!r} has no "
+                             f"{', '.join(missing)}", hint="use --backend pybullet")
+        motion = self.referee.motion
+        moving = [f"board.{k}" for k in ("slide", "turn", "jump") if getattr(motion, k) > 0]
+        missing = [cap for cap in ("eyes", "ink", "streaming") if getattr(backend, cap, None) is None]
+        if moving and missing:
+            raise InputError(f"--set {' and '.join(moving)} moves the sheet while the robot draws, which only a back "
+                             f"end with eyes, a paper and a streaming arm can show; back end {backend.name!r} has no "
                              f"{', '.join(missing)}", hint="use --backend pybullet")
         self.backend = backend
         self.referee.backend = backend
@@ -292,7 +309,12 @@ class TicTacToeWorld:
             "pen_down": bool(data.get("pen_down", False)),
             "planned": None if planned is None else np.asarray(planned, dtype=float),
             "executed": None if executed is None else np.asarray(executed, dtype=float),
-            "sheet": self.referee.grid,  # where the sheet was while this state ran
+            "sheet": self.referee.grid,  # where the sheet was while this state ran (at its end)
+            # where it was at each step of a stroke it moved during (:mod:`hila_lang.sim.motion`)
+            "during": list(self.referee.motion.during) if data.get("pen_down") else None,
+            "replans": [{"t_s": round(r.t, 3), "moved_mm": round(1000 * r.moved, 2), "icp": r.which,
+                         "from_point": r.stamp, "blend_mm": round(1000 * r.blend, 2), "lifted": r.lifted}
+                        for r in data.get("replans") or ()],
         }
         self.states.append(entry)
         if entry["pen_down"]:
@@ -300,6 +322,7 @@ class TicTacToeWorld:
             fouls = len(self.referee.fouls)
             mark = self.referee.score_circle(entry, data.get("template"), self.player.choice,
                                              time.perf_counter() - self.t0)
+            mark["replans"] = entry["replans"]
             self.player.drew(entry["planned"])  # what it commanded, not the simulator's pen tip
             self._print(f"\n{ROBOT} ({ttt.CIRCLE}) plays cell {mark['cell']}")
             for foul in self.referee.fouls[fouls:]:

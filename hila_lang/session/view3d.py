@@ -5,8 +5,8 @@ turns around the workspace, with the planned path (blue) and the executed one (o
 Why not a browser 3-D library (three.js + an URDF loader, or viser): the simulator already holds
 the robot, its meshes and its pose at every step; rendering it there shows exactly the state the
 run is in (the paper's ink included) with no second copy of the kinematics in JavaScript, no
-extra server (viser starts its own, unauthenticated, which DESIGN §7 forbids) and nothing
-vendored.  What it gives up: the view turns by re-rendering (about 0.1 s), not at screen rate.
+extra server (viser starts its own, unauthenticated, which the studio's rules forbid:
+docs/design.md §6) and nothing vendored.  What it gives up: the view turns by re-rendering (about 0.1 s), not at screen rate.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""hila studio's server: the URL line, the refusals of DESIGN §7 (token, Host, Origin, paths,
+"""hila studio's app: the URL line, the refusals of its security rules (token, Host, Origin, paths,
 uploads), atomic writes, a taken port and Ctrl-C.  Plain HTTP and websocket clients, so each
 header can be forged as an attacker's page or a rebinding DNS name would send it."""
 
@@ -43,7 +43,7 @@ def request(s, method, path, *, host=None, headers=None, body=None, token=True):
 def test_first_line_is_the_url_with_a_fresh_token(studio):
     assert re.fullmatch(r"hila studio: http://127\.0\.0\.1:\d+/\?token=[A-Za-z0-9_-]{40,}\n", studio.first_line)
     status, text, r = request(studio, "GET", "/")
-    assert status == 200 and "demo-canvas" in text
+    assert status == 200 and "/static/common.js" in text
     assert f"hila_studio_{studio.port}=" in r.getheader("set-cookie") and "HttpOnly" in r.getheader("set-cookie")
 
 
@@ -58,7 +58,7 @@ def test_cookie_from_the_token_url_is_enough(studio):
 def test_refused_without_the_right_token(studio, token, why):
     status, text, _ = request(studio, "GET", "/api/files", token=token)
     assert status == 403 and why in text
-    status, text, _ = request(studio, "GET", "/static/studio.js", token=token)
+    status, text, _ = request(studio, "GET", "/static/common.js", token=token)
     assert status == 403
 
 
@@ -170,10 +170,54 @@ def test_ctrl_c_with_a_game_waiting_for_a_move_exits_130(tmp_path):
     try:
         with connect(f"ws://127.0.0.1:{s.port}/ws/run?token={s.token}", origin=f"http://127.0.0.1:{s.port}",
                      open_timeout=10) as ws:
-            ws.send(json.dumps({"cmd": "start", "path": "game.hila", "backend": "dry", "opponent": "human"}))
+            ws.send(json.dumps({"cmd": "start", "path": "game.hila", "backend": "dry", "settings": {"opponent": "human"}}))
             ws.send(json.dumps({"cmd": "run"}))
             while not json.loads(ws.recv(timeout=30)).get("waiting"):
                 pass  # the run waits in a worker thread for the person's cell
             assert s.stop() == 130
     finally:
         s.stop()
+
+
+def test_a_page_is_its_module_its_script_and_its_test():
+    """Each page is three files: ``studio/NAME.py`` (its routes, under 350 lines), ``static/SCRIPT``
+    (an ES module exporting its markup, state, mount and files) and ``tests/test_studio_NAME.py``;
+    the package data ships every static file."""
+    import tomllib
+    from fnmatch import fnmatch
+    from pathlib import Path
+
+    from hila_lang.studio import app
+
+    root = Path(__file__).resolve().parents[1]
+    studio = root / "hila_lang" / "studio"
+    for page in app.PAGES:
+        module = next(m for m in ("demonstrate", "imitate", "run") if getattr(__import__(
+            f"hila_lang.studio.{m}", fromlist=["PAGE"]), "PAGE") is page)
+        assert len((studio / f"{module}.py").read_text().splitlines()) <= 350, module
+        script = (studio / "static" / page.script).read_text()
+        for name in ("html", "state", "mount", "files"):
+            assert re.search(rf"^export (const|async function|function) {name}\b", script, re.M), (page.script, name)
+        assert (root / "tests" / f"test_studio_{module}.py").is_file()
+    globs = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["hila_lang.studio"]
+    shipped = [p.relative_to(studio).as_posix() for p in (studio / "static").rglob("*") if p.is_file()]
+    assert shipped and all(any(fnmatch(f, g) for g in globs) for f in shipped)
+
+
+def test_the_studio_names_no_world():
+    """What a world shows in the studio comes from its plug-in: the studio's code, scripts and page
+    hold no world's name as a string (nor the shipped game's anywhere) and import no world."""
+    from pathlib import Path
+
+    from hila_lang.plugins import registry
+
+    studio = Path(__file__).resolve().parents[1] / "hila_lang" / "studio"
+    worlds = registry.names("world")
+    assert {"tictactoe", "letters"} <= set(worlds)
+    for path in studio.rglob("*"):
+        if path.suffix not in (".py", ".js", ".html", ".css"):
+            continue
+        text = path.read_text()
+        quoted = [w for w in worlds if re.search(rf"[\"'`]{w}[\"'`.:]", text)]
+        assert quoted == [], f"{path.name} names {quoted}"
+        assert not re.search(r"tic-?tac-?toe|hila_lang\.worlds|from \.\.worlds", text, re.I), path.name

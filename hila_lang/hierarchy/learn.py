@@ -1,0 +1,101 @@
+"""Learning: ONE demonstration -> a template cut into tagged sub-templates (HILA's first half).
+
+:func:`learn` takes the demonstration as numbers (a path, its time stamps, its scene ICPs) and
+cuts it into ``k`` contiguous segments tagged in time order
+(:func:`hila_lang.osila.segmentation.segment_template`; without tags it stays whole).
+:func:`learn_files` reads the same from a demonstration CSV and an ICP YAML
+(:mod:`hila_lang.osila.demofile`) and says where it came from in the description.
+
+``hila learn`` (the command), the studio's *Save template* and the letters world's handwriting
+model all learn through these, so a template made in any of them is byte for byte the file
+``hila learn DEMO.csv --icps ICPS.yaml ...`` writes from the same files.  Learning through the
+eye cameras (``hila learn --from-sim/--frames``) is :mod:`hila_lang.perception.learn`'s, which
+ends in the same segmentation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+from ..core.errors import InputError
+from ..osila.demofile import load_icps, read_demo_csv
+from ..osila.segmentation import DEFAULT_METHOD, describe, segment_template
+from ..osila.template import END, START, Template
+
+
+def default_tags(tags: Sequence[str], k: int | None) -> tuple[int, list[str]]:
+    """(k, tags) as ``hila learn`` reads them: k defaults to the number of tags (or 1); k > 1
+    segments without tags are tagged ``s1`` .. ``sk``.  k < 1 is an InputError."""
+    tags = list(tags)
+    k = k if k is not None else max(len(tags), 1)
+    if k < 1:
+        raise InputError(f"expected -k >= 1, got {k}")
+    if not tags and k > 1:
+        tags = [f"s{i + 1}" for i in range(k)]
+    return k, tags
+
+
+def learn(name: str, path, icps: dict, *, times=None, tags: Sequence[str] = (), contact: Sequence[str] = (),
+          k: int | None = None, method: str = DEFAULT_METHOD, seed: int = 0, description: str = "",
+          source: str | None = None) -> Template:
+    """The template of one demonstration.
+
+    Parameters
+    ----------
+    name : str
+        The template's name (a program imports it by this name).
+    path : array_like, shape (T, D)
+        The demonstrated waypoints, D in {2, 3}, metres (or pixels).
+    icps : dict name -> (D,)
+        The demonstration scene's invariant control points.
+    times : array_like, shape (T,), optional
+        Time stamps, seconds, strictly increasing.
+    tags, contact : sequences of str
+        One tag per segment in time order; the tags whose segments touch the surface.
+    k, method, seed
+        Number of segments (:func:`default_tags`), how they are cut
+        (:data:`hila_lang.osila.segmentation.DEFAULT_METHOD`: at the deepest dips in speed) and
+        the k-means seed.
+    description : str
+        Provenance stored in the template.
+    source : str, optional
+        The file the path and ICPs came from, named by an error in them.
+
+    Raises
+    ------
+    InputError
+        A bad path or ICP (named), k < 1, tags that do not match k, contact tags without segments.
+    """
+    k, tags = default_tags(tags, k)
+    try:
+        template = Template(name, path, icps, times=times, description=description)
+    except InputError as exc:
+        exc.file = exc.file or source
+        raise
+    if tags:
+        return segment_template(template, k, tags, method=method, seed=seed, contact=contact)
+    if contact:
+        raise InputError("--contact needs segments: give --tags (and -k)")
+    return template
+
+
+def learn_files(demo: str | Path, icps: str | Path | None, *, name: str, tags: Sequence[str] = (),
+                contact: Sequence[str] = (), k: int | None = None, method: str = DEFAULT_METHOD, seed: int = 0,
+                description: str | None = None) -> Template:
+    """:func:`learn` of the demonstration CSV ``demo`` with the ICPs of the YAML ``icps``.
+
+    ``icps`` None: the demonstration's own ends are its ICPs (``start``, ``end``; recognition needs
+    only the path).  The description, unless given, names both files as given and how the path was
+    cut, as ``hila learn`` writes it.  A problem with the path names ``demo``."""
+    k, tags = default_tags(tags, k)
+    points, times = read_demo_csv(demo)
+    if icps is None:
+        scene, given = {START: points[0].copy(), END: points[-1].copy()}, "its own ends as ICPs (start, end; no --icps)"
+    else:
+        scene, given = load_icps(icps, points.shape[1]), f"ICPs from {icps}"
+    if description is None:
+        description = (f"learned from {demo} ({len(points)} points) with {given}."
+                       + (f" {describe(method, k)}" if tags else ""))
+    return learn(name, points, scene, times=times, tags=tags, contact=contact, k=k, method=method, seed=seed,
+                 description=description, source=str(demo))

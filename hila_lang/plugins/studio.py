@@ -1,0 +1,106 @@
+"""What a world shows in ``hila studio``, declared on its :class:`~.registry.WorldInfo` (``studio=``).
+
+The studio names no world: every world-specific thing on its pages comes from here, as
+``recorder=`` gives ``hila learn --from-sim`` a world's demonstration.
+
+- A **drawing scene** (:class:`DrawingScene`): a picture a person draws a demonstration on, the
+  plane it shows (a homography from the plane's (x, y), metres, to the picture's pixels, and the
+  plane's height for a 3-D path) and the named points an ICP snaps to.  ``StudioView.scene``
+  names the callable that makes it; it is called when a person picks the scene (it may start a
+  simulator to render it).
+- A **board** (:class:`Board`): the running world's state as a grid of buttons, each labelled,
+  and, when a person may choose it, the line the world reads for it from its ``stdin`` (a
+  person's move).  ``StudioView.board`` names ``callable(world) -> Board``.
+- The **settings** the Run page offers for the world (``StudioView.settings``: setting name ->
+  {value: label}), e.g. who plays the opponent.
+
+Declaring a view imports nothing heavy: the callables are ``"module:callable"`` strings, loaded
+when the studio needs them (:meth:`StudioView.load`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+
+@dataclass(frozen=True)
+class DrawingScene:
+    """A picture to draw a demonstration on.
+
+    Attributes
+    ----------
+    png : bytes
+        The picture, PNG.
+    width, height : int
+        Its size, pixels.
+    H : array_like (3, 3)
+        Homogeneous map from a plane point (x, y, 1) -- world frame, metres -- to pixels (u right,
+        v down); the page inverts it for a click.
+    z : float or None
+        The plane's height (world frame, metres): a drawing on it is a 3-D path; None for a 2-D one.
+    features : tuple of (name, point)
+        Named points of the plane an ICP snaps to, each (x, y) or (x, y, z), metres.
+    lift : float or None
+        With ``z``: the highest the pen rises above the plane between strokes, metres (a pen-up
+        move rises and comes down at 45 degrees, no higher than this).
+    """
+
+    png: bytes
+    width: int
+    height: int
+    H: Any
+    z: float | None = None
+    features: tuple = ()
+    lift: float | None = None
+
+
+@dataclass(frozen=True)
+class Board:
+    """A world's state as a grid of buttons, row by row, ``columns`` wide.
+
+    ``labels[i]`` is what button i shows; ``answers[i]`` the line the world reads for it when a
+    person chooses it (its ``stdin``), or None when it is not a choice now.
+    """
+
+    columns: int
+    labels: tuple[str, ...]
+    answers: tuple[str | None, ...]
+
+    def to_json(self) -> dict:
+        return {"columns": self.columns,
+                "cells": [{"label": label, "answer": answer} for label, answer in zip(self.labels, self.answers)]}
+
+
+@dataclass(frozen=True)
+class StudioView:
+    """A world's part in the studio.
+
+    Attributes
+    ----------
+    scene : str or None
+        ``"module:callable"``: ``callable() -> DrawingScene``, what the Demonstrate page offers
+        to draw on for this world; None: none.
+    scene_label : str
+        The scene's name in the page's menu.
+    board : str or None
+        ``"module:callable"``: ``callable(world) -> Board or None``, drawn on the Run page after
+        every step; None: no board.
+    settings : mapping setting name -> {value: label}
+        The world's settings the Run page offers, each value with the words the menu shows
+        (the first value is the menu's default).
+    hint : str
+        One line the Run page shows under its buttons for a program in this world.
+    """
+
+    scene: str | None = None
+    scene_label: str = ""
+    board: str | None = None
+    settings: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    hint: str = ""
+
+    def load(self, attr: str):
+        """The callable ``attr`` (``"scene"`` or ``"board"``) names, imported now."""
+        module, _, name = getattr(self, attr).partition(":")
+        return getattr(importlib.import_module(module), name)

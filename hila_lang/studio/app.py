@@ -1,0 +1,115 @@
+"""The studio's app: the pages' routes assembled into one Starlette app behind :class:`.security.Guard`,
+and :func:`serve`, which binds 127.0.0.1 and runs it with uvicorn.
+
+Routes of the app itself (every one behind the token, the Host and the Origin check):
+
+- ``GET /`` the page (``static/index.html``); ``GET /static/...`` its scripts and styles;
+- ``GET /api/pages`` the pages in tab order: ``[{name, title, script}]`` (the page loads each
+  ES module named there);
+- the files' routes (:mod:`.files`) and each page's own (:data:`PAGES`).
+
+A failed request is answered by Starlette's ``exception_handlers`` as ``{"error": TEXT}`` with the
+status :func:`.page.problem` gives (403 refused, 400 bad input or a file problem, 500 a bug in
+hila, which the studio survives; its traceback goes to the server's log).
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from ..core.errors import HilaError
+from . import demonstrate, files, imitate, run
+from .page import Studio, problem
+from .security import MAX_UPLOAD, Guard, cookie_name
+
+#: the pages, in tab order; a new page is its module here, its script in static/ and its test
+PAGES = (demonstrate.PAGE, imitate.PAGE, run.PAGE)
+
+
+def static_dir() -> Path:
+    return Path(str(resources.files("hila_lang.studio") / "static"))
+
+
+async def answer_problem(request: Request, exc: Exception) -> Response:
+    status, text = problem(exc)
+    return JSONResponse({"error": text}, status_code=status)
+
+
+#: every failure a handler may raise, answered by :func:`answer_problem`.  A bug in hila
+#: (``Exception``) is answered the same way, 500 with where it was raised; Starlette then raises it
+#: again for the server, which logs its traceback -- the report's material -- and the studio goes on.
+EXCEPTION_HANDLERS = {HilaError: answer_problem, OSError: answer_problem, ValueError: answer_problem,
+                      Exception: answer_problem}
+
+
+def make_app(folder: Path, token: str, port: int):
+    """The studio's ASGI app over ``folder`` for the studio at 127.0.0.1:``port``."""
+
+    async def index(request: Request) -> Response:
+        response = FileResponse(static_dir() / "index.html", headers={"cache-control": "no-store"})
+        given = request.query_params.get("token")
+        if given:
+            response.set_cookie(cookie_name(port), given, httponly=True, samesite="strict")
+        return response
+
+    async def pages(request: Request) -> Response:
+        return JSONResponse([dict(name=p.name, title=p.title, script=p.script) for p in PAGES])
+
+    routes = [
+        Route("/", index),
+        Route("/favicon.ico", lambda request: Response(status_code=204)),
+        Route("/api/pages", pages),
+        *files.ROUTES,
+        *(route for page in PAGES for route in page.routes),
+        Mount("/static", app=StaticFiles(directory=static_dir())),
+    ]
+    app = Starlette(routes=routes, exception_handlers=EXCEPTION_HANDLERS)
+    app.state.studio = Studio(Path(folder).resolve())
+    return Guard(app, token, port)
+
+
+def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str | None = None) -> int:
+    """Bind 127.0.0.1:``port`` (0: a free one), print the URL line, serve until Ctrl-C.
+
+    Returns 2 when the port is taken (one line says so); Ctrl-C raises KeyboardInterrupt after
+    the server has shut down (the CLI maps it to 130)."""
+    import errno
+    import socket
+    import sys
+
+    import uvicorn
+
+    from .security import new_token
+
+    token = token or new_token()
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        sock.bind(("127.0.0.1", port))
+    except OSError as exc:
+        sock.close()
+        if exc.errno in (errno.EADDRINUSE, errno.EACCES):
+            print(f"hila studio: port {port} on 127.0.0.1 is taken (or not allowed); "
+                  "choose another with --port N, or --port 0 for a free one", file=sys.stderr)
+            return 2
+        raise
+    sock.listen(128)  # connections wait in the backlog from now on, before uvicorn takes the socket
+    port = sock.getsockname()[1]
+    url = f"http://127.0.0.1:{port}/?token={token}"
+    print(f"hila studio: {url}", flush=True)
+    print(f"serving {folder.resolve()} (Ctrl-C to stop)", flush=True)
+    if open_browser:
+        import webbrowser
+
+        webbrowser.open(url)
+    config = uvicorn.Config(make_app(folder, token, port), log_level="warning", lifespan="off",
+                            ws_max_size=MAX_UPLOAD)
+    server = uvicorn.Server(config)
+    server.run(sockets=[sock])
+    return 0

@@ -1,0 +1,139 @@
+"""What every studio page shares: its declaration, the studio it serves, the door requests come in by.
+
+- :class:`Page`: a page's name (its tab and its state's key on the page, ``window.hilaStudio``),
+  title, ES module (in ``static/``) and routes; :mod:`.app` assembles the app from the pages.
+- :class:`Studio`: the folder a studio serves and what it keeps while it runs (templates read
+  once per change); a handler reaches it as ``request.app.state.studio``.
+- :func:`read_json` / :func:`read_body`: the one door a request's body comes in by (bounded by
+  :data:`.security.MAX_UPLOAD`; where a schema of every request belongs).
+- :func:`problem`: what a failed request says (hila's message and hint; an OSError as the file
+  and why; ``refused`` for a path or size the studio does not take).
+- :class:`JSONSocket`: a websocket of JSON objects, one answer per message; a bad message or a
+  failed one is answered with the reason and the socket goes on.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+from starlette.endpoints import WebSocketEndpoint
+from starlette.requests import Request
+from starlette.websockets import WebSocket
+
+from ..core.errors import HilaError, InputError, internal_error_message
+from .security import MAX_UPLOAD, inside
+
+
+@dataclass(frozen=True)
+class Page:
+    """One page of the studio: ``name`` (its tab's ``data-view``, its state's key), ``title``
+    (the tab), ``script`` (its ES module under ``static/``) and ``routes`` (Starlette routes)."""
+
+    name: str
+    title: str
+    script: str
+    routes: Sequence[Any] = ()
+
+
+@dataclass
+class Studio:
+    """The folder a studio serves (resolved) and the templates read from it, by name and mtime."""
+
+    folder: Path
+    _templates: dict = field(default_factory=dict)
+
+    def path(self, name: str) -> Path:
+        """``name`` inside the folder (:func:`.security.inside` refuses the rest)."""
+        return inside(self.folder, name)
+
+    def template(self, name: str):
+        """The template file ``name``, read again only when it changed."""
+        from ..osila.template import load_template
+
+        path = self.path(name)
+        mtime = path.stat().st_mtime
+        cached = self._templates.get(name)
+        if cached is None or cached[0] != mtime:
+            self._templates[name] = (mtime, load_template(path))
+        return self._templates[name][1]
+
+
+def studio_of(conn: Request | WebSocket) -> Studio:
+    return conn.app.state.studio
+
+
+async def read_body(request: Request, limit: int = MAX_UPLOAD) -> bytes:
+    """The request's body, refused (``refused: ...``) past ``limit`` bytes before it is all read."""
+    size = request.headers.get("content-length")
+    if size is not None and size.isdigit() and int(size) > limit:
+        raise InputError(f"refused: the upload is {int(size)} bytes; the studio takes at most {limit} bytes (its upload limit)")
+    chunks, total = [], 0
+    async for chunk in request.stream():
+        total += len(chunk)
+        if total > limit:
+            raise InputError(f"refused: the upload is over {limit} bytes, the studio's limit")
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def json_object(text: str | bytes) -> dict:
+    """A JSON object from a request or a websocket message; anything else is an InputError."""
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"expected a JSON body: {exc}") from None
+    if not isinstance(doc, dict):
+        raise InputError("expected a JSON object")
+    return doc
+
+
+async def read_json(request: Request) -> dict:
+    """The request's body as a JSON object (:func:`read_body`, :func:`json_object`)."""
+    return json_object(await read_body(request))
+
+
+def problem(exc: BaseException) -> tuple[int, str]:
+    """(HTTP status, text) of a failed request: 403 for a refusal, 400 for bad input or a file
+    that cannot be read or written, 500 for a bug in hila (said as such, the studio goes on)."""
+    if isinstance(exc, HilaError):
+        text = exc.message + (f" (hint: {exc.hint})" if exc.hint else "")
+        return (403 if exc.message.startswith("refused") else 400), text
+    if isinstance(exc, OSError):
+        return 400, f"{exc.filename or ''}: {exc.strerror or exc}"
+    if isinstance(exc, ValueError):
+        return 400, str(exc)
+    return 500, internal_error_message(exc)
+
+
+class JSONSocket(WebSocketEndpoint):
+    """A websocket of JSON objects: :meth:`on_message` answers each; a message that is not a
+    JSON object, or whose answer fails, is answered by :meth:`on_error` with the reason
+    (:func:`problem`'s text), and the socket stays open."""
+
+    encoding = "text"
+
+    async def on_receive(self, websocket: WebSocket, data: str) -> None:
+        doc: dict = {}
+        try:
+            doc = json_object(data)
+            await self.on_message(websocket, doc)
+        except Exception as exc:  # noqa: BLE001 - said on the page (a bug as such), the socket goes on
+            await self.on_error(websocket, doc, problem(exc)[1])
+
+    async def on_message(self, websocket: WebSocket, doc: dict) -> None:
+        raise NotImplementedError
+
+    async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:
+        raise NotImplementedError
+
+
+def template_json(template) -> dict:
+    """A template as the pages draw it."""
+    return dict(name=template.name, path=template.path.tolist(),
+                times=None if template.times is None else template.times.tolist(),
+                icps={k: v.tolist() for k, v in template.icps.items()},
+                segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments],
+                description=template.description, dim=int(template.path.shape[1]))

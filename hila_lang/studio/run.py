@@ -1,0 +1,350 @@
+"""The Run page: a program checked as it is typed (``POST /api/check``: ``hila lsp``'s analysis and
+what the program's world offers here), run on a robot (``GET /api/robots``: the registry's) or a
+recording replayed, and watched.  The websocket ``/ws/run`` holds one :class:`Session`:
+``{"cmd": "start", path, backend, robot, settings, seed}`` opens a :class:`RunSession` (the run
+``hila repl`` builds, :func:`hila_lang.session.runner.prepare`), ``{"cmd": "open", path}`` a
+:class:`ReplaySession` (a ``.hilarec``); both under :class:`hila_lang.session.repl.Repl` and both
+answer :data:`COMMANDS`: the REPL's commands in a worker thread, one at a time, ``stop``, ``answer``
+(a person's line to the world: a board's button), ``view`` (turn the 3-D view), ``scrub``; what a
+session cannot do it says.  After each step the page gets the state, the trace line, the world's
+board (its plug-in's), the left eye's image and the 3-D view (:mod:`hila_lang.session.view3d`)."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import contextlib
+import io
+import json
+import queue
+import tempfile
+import threading
+from pathlib import Path
+
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route, WebSocketRoute
+from starlette.websockets import WebSocket
+
+from ..core.errors import HilaError, InputError
+from ..plugins.studio import StudioView
+from .page import JSONSocket, Page, read_json, studio_of
+
+
+def analyse(path: Path, text: str) -> dict:
+    """The program ``text`` (as if at ``path``) for the page: ``problems`` as ``hila lsp`` locates
+    them (0-based ``line``, ``character``, ...), the ``settings`` its world declares, and what the
+    world's studio view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
+    from ..lsp.analysis import Document
+
+    doc = Document(str(path))
+    problems = [dict(line=p.line, character=p.character, end_line=p.end_line, end_character=p.end_character,
+                     message=p.message, severity=p.severity) for p in doc.analyse(text)]
+    world = doc.world()
+    view = (world.studio if world is not None else None) or StudioView()
+    return dict(problems=problems, settings=[s.name for s in world.settings] if world is not None else [],
+                offered={k: dict(v) for k, v in view.settings.items()}, hint=view.hint)
+
+
+class LineInput(io.TextIOBase):
+    """``stdin`` of a world that asks a person: ``readline`` waits for a line the page sends."""
+
+    def __init__(self, on_wait) -> None:
+        self._lines: queue.Queue[str] = queue.Queue()
+        self.waiting, self._on_wait = False, on_wait
+
+    def put(self, text: str) -> None:
+        self._lines.put(text.rstrip("\n") + "\n")
+
+    def readline(self, *args) -> str:  # noqa: D401
+        self.waiting = True
+        self._on_wait()
+        try:
+            return self._lines.get()
+        finally:
+            self.waiting = False
+
+    def isatty(self) -> bool:
+        return True  # a person answers: the world does not echo the line
+
+
+class Output(io.TextIOBase):
+    """``stdout`` of the REPL and the world: each write goes to the page."""
+
+    def __init__(self, emit) -> None:
+        self._emit = emit
+
+    def write(self, text: str) -> int:
+        if text:
+            self._emit({"type": "out", "text": text})
+        return len(text)
+
+
+def fsm_graph(fsm) -> dict:
+    """Nodes and edges of the state machine, for drawing."""
+    return dict(start=fsm.start,
+                nodes=[dict(name=s.name, kind=s.kind, line=s.line) for s in fsm.states.values()],
+                edges=[[s.name, target, label] for s in fsm.states.values() for target, label in s.edges()])
+
+
+def _png(rgb) -> str:
+    from ..core.fileio import png_bytes
+
+    return base64.b64encode(png_bytes(rgb)).decode()
+
+
+class Session:
+    """What the Run page steps under the REPL, one command at a time: ``interp`` is its engine,
+    ``length`` a recording's steps (None: a run); the base class answers as a recording does."""
+
+    length: int | None = None
+
+    def __init__(self, emit) -> None:
+        self.emit, self.repl, self.interp, self._lock = emit, None, None, threading.Lock()
+
+    def command(self, line: str) -> None:
+        """Run one REPL command in a worker thread (one at a time: a second waits its turn)."""
+        def work():
+            with self._lock:
+                try:
+                    self.repl.onecmd(line)
+                except Exception as exc:  # noqa: BLE001 - reported on the page, the session goes on
+                    self.emit({"type": "out", "text": f"error: {exc}\n"})
+                self.emit(self.snapshot())
+        threading.Thread(target=work, daemon=True).start()
+
+    def resume(self, line: str) -> None:
+        """Step or run on (a run first forgets a ``stop``)."""
+        self.command(line)
+
+    def stop(self) -> None:
+        """Stop a run before its next state (a recording stops by itself)."""
+
+    def answer(self, text: str) -> None:
+        raise InputError("a recording takes no answers: it replays the moves it recorded")
+
+    def turn(self, azimuth: float) -> None:
+        """Turn the 3-D view (a recording has none)."""
+
+    def scrub(self, n: int) -> None:
+        raise InputError("only a recording scrubs; step a run with Step, Run or Back")
+
+    def snapshot(self) -> dict:
+        """The state for the page: where the engine is, its steps, its last path, and :meth:`details`."""
+        it, path = self.interp, self.interp.last_path
+        return dict(type="state", current=None if it.done else it.current, done=it.done, steps=it.trace.total,
+                    path=None if path is None else path.tolist(), **self.details())
+
+    def details(self) -> dict:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        pass
+
+
+class RunSession(Session):
+    """A program run on a back end, stepped by the page's buttons."""
+
+    def __init__(self, program: Path, emit, *, backend: str | None = None, settings: dict | None = None,
+                 seed: int = 0, robot: str | None = None) -> None:
+        from ..plugins import registry
+        from ..plugins.options import RunOptions
+        from ..session.repl import Repl
+        from ..session.runner import prepare
+
+        super().__init__(emit)
+        self.stdin, self.stdout = LineInput(lambda: self.emit(self.snapshot())), Output(emit)
+        self._out = tempfile.TemporaryDirectory(prefix="hila-studio-")
+        settings = dict(settings or {}, **({"robot": robot} if robot else {}))  # --robot NAME: the arm that runs
+        self.options = RunOptions(seed=seed, out=Path(self._out.name), settings=settings, stdin=self.stdin,
+                                  stdout=self.stdout)
+        self.interp = prepare(program, self.options, backend)
+        view = registry.world(self.interp.checked.world).studio
+        self._board = view.load("board") if view is not None and view.board else None
+        self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
+        self.interp.observers.append(self._observe)
+        self.last_eye = self.robot = None  # base64 PNGs: the left eye's last image, the 3-D view
+        self.azimuth = 35.0
+        self._view()
+
+    def _observe(self, entry) -> None:
+        if entry.kind == "run":
+            eyes = self.interp.backend.eyes
+            try:
+                self.last_eye = None if eyes is None else _png(eyes.camera_image("left").rgb)
+            except Exception:  # noqa: BLE001 - no picture is not a failed step
+                self.last_eye = None
+            self._view(entry)
+        self.emit(dict(self.snapshot(), type="step", entry=str(entry)))
+
+    def _view(self, entry=None) -> None:
+        """The 3-D view now, with the last run state's planned and executed paths."""
+        from ..session.view3d import render
+
+        entry = entry or self.interp.last_run
+        try:
+            rgb = render(self.interp.backend, self.azimuth, None if entry is None else entry.path,
+                         None if entry is None else entry.executed)
+        except Exception:  # noqa: BLE001 - no picture is not a failed step
+            rgb = None
+        self.robot = None if rgb is None else _png(rgb)
+
+    def turn(self, azimuth: float) -> None:
+        self.azimuth = float(azimuth) % 360.0
+        with self._lock:
+            self._view()
+            self.emit(self.snapshot())
+
+    def details(self) -> dict:
+        board = None if self._board is None else self._board(self.interp.world)
+        return dict(waiting=self.stdin.waiting, board=None if board is None else board.to_json(), eye=self.last_eye,
+                    robot=self.robot, arm=self.options.robot.name,  # the arm that runs
+                    breakpoints=list(self.repl.breakpoints) if self.repl else [])
+
+    def answer(self, text: str) -> None:
+        self.stdin.put(text)
+
+    def stop(self) -> None:
+        if "*" not in self.repl.breakpoints:
+            self.repl.breakpoints.append("*")
+        if self.stdin.waiting:
+            self.stdin.put("q")
+
+    def resume(self, line: str) -> None:
+        if "*" in self.repl.breakpoints:
+            self.repl.breakpoints.remove("*")
+        self.command(line)
+
+    def close(self) -> None:
+        from ..session.runner import finish
+
+        if self.stdin.waiting:
+            self.stdin.put("q")
+        with self._lock, contextlib.suppress(HilaError):
+            finish(self.interp)
+        self._out.cleanup()
+
+
+class ReplaySession(Session):
+    """A recording (``.hilarec``), scrubbed step by step without a simulator."""
+
+    def __init__(self, file: Path, emit) -> None:
+        from ..session.recording import read_record
+        from ..session.repl import Repl
+        from ..session.replay import ReplayEngine
+
+        super().__init__(emit)
+        self.record = read_record(file)
+        self.interp = ReplayEngine(self.record)
+        self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=Output(emit))
+        self.length = len(self.record.get("steps", []))
+
+    def scrub(self, n: int) -> None:
+        n = max(0, min(int(n), self.length))
+        with self._lock:
+            self.repl.onecmd("reset")
+            if n:
+                self.repl.onecmd(f"step {n}")
+            self.emit(self.snapshot())
+
+    def details(self) -> dict:
+        n, steps, images = self.interp.trace.total, self.record.get("steps", []), self.record.get("images", {})
+        eye = next((base64.b64encode(images[s["eye"]]).decode() for s in reversed(steps[:n]) if s.get("eye") in images),
+                   None)  # the last eye image recorded up to step n
+        return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[],
+                    entry=str(steps[n - 1]["text"]) if n else "")
+
+
+#: the page's messages to an open session: what each asks of it
+COMMANDS = {
+    "step": lambda s, doc: s.resume(f"step {int(doc.get('n', 1))}"),
+    "run": lambda s, doc: s.resume("run"),
+    "back": lambda s, doc: s.resume("back"),
+    "reload": lambda s, doc: s.resume("reload"),
+    "break": lambda s, doc: s.command(f"break {doc.get('state', '')}"),
+    "clear": lambda s, doc: s.command(f"clear {doc.get('state', '')}"),
+    "stop": lambda s, doc: s.stop(),
+    "answer": lambda s, doc: s.answer(str(doc.get("text", ""))),
+    "view": lambda s, doc: s.turn(float(doc.get("azimuth", 35))),
+    "scrub": lambda s, doc: s.scrub(int(doc.get("n", 0))),
+}
+
+
+class RunSocket(JSONSocket):
+    """``/ws/run``: one :class:`Session` per socket; its messages (and every error) go out in order
+    through one queue, from whichever thread makes them."""
+
+    async def on_connect(self, websocket: WebSocket) -> None:
+        await websocket.accept()
+        loop = asyncio.get_running_loop()
+        self.session: Session | None = None
+        self.outbox: asyncio.Queue = asyncio.Queue()
+        self.emit = lambda msg: loop.call_soon_threadsafe(self.outbox.put_nowait, msg)
+
+        async def pump():
+            while True:
+                await websocket.send_text(json.dumps(await self.outbox.get()))
+
+        self.pumping = asyncio.create_task(pump())
+
+    async def on_message(self, websocket: WebSocket, doc: dict) -> None:
+        cmd = doc.get("cmd")
+        if cmd in ("start", "open"):
+            await self._close()
+            path = studio_of(websocket).path(str(doc.get("path", "")))
+            opening = (lambda: self._start(path, doc)) if cmd == "start" else (lambda: ReplaySession(path, self.emit))
+            self.session = await run_in_threadpool(opening)
+            self.emit(dict(type="fsm", graph=fsm_graph(self.session.interp.fsm), length=self.session.length))
+            self.emit(self.session.snapshot())
+        elif cmd not in COMMANDS:
+            raise InputError(f"unknown command {cmd!r}; expected start, open or {', '.join(COMMANDS)}")
+        elif self.session is None:
+            raise InputError("open a program (Run) or a recording first")
+        else:
+            await run_in_threadpool(COMMANDS[cmd], self.session, doc)
+
+    def _start(self, path: Path, doc: dict) -> RunSession:
+        """A run of ``path`` with the given settings its world declares (not another program's)."""
+        from ..core.fileio import read_text
+
+        given = doc.get("settings") or {}
+        if not isinstance(given, dict):
+            raise InputError(f"expected the settings as a JSON object, got {given!r}")
+        known = analyse(path, read_text(path, "program"))["settings"]
+        settings = {str(k): str(v) for k, v in given.items() if k in known and v}
+        return RunSession(path, self.emit, backend=doc.get("backend") or None, settings=settings,
+                          seed=int(doc.get("seed", 0)), robot=str(doc.get("robot") or "") or None)
+
+    async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:
+        self.emit({"type": "error", "text": text})
+
+    async def _close(self) -> None:
+        if self.session is not None:
+            session, self.session = self.session, None
+            await run_in_threadpool(session.close)
+
+    async def on_disconnect(self, websocket: WebSocket, close_code: int) -> None:
+        self.pumping.cancel()
+        await self._close()
+
+
+async def _robots(request: Request) -> Response:
+    from ..plugins import registry
+    from ..robot.spec import DEFAULT_ROBOT
+
+    robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first
+    return JSONResponse([dict(name=r.name, doc=r.doc) for r in robots])
+
+
+async def _check(request: Request) -> Response:
+    doc = await read_json(request)
+    path = studio_of(request).path(str(doc.get("path") or "untitled.hila"))
+    return JSONResponse(await run_in_threadpool(analyse, path, str(doc.get("text", ""))))
+
+
+PAGE = Page("run", "3 Run & watch", "run.js", routes=[
+    Route("/api/check", _check, methods=["POST"]),
+    Route("/api/robots", _robots),
+    WebSocketRoute("/ws/run", RunSocket),
+])

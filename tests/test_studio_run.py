@@ -1,0 +1,240 @@
+"""hila studio's Run page in a real browser: run a game to its end by clicks on the board its
+world offers, breakpoints and Back on the way; open a recording and scrub it; a PyBullet run shows
+the iCub and its eye; the docs' walk-through (draw a swipe, save it, a two-line program, run it)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("starlette")
+
+from hila_lang.core.errors import InputError  # noqa: E402
+from hila_lang.studio.run import COMMANDS, ReplaySession, RunSession, analyse  # noqa: E402
+from studio_support import READY, ROOT, click_at, plane_to_pixel, wait_status  # noqa: E402
+from studio_support import browser, page, studio  # noqa: F401 - the fixtures
+
+def test_checking_says_what_the_programs_world_offers():
+    game = ROOT / "programs" / "game.hila"
+    doc = analyse(game, game.read_text())
+    assert doc["problems"] == [] and "opponent" in doc["settings"]
+    assert doc["offered"] == {"opponent": {"human": "you (click a cell)", "minimax": "minimax", "random": "random"}}
+    assert "crosses" in doc["hint"]
+    abc = ROOT / "programs" / "abc.hila"
+    assert analyse(abc, abc.read_text())["offered"] == {}  # the scripted world offers nothing here
+    broken = analyse(abc, "main {\n  run nothing.x()\n}\n")
+    assert broken["problems"][0]["line"] == 1 and broken["problems"][0]["severity"] == "error"
+
+
+def test_the_page_sends_only_what_a_session_understands():
+    import re
+
+    script = (ROOT / "hila_lang" / "studio" / "static" / "run.js").read_text()
+    sent = set(re.findall(r'cmd: "(\w+)"', script)) | {c for c in ("step", "run", "back", "reload", "stop")
+                                                         if f'"{c}"' in script}
+    assert sent - {"start", "open"} <= set(COMMANDS) and {"start", "open", "answer", "scrub", "view"} <= sent
+
+
+def test_one_session_protocol_for_a_run_and_a_recording(tmp_path):
+    """The same messages drive both; what one cannot do it says (no hasattr between them)."""
+    import time
+
+    from hila_lang.cli import main
+
+    out = []
+    run = RunSession(ROOT / "programs" / "game.hila", out.append, backend="dry", settings={"opponent": "minimax"})
+    try:
+        board = run.snapshot()["board"]  # the world's board, from its plug-in
+        assert board["columns"] == 3 and [c["answer"] for c in board["cells"]] == [str(i) for i in range(1, 10)]
+        with pytest.raises(InputError, match="only a recording scrubs"):
+            COMMANDS["scrub"](run, {"n": 3})
+        COMMANDS["step"](run, {"n": 2})
+        for _ in range(200):
+            if run.snapshot()["steps"] == 2:
+                break
+            time.sleep(0.05)
+        assert run.snapshot()["steps"] == 2 and any(m.get("type") == "step" for m in out)
+    finally:
+        run.close()
+    rec = tmp_path / "g.hilarec"
+    assert main(["exec", str(ROOT / "programs" / "game.hila"), "--backend", "dry", "--opponent", "minimax",
+                 "--record", str(rec), "--out", str(tmp_path / "o")]) == 0
+    replay = ReplaySession(rec, out.append)
+    with pytest.raises(InputError, match="a recording takes no answers"):
+        COMMANDS["answer"](replay, {"text": "5"})
+    COMMANDS["view"](replay, {"azimuth": 90})  # a recording has no 3-D view: nothing to turn
+    COMMANDS["stop"](replay, {})
+    COMMANDS["scrub"](replay, {"n": 4})
+    assert replay.snapshot()["steps"] == 4 and replay.length > 4 and replay.snapshot()["board"] is None
+
+
+#: docs/studio.md's walk-through: a straight stroke across the tic-tac-toe grid, corner to corner
+SWIPE_JS = """
+async () => {
+  const S = window.hilaStudio.demo, c = document.querySelector('[data-testid=demo-canvas]'), box = c.getBoundingClientRect();
+  const { applyH } = await import('/static/common.js');
+  const px = (p) => applyH(S.H, p[0], p[1]);
+  const f = (n) => S.scene.features.find(x => x.name === n).point;
+  const a = f('cell1.tl'), b = f('cell9.br');
+  const sleep = (ms) => new Promise(res => setTimeout(res, ms));
+  const fire = (type, p, down) => { const [u, v] = px(p); c.dispatchEvent(new PointerEvent(type, {bubbles: true,
+      clientX: box.left + u, clientY: box.top + v, pointerId: 3, pointerType: 'mouse', buttons: down ? 1 : 0})); };
+  const sm = (s) => s * s * (3 - 2 * s);
+  const leg = async (p, q, n, down) => { for (let i = 1; i <= n; i++) { const s = sm(i / n);
+      fire('pointermove', [p[0] + (q[0] - p[0]) * s, p[1] + (q[1] - p[1]) * s], down); await sleep(16); } };
+  const start = [a[0] - 0.08, a[1] + 0.08], end = [b[0] + 0.06, b[1] - 0.08];
+  fire('pointermove', start, false); await leg(start, a, 30, false);
+  for (let i = 0; i < 8; i++) { fire('pointermove', a, false); await sleep(16); }
+  fire('pointerdown', a, true); await leg(a, b, 50, true); fire('pointerup', b, false);
+  for (let i = 0; i < 8; i++) { fire('pointermove', b, false); await sleep(16); }
+  await leg(b, end, 30, false);
+  c.dispatchEvent(new PointerEvent('pointerleave', {pointerId: 3}));
+}
+"""
+
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_run_game_to_its_end_by_clicks(page, studio, tmp_path):
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.wait_for_function("document.querySelector('[data-testid=program-editor]').value.includes('world tictactoe')")
+    page.wait_for_selector("#problems li")
+    assert page.locator("#problems li").first.inner_text() == "no problems"
+    page.get_by_test_id("backend").select_option("dry")
+    page.get_by_test_id("opponent").select_option("human")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.current === 'main/until#1'")
+    page.get_by_test_id("step").click()
+    wait_status(page, "s.steps === 1")
+    assert page.get_by_test_id("fsm-current").get_attribute("data-state") == page.evaluate("window.hilaStudio.run.state.current")
+    page.locator('#fsm g[data-state="main/mark/draw"]').click()  # a breakpoint
+    wait_status(page, "s.breakpoints.includes('main/mark/draw')")
+    page.get_by_test_id("run").click()
+    wait_status(page, "s.current === 'main/mark/draw' && s.steps === 5")  # stopped before entering it
+    page.get_by_test_id("back").click()
+    wait_status(page, "s.steps === 4")
+    page.locator('#fsm g[data-state="main/mark/draw"]').click()  # cleared
+    wait_status(page, "s.breakpoints.length === 0")
+    page.get_by_test_id("run").click()
+    moves = 0
+    while True:  # the page's board shows every cross played so far when it asks for the next
+        wait_status(page, f"s.done || (s.waiting && s.board.cells.filter(c => c.label === 'X').length === {moves})")
+        state = page.evaluate("window.hilaStudio.run.state")
+        if state["done"]:
+            break
+        if moves == 0:
+            page.screenshot(path=tmp_path / "run-your-move.png")
+        free = [i + 1 for i, c in enumerate(state["board"]["cells"]) if c["answer"] is not None]
+        page.get_by_test_id(f"cell-{free[0]}").click()
+        moves += 1
+    board = [c["label"] for c in page.evaluate("window.hilaStudio.run.state.board.cells")]
+    assert moves >= 2 and board.count("X") == moves and board.count("O") >= moves
+    assert "finished" in page.get_by_test_id("run-status").inner_text()
+    assert "result:" in page.get_by_test_id("trace").inner_text() or "end" in page.get_by_test_id("trace").inner_text()
+    page.screenshot(path=tmp_path / "run-finished.png")
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_open_a_recording_and_scrub(page, studio, tmp_path):
+    rec = studio.folder / "game.hilarec"
+    r = subprocess.run([sys.executable, "-m", "hila_lang", "exec", "game.hila", "--backend", "dry", "--opponent", "minimax",
+                        "--record", str(rec), "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                       cwd=studio.folder, timeout=120)
+    assert r.returncode == 0, r.stderr
+    from hila_lang.session.recording import read_record
+
+    steps = read_record(rec)["steps"]
+    page.reload()
+    page.wait_for_function(READY)
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("recording-select").select_option("game.hilarec")
+    wait_status(page, "s.length > 0")
+    scrub = page.get_by_test_id("scrub")
+    for n in (len(steps) // 2, 5, len(steps)):
+        scrub.evaluate("(el, n) => { el.value = n; el.dispatchEvent(new Event('input')); }", n)
+        wait_status(page, f"s.steps === {n}")
+        state = page.evaluate("window.hilaStudio.run.state")
+        if n < len(steps):
+            assert state["current"] == steps[n]["state"]
+            assert page.get_by_test_id("fsm-current").get_attribute("data-state") == steps[n]["state"]
+        else:
+            assert state["done"]
+        assert f"step {n} of {len(steps)}" in page.get_by_test_id("scrub-at").inner_text()
+    page.screenshot(path=tmp_path / "recording.png")
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_the_robot_menu_runs_the_chosen_arm(page, studio, tmp_path):
+    """The Run page's robot choice (issue 33), listed from the registry, reaches the run: the Panda
+    moves, and the 3-D view shows it."""
+    page.get_by_test_id("tab-run").click()
+    assert page.get_by_test_id("robot-choice").input_value() == "icub"  # the default robot first
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.get_by_test_id("backend").select_option("pybullet")
+    page.get_by_test_id("robot-choice").select_option("panda")
+    page.get_by_test_id("opponent").select_option("minimax")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.robot && s.steps === 0 && s.arm === 'panda'", timeout=120000)
+    assert page.get_by_test_id("robot-view").get_attribute("src").startswith("data:image/png")
+    page.screenshot(path=tmp_path / "run-panda.png")
+    page.get_by_test_id("stop").click()
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_pybullet_run_shows_the_icub_and_its_eye(page, studio, tmp_path):
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("game.hila")
+    page.get_by_test_id("backend").select_option("pybullet")
+    page.get_by_test_id("opponent").select_option("minimax")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.robot && s.steps === 0", timeout=120000)
+    first = page.get_by_test_id("robot-view").get_attribute("src")
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    page.get_by_test_id("step").click()
+    wait_status(page, "s.steps === 5 && s.eye", timeout=120000)  # reach ran: the robot looked
+    assert page.get_by_test_id("robot-view").get_attribute("src") != first  # the arm moved
+    assert page.get_by_test_id("eye").is_visible()
+    page.screenshot(path=tmp_path / "run-pybullet.png")
+    page.get_by_test_id("stop").click()
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_the_docs_walk_through_swipe_save_two_line_program_run(page, studio, tmp_path):
+    page.on("dialog", lambda d: d.accept("mine.hila"))
+    page.get_by_test_id("scene-select").select_option("world:tictactoe")
+    page.wait_for_function("window.hilaStudio.demo.scene.name === 'world:tictactoe' && window.hilaStudio.demo.image.complete")
+    page.get_by_test_id("segment-tags").fill("reach,stroke,retract")
+    page.get_by_test_id("segment-contact").fill("stroke")
+    page.evaluate(SWIPE_JS)
+    page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.cuts.length === 2")
+    demo = page.evaluate("window.hilaStudio.demo")
+    feats = {f["name"]: f["point"] for f in demo["scene"]["features"]}
+    page.get_by_test_id("mode-icp").check()
+    for name, corner in (("from", "cell1.tl"), ("to", "cell9.br")):
+        page.get_by_test_id("icp-name").fill(name)
+        u, v = plane_to_pixel(page, demo["H"], feats[corner])
+        click_at(page, "demo-canvas", u + 3, v - 3)
+    page.get_by_test_id("template-name").fill("swipe")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.demo.saved && window.hilaStudio.demo.saved.template === 'swipe.yaml'")
+    assert [s["contact"] for s in page.evaluate("window.hilaStudio.demo.saved.segments")] == [False, True, False]
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-editor").fill(
+        "import swipe\nmain { run swipe(from = (0.25, -0.02, 0.571), to = (0.38, -0.16, 0.571)) }\n")
+    page.wait_for_function("document.querySelector('#problems').innerText.includes('no problems')")
+    assert page.get_by_test_id("opponent").count() == 0  # the scripted world offers no opponent
+    page.get_by_test_id("program-save").click()
+    page.wait_for_function("document.querySelector('[data-testid=program-select]').value === 'mine.hila'")
+    page.get_by_test_id("backend").select_option("dry")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.current === 'main/swipe'")
+    page.get_by_test_id("run").click()
+    wait_status(page, "s.done")
+    assert "finished after 2 steps" in page.get_by_test_id("run-status").inner_text()
+    page.screenshot(path=tmp_path / "walk-through.png")
