@@ -102,6 +102,9 @@ def teach(page, mark: str) -> dict:
     demo = page.evaluate("window.hilaStudio.demo")
     assert "now place the ICPs" in page.get_by_test_id("save-status").inner_text()
 
+    page.get_by_role("button", name="Save template").click()   # too early: said, and cleared by the next step
+    page.wait_for_function("document.querySelector('[data-testid=save-status]').dataset.kind === 'error'")
+    assert "place at least one ICP" in page.get_by_test_id("save-status").inner_text()
     page.get_by_label("Place ICPs").check()
     for name, p in [*corners.items(), ("hand", demo["path"][0])]:
         page.get_by_test_id("icp-name").fill(name)
@@ -109,7 +112,8 @@ def teach(page, mark: str) -> dict:
         page.mouse.click(x + 3, y - 2)   # near it: a click snaps to the crossing or the path's start
     icps = page.evaluate("window.hilaStudio.demo.icps")
     assert {k: icps[k] for k in corners} == corners and icps["hand"] == demo["path"][0]
-    assert "5 ICPs placed" in page.get_by_test_id("save-status").inner_text()  # the guide moved on
+    status = page.get_by_test_id("save-status")
+    assert "5 ICPs placed" in status.inner_text() and "error" not in status.inner_text()  # the guide moved on
     assert page.get_by_test_id("segment-tags").input_value() == "reach,draw,retract"
     assert page.get_by_test_id("segment-contact").input_value() == "draw"
     page.get_by_test_id("template-name").fill("circle")
