@@ -253,7 +253,8 @@ def test_the_referee_lists_unclear_cells_apart_from_misreads():
 
 def test_the_shipped_game_plays_a_drawn_mark_whose_retract_heads_elsewhere(tmp_path, capsys, monkeypatch):
     """A person's triangle whose retract leaves the way the reach did not come: the game as it was
-    (retract with hand = arm.park) ran the final retract 48.6 mm under the paper (exit 1); the
+    (retract with hand = arm.park) ran the final retract 48.6 mm under the paper (exit 1, before
+    issue 37's TPS limit); the
     shipped game leaves `hand` out of the retract (as demonstrated, placed by the cell and the
     pen) and plays to the end, and hila check warns about the old binding: it depends on where
     the demonstration's retract went."""
@@ -271,8 +272,9 @@ def test_the_shipped_game_plays_a_drawn_mark_whose_retract_heads_elsewhere(tmp_p
     err = capsys.readouterr().err
     assert f"{old}:{line_of(old, 'run circle.retract(')}:32: warning: ICP 'hand' of 'circle.retract' is bound here, but its path never comes near " \
            "'hand' in the template" in err
-    assert main(["exec", str(old), "--backend", "dry", "--seed", "1", "--set", "report=no"]) == 1
-    assert "mm below the paper" in capsys.readouterr().err
+    # (the old binding's run itself ended 48.6 mm under the paper before issue 37 limited how much
+    # the TPS may amplify; with main's OSILA it now ends above it for this seed: the warning stands,
+    # as the path still depends on where the demonstration's retract went)
     # the shipped circle's retract comes back near its hand: no warning for it
     assert main(["check", str(ROOT / "programs" / "game.hila")]) == 0
     assert "warning" not in capsys.readouterr().err
