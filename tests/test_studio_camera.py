@@ -183,7 +183,7 @@ def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page,
     page.get_by_test_id("template-name").fill("circle")
     page.get_by_test_id("save-template").click()
     page.wait_for_function("window.hilaStudio.demo.saved !== undefined")
-    page.screenshot(path=tmp_path / "camera-saved.png")
+    page.screenshot(path=tmp_path / "camera-saved.png", full_page=True)
     saved = page.evaluate("window.hilaStudio.demo.saved")
     assert [s["tag"] for s in saved["segments"]] == ["reach", "draw", "retract"]
 
@@ -235,23 +235,35 @@ def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page,
     assert "result:" in r.stdout and "circle.draw" in r.stdout
 
 
-def _doctored(video, folder: Path, case: str) -> Path:
-    """The first 60 frames of ``video`` without markers, without the ball, or with the sheet
-    hidden (two markers painted over) for the first 40."""
+def _doctored(video, folder: Path, case: str, frames: int = 40) -> Path:
+    """The first ``frames`` frames of ``video`` without markers, without the ball, or with the
+    sheet hidden (two markers painted over) for the first 30, as a .y4m (460 kB a frame)."""
     def change(i, rgb):
         if case == "no-ball":
             g = rgb.astype(int)
             green = g[:, :, 1] - np.maximum(g[:, :, 0], g[:, :, 2]) > 10
             rgb[green] = rgb[green].mean(axis=1, keepdims=True).astype(np.uint8)
             return rgb
-        ids = video.layout.ids if case == "no-markers" else (video.layout.ids[:2] if i < 40 else ())
+        ids = video.layout.ids if case == "no-markers" else (video.layout.ids[:2] if i < 30 else ())
         for marker_id in ids:
             corners = video.camera.project(np.column_stack([video.layout.marker_corners()[marker_id], np.zeros(4)]))
             centre = corners.mean(axis=0)
             cv2.fillConvexPoly(rgb, np.round(centre + (corners - centre) * 1.3).astype(np.int32), (235, 235, 232))
         return rgb
 
-    return write_y4m(folder / f"{case}.y4m", (change(i, video.frame(i).copy()) for i in range(60)), video.spec.fps)
+    return write_y4m(folder / f"{case}.y4m", (change(i, video.frame(i).copy()) for i in range(frames)),
+                     video.spec.fps)
+
+
+def _upload(page, file: Path) -> str:
+    """Upload ``file`` on the Camera scene; the reason it was refused."""
+    page.evaluate("window.hilaStudio.demo.camera.error = null")
+    page.get_by_test_id("camera-upload").set_input_files(str(file))
+    page.wait_for_function("window.hilaStudio.demo.camera.error", timeout=120000)
+    error = page.evaluate("window.hilaStudio.demo.camera.error")
+    assert error in page.get_by_test_id("camera-status").inner_text()  # said on the page
+    assert page.evaluate("window.hilaStudio.demo.path") is None  # nothing put on the page
+    return error
 
 
 @pytest.mark.slow  # a browser, a server and tracked videos (tests/conftest.py)
@@ -259,16 +271,14 @@ def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(camera_pa
                                                                       tmp_path):
     video, _ = fake_camera
     before = sorted(p.name for p in camera_studio.folder.iterdir())
-    expected = {"no-markers": "no marker of a hila sheet in any of its 60 frames",
-                "no-ball": "no green ball (the pen's tip) in any of its 60 frames",
-                "hidden-sheet": "sheet (at least 3 of its 4 markers) lost in 40 of 60 camera frames; cannot bridge"}
+    expected = {"no-markers": "no marker of a hila sheet in any of its 40 frames",
+                "no-ball": "no green ball (the pen's tip) in any of its 40 frames",
+                "hidden-sheet": "sheet (at least 3 of its 4 markers) lost in 30 of 40 camera frames; cannot bridge"}
     for case, message in expected.items():
-        file = _doctored(video, tmp_path, case)
-        camera_page.evaluate("window.hilaStudio.demo.camera.error = null")
-        camera_page.get_by_test_id("camera-upload").set_input_files(str(file))
-        camera_page.wait_for_function("window.hilaStudio.demo.camera.error", timeout=120000)
-        error = camera_page.evaluate("window.hilaStudio.demo.camera.error")
+        error = _upload(camera_page, _doctored(video, tmp_path, case))
         assert f"{case}.y4m" in error and message in error, error
-        assert message in camera_page.get_by_test_id("camera-status").inner_text()
-        assert camera_page.evaluate("window.hilaStudio.demo.path") is None  # nothing put on the page
+    # a video over the studio's upload limit (46 uncompressed frames) is refused before it is read
+    big = write_y4m(tmp_path / "big.y4m", [video.frame(0)] * 46, video.spec.fps)
+    assert _upload(camera_page, big).startswith(f"refused: the upload is {big.stat().st_size} bytes; the studio "
+                                                "takes at most 20971520 bytes")
     assert sorted(p.name for p in camera_studio.folder.iterdir()) == before  # nothing saved

@@ -96,8 +96,6 @@ AGREE_PX = 1.5
 EDGE_TOLERANCE_PX = 0.5
 #: default diameter of the pen's ball, millimetres
 BALL_MM = 12.0
-SMOOTH_RADIUS = True
-RADIUS_TOLERANCE_PX = 0.5
 
 
 @dataclass
@@ -539,8 +537,6 @@ class PenTracker:
         times = times - times[0]
         K = self.intrinsics(f_px)
         uv = rbf_smooth(times, balls[:, :2])
-        if SMOOTH_RADIUS:  # the ball's size as its position: a frame's outline is noisier than the motion
-            balls[:, 2] = rbf_smooth(times, balls[:, 2:3], tolerance=RADIUS_TOLERANCE_PX)[:, 0]
         on_paper, cams, rays, ratio = np.empty((T, 3)), np.empty((T, 3)), np.empty((T, 3)), np.empty(T)
         for i in range(T):
             R, C = camera_pose(Hs[i].reshape(3, 3), K)
