@@ -11,7 +11,6 @@ without markers, without the ball, or with the sheet hidden, refused saying whic
 from __future__ import annotations
 
 import base64
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -27,7 +26,8 @@ pytest.importorskip("starlette")
 from hila_lang.perception.penvideo import PenVideo, PenVideoSpec, write_video, write_y4m  # noqa: E402
 from hila_lang.studio import camera  # noqa: E402
 
-from studio_support import BROWSER_ARGS, READY, ROOT, Studio, chromium_or_skip  # noqa: E402
+from studio_support import launched, opened  # noqa: E402
+from studio_support import studio  # noqa: F401 - the fixture (hila studio on a folder with game.hila)
 
 
 def _jpeg(rgb, quality=90) -> str:
@@ -115,37 +115,17 @@ def fake_camera(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def camera_browser(fake_camera):
-    exe, sync_api = chromium_or_skip()
     _, path = fake_camera
-    args = BROWSER_ARGS + ["--use-fake-device-for-media-stream", "--use-fake-ui-for-media-stream",
-                           f"--use-file-for-fake-video-capture={path}"]
-    with sync_api.sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=exe, headless=True, args=args)
-        yield b
-        b.close()
-
-
-@pytest.fixture(scope="module")
-def camera_studio(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("studio-camera")
-    shutil.copy(ROOT / "programs" / "game.hila", folder / "game.hila")
-    s = Studio(folder)
-    yield s
-    assert s.stop() == 130
+    yield from launched(["--use-fake-device-for-media-stream", "--use-fake-ui-for-media-stream",
+                         f"--use-file-for-fake-video-capture={path}"])
 
 
 @pytest.fixture()
-def camera_page(camera_browser, camera_studio):
-    p = camera_browser.new_page(viewport={"width": 1400, "height": 1300})
-    errors = []
-    p.on("pageerror", lambda e: errors.append(str(e)))
-    p.goto(camera_studio.url)
-    p.wait_for_function(READY)
-    p.get_by_test_id("scene-select").select_option("camera")
-    p.wait_for_function("window.hilaStudio.demo.scene.name === 'camera'")
-    yield p
-    p.close()
-    assert not errors, errors
+def camera_page(camera_browser, studio):
+    for p in opened(camera_browser, studio, height=1300):
+        p.get_by_test_id("scene-select").select_option("camera")
+        p.wait_for_function("window.hilaStudio.demo.scene.name === 'camera'")
+        yield p
 
 
 def _nearest(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
@@ -154,7 +134,7 @@ def _nearest(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.slow  # a browser, a server and a tracked video (tests/conftest.py)
-def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page, camera_studio, fake_camera,
+def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page, studio, fake_camera,
                                                                     tmp_path):
     from hila_lang.osila.demofile import read_demo
     from hila_lang.osila.template import load_template
@@ -179,6 +159,8 @@ def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page,
     cam = page.evaluate("window.hilaStudio.demo.camera")
     assert cam["error"] is None, cam["error"]
     assert cam["track"]["cell"] == SPEC.cell  # the ICPs: the corners of the cell the pen drew in
+    said = page.get_by_test_id("camera-track").inner_text()
+    assert "on the A4 with grid sheet" in said and "pen down 1 time(s)" in said, said
     page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.cuts.length === 2")
     page.get_by_test_id("template-name").fill("circle")
     page.get_by_test_id("save-template").click()
@@ -187,7 +169,7 @@ def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page,
     saved = page.evaluate("window.hilaStudio.demo.saved")
     assert [s["tag"] for s in saved["segments"]] == ["reach", "draw", "retract"]
 
-    folder = camera_studio.folder
+    folder = studio.folder
     demo = read_demo(folder / "circle.demo.csv")
     template = load_template(folder / "circle.yaml")
     truth = video.truth
@@ -267,10 +249,10 @@ def _upload(page, file: Path) -> str:
 
 
 @pytest.mark.slow  # a browser, a server and tracked videos (tests/conftest.py)
-def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(camera_page, camera_studio, fake_camera,
+def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(camera_page, studio, fake_camera,
                                                                       tmp_path):
     video, _ = fake_camera
-    before = sorted(p.name for p in camera_studio.folder.iterdir())
+    before = sorted(p.name for p in studio.folder.iterdir())
     expected = {"no-markers": "no marker of a hila sheet in any of its 40 frames",
                 "no-ball": "no green ball (the pen's tip) in any of its 40 frames",
                 "hidden-sheet": "sheet (at least 3 of its 4 markers) lost in 30 of 40 camera frames; cannot bridge"}
@@ -281,4 +263,4 @@ def test_a_video_without_markers_ball_or_sheet_is_refused_saying_which(camera_pa
     big = write_y4m(tmp_path / "big.y4m", [video.frame(0)] * 46, video.spec.fps)
     assert _upload(camera_page, big).startswith(f"refused: the upload is {big.stat().st_size} bytes; the studio "
                                                 "takes at most 20971520 bytes")
-    assert sorted(p.name for p in camera_studio.folder.iterdir()) == before  # nothing saved
+    assert sorted(p.name for p in studio.folder.iterdir()) == before  # nothing saved

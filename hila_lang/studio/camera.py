@@ -52,14 +52,16 @@ from starlette.websockets import WebSocket
 from ..core.errors import InputError
 from .page import JSONSocket, read_body
 
-#: frames a second the page sends at most: hila resamples every demonstration at 20 Hz, finer
-#: frames add nothing to the path, and tracking one costs 25-40 ms of one core (ArUco and the
-#: ball's outline, 640x480), so 20 a second keeps the server under one core
+#: frames a second the page sends at most: hila resamples every demonstration at 20 Hz, so finer
+#: frames add little to the path; tracking one 640x480 frame costs about 8 ms of CPU (ArUco and
+#: the ball's outline; process time over 90 synthetic JPEG frames, load 13 on 2 cores), so 20 a
+#: second take about a sixth of a core
 FPS = 20
 #: the longest side of a frame the page sends (it downscales to it): the tracker's tip is within
 #: a millimetre at 640x480 (bench/pen.py), more pixels cost time and bytes, not accuracy
 MAX_SIDE = 640
-#: bytes of one JPEG frame, at most (a 640x480 JPEG at quality 0.9 is 40-120 kB)
+#: bytes of one JPEG frame, at most (a synthetic 640x480 frame at quality 0.9 is about 30 kB; a
+#: webcam's noisier frames are larger, 1 MB leaves them ten times room and more)
 MAX_FRAME_BYTES = 1_000_000
 #: frames in one recording, at most: two minutes at 30 frames a second
 MAX_FRAMES = 3600

@@ -24,6 +24,7 @@ export const html = `
     move away, press <b>Stop</b>. The frames go to this studio only.</p>
     <canvas id="camera-canvas" data-testid="camera-canvas" width="640" height="480"></canvas>
     <div id="camera-status" data-testid="camera-status" class="status"></div>
+    <div id="camera-track" data-testid="camera-track" class="muted"></div>
     <video id="camera-video" playsinline muted hidden></video>
   </div>`;
 
@@ -46,7 +47,12 @@ function answer(m) {
     if (m.was === "stop") { C.recording = false; buttons(); }
   }
 }
-function finished(m) { C.track = m; C.error = null; status(`tracked ${m.frames} frames (still ones left out: ${m.still[0]} before, ${m.still[1]} after): ${m.summary}`); onTrack(m); }
+function finished(m) {   // the recording's account stays on its own line (the live status goes on)
+  C.track = m; C.error = null; status("");
+  $("camera-track").textContent = `recorded: ${m.summary} Still frames left out: ${m.still[0]} before, ${m.still[1]} after; ` +
+    `longest gap between frames ${m.longest_gap_s.toFixed(2)} s.`;
+  onTrack(m);
+}
 function say() {
   const f = C.frame; if (!f || C.error && !C.recording) return;
   const sheet = f.sheet ? `sheet: ${Object.keys(f.markers).length} of 4 markers${f.remembered.length ? ` (${f.remembered.length} remembered)` : ""}` : "no sheet (show its corner markers)";
@@ -54,7 +60,7 @@ function say() {
   status(`${sheet}; ${ball}` + (C.recording ? `; recording: ${C.recorded} frames` + (C.sent - C.answered > 2 ? ` (the server is ${C.sent - C.answered} behind)` : "") : ""));
 }
 
-// the live image with what the server found in it: the markers (outlined; dashed when remembered), the ball
+// the live image with what the server found in it: the markers seen (outlined, with their ids), the ball
 function draw() {
   const c = $("camera-canvas"), ctx = c.getContext("2d"), v = $("camera-video");
   if (v.videoWidth) { if (c.width !== v.videoWidth) { c.width = v.videoWidth; c.height = v.videoHeight; } ctx.drawImage(v, 0, 0); }
