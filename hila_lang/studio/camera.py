@@ -172,7 +172,8 @@ def trim_still(tracker) -> tuple[int, int]:
 
 def result(tracker, cell=None, source: str = "the recording") -> dict:
     """A finished recording as the page takes it: ``{path, times, pen, icps, cell, summary,
-    frames, still, longest_gap_s, scene}`` (the path in metres at 20 Hz, as ``hila learn --sheet`` writes it), the
+    frames, still, longest_gap_s, frame_times, scene}`` (``frame_times``: the tracked frames' times,
+    seconds on the path's clock) (the path in metres at 20 Hz, as ``hila learn --sheet`` writes it), the
     still frames at its ends left out first (:func:`trim_still`; ``still``: how many).  ``cell``: the
     grid cell whose corners are the ICPs; None: the cell the pen drew in
     (:func:`hila_lang.perception.pen.drawn_cell`), or the corner markers off the grid."""
@@ -189,7 +190,7 @@ def result(tracker, cell=None, source: str = "the recording") -> dict:
     return dict(path=path.tolist(), times=times.tolist(), pen=pen.tolist(),
                 icps={k: np.asarray(v, float).tolist() for k, v in icps.items()}, cell=cell,
                 summary=track.summary(), frames=len(track.times), still=[before, after],
-                longest_gap_s=float(np.diff(track.times).max()),
+                longest_gap_s=float(np.diff(track.times).max()), frame_times=track.times.tolist(),
                 scene=sheet_scene(track.layout))
 
 
