@@ -95,6 +95,37 @@ def test_the_live_view_keeps_no_frames_and_the_sheet_scene_maps_millimetres_to_p
     assert img.shape == (742, 525) and img.min() == 0 and img.max() == 255
 
 
+def test_still_ends_are_left_out_and_the_cell_drawn_in_is_found():
+    from types import SimpleNamespace
+
+    from hila_lang.perception.pen import drawn_cell
+    from hila_lang.perception.sheet import SheetLayout
+
+    # 1 s still (0.3 px jitter), 2 s moving at 60 px/s, 1 s still, at 20 frames a second
+    rng = np.random.default_rng(0)
+    t = np.arange(80) / 20.0
+    x = np.clip(t - 1.0, 0.0, 2.0) * 60.0 + rng.normal(0.0, 0.3, 80)
+    frames = [SimpleNamespace(time=ti, ball=np.array([xi, 100.0])) for ti, xi in zip(t, x)]
+    frames[40].ball = None  # a frame without the ball is not a move
+    tracker = SimpleNamespace(frames=frames)
+    before, after = camera.trim_still(tracker)
+    assert (before, after) == (13, 12) and before + after + len(tracker.frames) == 80
+    # kept: from a quarter second before the 4 px within 0.2 s that start at 0.9 s, to a quarter
+    # second after the last ones, which end at 3.1 s
+    assert tracker.frames[0].time == pytest.approx(0.65) and tracker.frames[-1].time == pytest.approx(3.35)
+    still = SimpleNamespace(frames=frames[:20])
+    assert camera.trim_still(still) == (0, 0) and len(still.frames) == 20  # never moved: kept whole
+
+    layout = SheetLayout("a4", True)
+    feats = layout.features()
+    centre = (feats["cell7.tl"] + feats["cell7.br"]) / 2000.0
+    loop = centre + 0.01 * np.column_stack([np.cos(np.linspace(0, 6.3, 50)), np.sin(np.linspace(0, 6.3, 50))])
+    path = np.vstack([[[0.2, 0.2]] * 10, loop, [[0.2, 0.2]] * 10])
+    pen = np.r_[np.zeros(10, bool), np.ones(50, bool), np.zeros(10, bool)]
+    assert drawn_cell(layout, path, pen) == 7  # the pen-up reach far away does not count
+    assert drawn_cell(SheetLayout("a4", False), path, pen) is None and drawn_cell(layout, path, ~pen & False) is None
+
+
 # -- the browser with a fake camera -----------------------------------------------------------------
 
 #: the fake camera's video: the pen waits in the air 3 s more before it moves and after it stops,

@@ -67,13 +67,15 @@ MAX_FRAME_BYTES = 1_000_000
 MAX_FRAMES = 3600
 #: pixels per millimetre of the sheet drawn from above (:func:`sheet_scene`): an A4 sheet 525 px wide
 SCENE_PX_PER_MM = 2.5
-#: the ball's speed in the image above which the hand is moving, pixels a second.  A recording
-#: holds the still time before the person starts and after they stop (pressing Record, then
-#: Stop); left in, it is not a demonstration's reach or retract, it breaks the tracker's premise
-#: that a fifth of the frames have the pen down, and its jitter makes false speed dips.  Measured
-#: on the synthetic videos (tests/test_studio_camera.py's, and noise 4, blur 1.2 px): the ball
-#: held still jitters by at most 2 px/s, a reach peaks at 200 px/s; 10 leaves a hand's tremor room
-MOVING_PX_S = 10.0
+#: the hand is moving where the ball's image moves more than MOVING_PX pixels within MOVING_S
+#: seconds.  A recording holds the still time before the person starts and after they stop
+#: (pressing Record, then Stop); left in, it is not a demonstration's reach or retract, it breaks
+#: the tracker's premise that a fifth of the frames have the pen down, and its jitter makes false
+#: speed dips.  A displacement over a fixed time, not a speed between frames, so neither the frame
+#: rate nor a frame's jitter (0.1-0.2 px on the synthetic videos, a few tenths on a webcam) moves
+#: it; a reach covers 40 px in that time (200 px/s at its peak, measured on the synthetic videos),
+#: a slow start 4 px at 20 px/s
+MOVING_PX, MOVING_S = 4.0, 0.2
 #: the still time kept before the hand first moves and after it last moves, seconds (the
 #: tracker looks this far for the speed dips of a landing: :data:`hila_lang.perception.pen.SNAP_S`)
 STILL_KEPT_S = 0.25
@@ -151,20 +153,23 @@ def sheet_png(paper: str, grid: bool) -> bytes:
 
 
 def trim_still(tracker) -> tuple[int, int]:
-    """Keep the recorded frames from :data:`STILL_KEPT_S` before the ball first moves faster than
-    :data:`MOVING_PX_S` (two frames running) to as long after it last does; returns (frames left
-    out before, after).  A recording where it never moves is kept whole (finish then says why)."""
+    """Keep the recorded frames from :data:`STILL_KEPT_S` before the hand first moves to as long
+    after it last does (:data:`MOVING_PX` within :data:`MOVING_S`; a frame without the ball is
+    not a move); returns (frames left out before, after).  A recording where it never moves is
+    kept whole (finish then says why)."""
     frames = tracker.frames
-    uv = np.array([f.ball if f.ball is not None else (np.nan, np.nan) for f in frames], float).reshape(-1, 2)
-    t = np.array([f.time for f in frames])
     if len(frames) < 4:
         return 0, 0
-    fast = np.linalg.norm(np.diff(uv, axis=0), axis=1) / np.diff(t) > MOVING_PX_S  # NaN: not moving
-    both = np.flatnonzero(fast[:-1] & fast[1:])
-    if not len(both):
+    uv = np.array([f.ball if f.ball is not None else (np.nan, np.nan) for f in frames], float).reshape(-1, 2)
+    t = np.array([f.time for f in frames])
+    later = np.searchsorted(t, t + MOVING_S)  # the first frame MOVING_S after each
+    ok = later < len(t)
+    moved = np.zeros(len(t), bool)
+    moved[ok] = np.linalg.norm(uv[later[ok]] - uv[ok], axis=1) > MOVING_PX  # NaN: not a move
+    if not moved.any():
         return 0, 0
-    first, last = t[both[0]] - STILL_KEPT_S, t[both[-1] + 2] + STILL_KEPT_S
-    keep = np.flatnonzero((t >= first) & (t <= last))
+    first, last = np.flatnonzero(moved)[[0, -1]]
+    keep = np.flatnonzero((t >= t[first] - STILL_KEPT_S) & (t <= t[later[last]] + STILL_KEPT_S))
     a, b = int(keep[0]), int(keep[-1]) + 1
     tracker.frames = frames[a:b]
     return a, len(frames) - b
