@@ -24,7 +24,8 @@ method's replace its segments afterwards (the description says so).
 
 Routes: ``GET /api/scenes``, ``GET /api/scene?name=``, ``GET /api/scene-image?name=``, ``POST
 /api/demonstration`` (samples -> path, times, speed and proposed cuts), ``POST /api/save``, ``GET
-/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``.
+/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``; and the Camera
+scene's (:mod:`.camera`: a pen on the printed sheet before the webcam).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from starlette.routing import Route
 
 from ..core.errors import InputError
 from ..osila.demofile import lift  # the 45-degree lift rule, shared with the seeded pointer model
-from . import files
+from . import camera, files
 from .page import Page, read_json, studio_of, template_json
 from .security import inside
 
@@ -60,9 +61,9 @@ def _sheet_H(height: int) -> np.ndarray:
 
 
 def scenes(folder: Path | None = None) -> list[dict]:
-    """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene and
-    the pictures in ``folder`` itself (where an upload goes) -- not those in its subfolders, which
-    are what runs wrote (a game's eye.png, top.png, ...)."""
+    """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene, the
+    Camera scene (:mod:`.camera`) and the pictures in ``folder`` itself (where an upload goes) --
+    not those in its subfolders, which are what runs wrote (a game's eye.png, top.png, ...)."""
     from ..plugins import registry
 
     pictures = [] if folder is None else [
@@ -70,7 +71,8 @@ def scenes(folder: Path | None = None) -> list[dict]:
         if "/" not in f and f.lower().endswith(PICTURES)]
     return [dict(name="blank", label="blank sheet")] + [
         dict(name=f"world:{info.name}", label=info.studio.scene_label or info.name)
-        for info in registry.declarations("world") if info.studio is not None and info.studio.scene] + pictures
+        for info in registry.declarations("world") if info.studio is not None and info.studio.scene] + [
+        dict(name="camera", label="camera: a pen on the printed sheet")] + pictures
 
 
 def _world_scene(name: str):
@@ -91,6 +93,10 @@ def scene(name: str, folder: Path) -> dict:
     if name == "blank":
         w, h = SHEET_SIZE
         return dict(name=name, image=None, width=w, height=h, H=_sheet_H(h).tolist(), z=None, features=[], lift=None)
+    if name == "camera":  # the printed sheet from above, until a recording says which (studio/camera.py)
+        from ..perception.sheet import SheetLayout
+
+        return camera.sheet_scene(SheetLayout("a4", grid=True))
     if name.startswith("world:"):
         sc = _world_scene(name[len("world:"):])
         return dict(name=name, image=f"/api/scene-image?name={name}", width=sc.width, height=sc.height,
@@ -105,7 +111,7 @@ def scene(name: str, folder: Path) -> dict:
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=max(1, round(w * f)),
                     height=max(1, round(h * f)), H=H.tolist(), z=None, features=[], lift=None,
                     picture=dict(file=name[len("upload:"):], width=w, height=h, m_per_px=SHEET_M_PER_PX))
-    raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
+    raise InputError(f"unknown scene {name!r}; expected blank, camera, world:NAME or upload:FILE")
 
 
 def scene_image(name: str) -> bytes:
@@ -177,9 +183,9 @@ def save(folder: Path, req: dict) -> dict:
     command, segments}``: ``command`` is the ``hila learn`` line that writes the same template
     byte for byte -- with ``--cuts A,B`` when the person moved the method's cuts.
 
-    ``req``: ``name``, ``path`` (T, D), ``times`` (T,), optional ``pen`` (T,), ``icps`` {name:
-    point}, ``tags`` (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1
-    indices).
+    ``req``: ``name``, ``path`` (T, D), ``times`` (T,), optional ``pen`` (T,: drawn with a pointer or
+    tracked by the Camera scene), ``icps`` {name: point}, ``tags`` (list), ``contact`` (list),
+    ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
     """
     from ..hierarchy.learn import learn_files
     from ..language.transformer import usable_as_tag
@@ -315,4 +321,5 @@ PAGE = Page("demo", "1 Demonstrate", "demonstrate.js", routes=[
     Route("/api/save", _save, methods=["POST"]),
     Route("/api/open", _open),
     Route("/api/lasa", _lasa),
+    *camera.ROUTES,  # the Camera scene (studio/camera.py, static/camera.js)
 ])
