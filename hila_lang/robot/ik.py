@@ -39,8 +39,8 @@ def _skew(v: np.ndarray) -> np.ndarray:
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of vectors (..., 3), the same arithmetic without its axis handling
-    (a tenth of its time on the IK's small arrays)."""
+    """``np.cross(a, b)`` of vectors (..., 3), the same arithmetic (equal results) without its axis
+    handling: a third to a half of its time on the IK's small arrays (20-25 vs 50-65 us, load 10)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
@@ -124,8 +124,8 @@ class KinematicChain:
     def __post_init__(self) -> None:
         # Rodrigues: joint i turned by q is origins[i] @ (I + sin q K + (1 - cos q) K^2), K the
         # cross-product matrix of its axis; its three constant parts are kept, so a posture's
-        # frames are one vectorised sum and a 3x3 product per joint (3x faster than building
-        # each joint's 4x4 rotation)
+        # frames are one vectorised sum and a 3x3 product per joint (the Jacobian in half the
+        # time of building each joint's 4x4 rotation: 209 vs 390 us at load 8)
         rot = self.origins[:, :3, :3]
         k = _skew(self.axes)
         consts = {"_fixed": rot, "_sin": rot @ k, "_cos": rot @ k @ k, "_offset": self.origins[:, :3, 3],

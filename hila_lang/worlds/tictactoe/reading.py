@@ -128,8 +128,6 @@ def _planes(rgb: np.ndarray):
 
 def _channels(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(darkest channel, brightest channel, mean) per pixel of an RGB image, int16/float32."""
-    import cv2
-
     r, g, b, lo, hi = _planes(rgb)
     return lo.astype(np.int16), hi.astype(np.int16), _total(r, g, b).astype(np.float32) / 3
 
