@@ -12,9 +12,114 @@ import pytest
 pytest.importorskip("starlette")
 
 from hila_lang.core.errors import InputError  # noqa: E402
-from hila_lang.studio.run import COMMANDS, ReplaySession, RunSession, analyse  # noqa: E402
+from hila_lang.studio.run import COMMANDS, ReplaySession, RunSession, analyse, plugins  # noqa: E402
 from studio_support import READY, ROOT, click_at, plane_to_pixel, wait_status  # noqa: E402
 from studio_support import browser, page, studio  # noqa: F401 - the fixtures
+
+#: a program that fails at run time at its line 9 (an obstacle's radius below zero), on any back end
+FAILING = """import reach
+point home = (0.18, -0.25, 0.75)
+point cup = (0.30, -0.18, 0.60)
+point lamp = (0.211, -0.219, 0.735)
+hand at home
+main {
+    run reach.reach(object = cup, home = home)
+    let r = 0 - 0.01
+    run reach.back(object = cup, home = home) avoid lamp radius r
+}
+"""
+
+
+def _until(out, predicate, seconds=60.0):
+    """The first snapshot the session sent to the page (``out``) that satisfies ``predicate`` (read
+    from its messages, as the page does: a snapshot taken from another thread could read the game's
+    record while the robot decides, which the referee forbids)."""
+    import time
+
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < seconds:
+        found = [m for m in list(out) if m.get("type") in ("state", "step") and predicate(m)]
+        if found:
+            return found[0]
+        time.sleep(0.05)
+    raise AssertionError(f"not reached in {seconds} s: {out[-1:]}")
+
+
+def test_a_failed_step_is_said_with_its_state_line_and_message(tmp_path):
+    """The snapshot names the state that failed, its program line and why, until the next step;
+    before, the page only had 'at main/back (step 3)'."""
+    import shutil
+
+    shutil.copy(ROOT / "primitives" / "reach.yaml", tmp_path / "reach.yaml")
+    (tmp_path / "fail.hila").write_text(FAILING)
+    out = []
+    run = RunSession(tmp_path / "fail.hila", out.append, backend="dry")
+    try:
+        assert run.snapshot()["failed"] is None
+        COMMANDS["run"](run, {})
+        snap = _until(out, lambda s: s["failed"] is not None)
+        assert snap["failed"]["state"] == "main/back" and snap["failed"]["line"] == 9 and not snap["failed"]["stopped"]
+        assert "an obstacle's radius must be a number of metres > 0, got -0.01" in snap["failed"]["message"]
+        assert snap["current"] == "main/back" and not snap["done"] and snap["outcome"] is None
+        assert any(m.get("type") == "step" and m["failed"] for m in out)  # the step message carries it too
+        out.clear()
+        COMMANDS["back"](run, {})  # gone back a step: the failure is history
+        _until(out, lambda s: s["failed"] is None and s["current"] == "main/let#1")
+    finally:
+        run.close()
+
+
+def test_a_finished_game_says_who_won():
+    """The page's words at the end are the world's result (the report's ``result``), not a count of steps."""
+    from hila_lang.worlds.tictactoe.world import RESULT_WORDS
+
+    out = []
+    run = RunSession(ROOT / "programs" / "game.hila", out.append, backend="dry", settings={"opponent": "minimax"})
+    try:
+        assert run.snapshot()["outcome"] is None
+        COMMANDS["run"](run, {})
+        snap = _until(out, lambda s: s["done"])
+        result = run.interp.world.result()
+        assert result is not None and snap["outcome"] == RESULT_WORDS[result]
+        assert [c["label"] for c in snap["board"]["cells"]] == list(run.interp.world.referee.paper_marks())
+    finally:
+        run.close()
+
+
+def test_the_board_shows_the_paper_and_notes_what_the_robot_read_otherwise():
+    """Labels are what the paper holds (a mark drawn out of turn too, noted as not counted); a cell
+    misread or unclear at the robot's latest look carries a note; an older look's misread does not;
+    only cells free in the game's record are answers."""
+    from types import SimpleNamespace
+
+    from hila_lang.worlds.tictactoe.studio import board
+
+    record = ("O", "", "", "", "X", "", "", "", "")
+    paper = ("O", "", "O", "", "X", "", "", "", "")  # cell 3: the robot drew out of turn
+    referee = SimpleNamespace(paper_marks=lambda: paper, looks=[{"look": 1}, {"look": 2}],
+                              misreads=[{"look": 1, "cell": 9, "seen": "X", "true": ""},
+                                        {"look": 2, "cell": 1, "seen": "X", "true": "O"}],
+                              unclear=[{"look": 2, "cell": 5, "true": "X"}])
+    b = board(SimpleNamespace(referee=referee, board=record)).to_json()
+    cells = b["cells"]
+    assert [c["label"] for c in cells] == list(paper)
+    assert [c["answer"] for c in cells] == [None, "2", "3", "4", None, "6", "7", "8", "9"]
+    assert "does not count" in cells[2]["note"] and "read X here at look 2" in cells[0]["note"]
+    assert "could not tell" in cells[4]["note"] and cells[8]["note"] is None  # look 1 is not the latest
+
+
+def test_the_plug_ins_are_the_pages_menus(monkeypatch):
+    """Back ends, robots and worlds come from the registry: a back end it declares is listed,
+    with its doc, and the default robot comes first."""
+    from hila_lang.plugins import registry
+
+    listed = plugins()
+    assert {"dry", "pybullet"} <= {b["name"] for b in listed["backends"]}
+    assert listed["robots"][0]["name"] == "icub" and "tictactoe" in {w["name"] for w in listed["worlds"]}
+    fake = registry.BackendInfo("toyarm", "x:y", "a made-up arm")
+    real = registry.declarations
+    monkeypatch.setattr(registry, "declarations", lambda kind: real(kind) + ([fake] if kind == "back end" else []))
+    assert {"name": "toyarm", "doc": "a made-up arm"} in plugins()["backends"]
 
 def test_checking_says_what_the_programs_world_offers():
     game = ROOT / "programs" / "game.hila"

@@ -12,7 +12,7 @@ export async function api(path, opts = {}) {
   const r = await fetch(path, Object.assign({ credentials: "same-origin" }, opts));
   const type = r.headers.get("content-type") || "";
   const body = type.includes("json") ? await r.json() : await r.text();
-  if (!r.ok) throw new Error(body.error || body);
+  if (!r.ok) throw Object.assign(new Error(body.error || body), { status: r.status, body });  // e.g. 409: it exists
   return body;
 }
 

@@ -62,6 +62,8 @@ PARK_HEIGHT = (0.08, 0.13)
 IDLE_WAITS = 3
 #: the game stops after this many circles drawn out of turn or over a mark (the referee's fouls)
 MAX_FOULS = 3
+#: the game's result (:meth:`TicTacToeWorld.result`) in words: the last line of a run, the studio's outcome
+RESULT_WORDS = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw", None: "unfinished"}
 _NAMES = {"": "empty", "O": "a circle (O)", "X": "a cross (X)"}
 
 
@@ -372,8 +374,7 @@ class TicTacToeWorld:
             self.fsm = fsm
         self._score()
         result = self.result()
-        text = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw",
-                None: "unfinished"}[result]
+        text = RESULT_WORDS[result]
         report = build_report(self, trace)
         rs = [m["r"] for m in self.marks if m["r"] is not None]
         vision = report["vision"]
