@@ -237,7 +237,10 @@ def test_run_game_to_its_end_by_clicks(page, studio, tmp_path):
         moves += 1
     board = [c["label"] for c in page.evaluate("window.hilaStudio.run.state.board.cells")]
     assert moves >= 2 and board.count("X") == moves and board.count("O") >= moves
-    assert "finished" in page.get_by_test_id("run-status").inner_text()
+    outcome = page.evaluate("window.hilaStudio.run.state.outcome")  # who won, the world's words
+    assert outcome in ("the robot wins", "the opponent wins", "a draw")
+    assert page.get_by_test_id("run-status").inner_text().startswith(f"finished: {outcome}")
+    assert "done" in page.get_by_test_id("run-status").get_attribute("class")
     assert "result:" in page.get_by_test_id("trace").inner_text() or "end" in page.get_by_test_id("trace").inner_text()
     page.screenshot(path=tmp_path / "run-finished.png")
 
@@ -343,3 +346,149 @@ def test_the_docs_walk_through_swipe_save_two_line_program_run(page, studio, tmp
     wait_status(page, "s.done")
     assert "finished after 2 steps" in page.get_by_test_id("run-status").inner_text()
     page.screenshot(path=tmp_path / "walk-through.png")
+
+
+def _dialogs(page, answers):
+    """Answer the page's dialogs in order from ``answers`` (text for a prompt, True/False for a
+    confirm; the list may grow later); returns the dialogs seen, each (type, message)."""
+    seen = []
+
+    def on(d):
+        seen.append((d.type, d.message))
+        a = answers.pop(0) if answers else False
+        d.accept(a) if isinstance(a, str) else (d.accept() if a else d.dismiss())
+    page.on("dialog", on)
+    return seen
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_save_never_replaces_another_file_without_asking(page, studio):
+    """Save writes the file the editor opened; Save As asks a name and asks again before replacing
+    another file (no: nothing written); the tab and the toolbar show unsaved changes; leaving, or
+    opening another program, asks first."""
+    (studio.folder / "mine.hila").write_text("main {\n}\n")
+    (studio.folder / "other.hila").write_text("# someone else's\nmain {\n}\n")
+    page.reload()
+    page.wait_for_function(READY)
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("mine.hila")
+    page.wait_for_function("window.hilaStudio.run.open === 'mine.hila'")
+    assert page.get_by_test_id("program-dirty").is_hidden()
+    page.get_by_test_id("program-editor").fill("main {\n    # mine, edited\n}\n")
+    assert page.get_by_test_id("program-dirty").is_visible()
+    assert "dirty" in page.get_by_test_id("tab-run").get_attribute("class")
+    answers = ["other.hila", False, False]  # Save As other.hila; replace it? no; (later) discard? no
+    seen = _dialogs(page, answers)
+    page.get_by_test_id("program-save-as").click()
+    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.includes('not saved')")
+    assert [t for t, _ in seen] == ["prompt", "confirm"] and "other.hila exists" in seen[1][1]
+    assert (studio.folder / "other.hila").read_text() == "# someone else's\nmain {\n}\n"
+    assert page.get_by_test_id("program-dirty").is_visible()
+    page.get_by_test_id("program-select").select_option("other.hila")  # discard the changes? no
+    page.wait_for_timeout(300)
+    assert seen[2][0] == "confirm" and "unsaved changes" in seen[2][1]
+    assert page.get_by_test_id("program-select").input_value() == "mine.hila"
+    assert "# mine, edited" in page.get_by_test_id("program-editor").input_value()
+    page.get_by_test_id("program-save").click()  # the open file: written without a question
+    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent === 'saved mine.hila'")
+    assert len(seen) == 3 and (studio.folder / "mine.hila").read_text() == "main {\n    # mine, edited\n}\n"
+    assert page.get_by_test_id("program-dirty").is_hidden() and "dirty" not in page.get_by_test_id("tab-run").get_attribute("class")
+    page.get_by_test_id("program-editor").fill("main {\n    # copied\n}\n")
+    answers.append("copy")
+    page.get_by_test_id("program-save-as").click()
+    page.wait_for_function("window.hilaStudio.run.open === 'copy.hila'")
+    assert len(seen) == 4 and seen[3][0] == "prompt"  # a new name (".hila" added): no second question
+    assert (studio.folder / "copy.hila").read_text() == "main {\n    # copied\n}\n"
+    assert (studio.folder / "mine.hila").read_text() == "main {\n    # mine, edited\n}\n"
+    assert page.get_by_test_id("program-select").input_value() == "copy.hila"
+    page.get_by_test_id("program-editor").press("End")
+    page.keyboard.type(" # typed, not saved")  # keys a person types (a browser asks on leaving only then)
+    assert page.get_by_test_id("program-dirty").is_visible()
+    with pytest.raises(Exception):  # leaving with unsaved changes asks; the answer is "stay": no navigation
+        page.goto(studio.url, timeout=10000)
+    assert seen[-1][0] == "beforeunload" and "# typed, not saved" in page.get_by_test_id("program-editor").input_value()
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_a_file_that_appeared_meanwhile_is_replaced_only_when_the_person_says_so(page, studio):
+    """The server's refusal (409: the file exists, written by someone since the page listed the
+    folder) is asked about; the page sends overwrite only after a yes."""
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-editor").fill("main {\n}\n")
+    sent = []
+
+    def route(r):
+        sent.append(r.request.url)
+        if "overwrite=1" in r.request.url:
+            r.continue_()
+        else:
+            r.fulfill(status=409, content_type="application/json",
+                      body='{"error": "late.hila exists: choose another name or replace it", "exists": true}')
+    page.route("**/api/file?path=late.hila*", route)
+    seen = _dialogs(page, ["late.hila", False, "late.hila", True])
+    page.get_by_test_id("program-save").click()  # the list is on "choose...": a name is asked
+    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.includes('exists')")
+    assert [t for t, _ in seen] == ["prompt", "confirm"] and not (studio.folder / "late.hila").exists()
+    assert len(sent) == 1 and "overwrite" not in sent[0]
+    page.get_by_test_id("program-save").click()
+    page.wait_for_function("window.hilaStudio.run.open === 'late.hila'")
+    assert "overwrite=1" in sent[-1] and (studio.folder / "late.hila").read_text() == "main {\n}\n"
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_a_failed_run_is_lit_at_the_top_and_in_the_editor(page, studio):
+    (studio.folder / "fail.hila").write_text(FAILING)
+    page.reload()
+    page.wait_for_function(READY)
+    page.get_by_test_id("tab-run").click()
+    page.get_by_test_id("program-select").select_option("fail.hila")
+    page.wait_for_function("document.querySelector('#problems').innerText.includes('no problems')")
+    page.get_by_test_id("backend").select_option("dry")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.current === 'main/reach'")
+    page.get_by_test_id("run").click()
+    wait_status(page, "s.failed")
+    status = page.get_by_test_id("run-status")
+    assert "failed" in status.get_attribute("class")
+    assert status.inner_text().startswith("failed in main/back (line 9): an obstacle's radius must be")
+    assert page.locator('#fsm g.node.failed').get_attribute("data-state") == "main/back"
+    problem = page.get_by_test_id("run-problem")
+    assert problem.inner_text().startswith("9: run failed in main/back") and "no problems" not in page.locator("#problems").inner_text()
+    assert status.bounding_box()["y"] < page.get_by_test_id("trace").bounding_box()["y"]  # above the trace
+    problem.click()  # the editor shows the line
+    picked = page.evaluate("(() => { const e = document.querySelector('[data-testid=program-editor]'); "
+                           "return e.value.slice(e.selectionStart, e.selectionEnd); })()")
+    assert picked.strip().startswith("run reach.back(object = cup, home = home) avoid lamp radius r")
+    page.get_by_test_id("back").click()  # back: the failure is history
+    wait_status(page, "!s.failed && s.current === 'main/let#1'")
+    assert "failed" not in status.get_attribute("class") and page.get_by_test_id("run-problem").count() == 0
+
+
+@pytest.mark.slow  # a browser and a server (tests/conftest.py)
+def test_an_installed_back_end_is_on_the_pages_menu(browser, tmp_path):
+    """A back end installed as a plug-in (a throwaway distribution's entry point) is on the Run
+    page's back-end menu, as it is in ``hila exec --backend``; nothing is written into the page."""
+    from studio_support import Studio
+
+    site = tmp_path / "site"
+    (site / "toyarm-0.1.dist-info").mkdir(parents=True)
+    (site / "toyarm-0.1.dist-info" / "METADATA").write_text("Metadata-Version: 2.1\nName: toyarm\nVersion: 0.1\n")
+    (site / "toyarm-0.1.dist-info" / "entry_points.txt").write_text("[hila.backends]\ntoyarm = toyarm:BACKEND\n")
+    (site / "toyarm.py").write_text("from hila_lang.plugins.registry import BackendInfo\n"
+                                    "BACKEND = BackendInfo('toyarm', 'toyarm:make', 'a made-up arm for the test')\n")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    studio = Studio(folder, env={"PYTHONPATH": str(site)})
+    try:
+        p = browser.new_page()
+        p.goto(studio.url)
+        p.wait_for_function("window.hilaStudio && window.hilaStudio.run")
+        p.get_by_test_id("tab-run").click()
+        p.wait_for_function("document.querySelectorAll('[data-testid=backend] option').length > 1")
+        options = p.locator("[data-testid=backend] option")
+        names = options.evaluate_all("os => os.map(o => [o.value, o.title])")
+        assert ["toyarm", "a made-up arm for the test"] in names and "dry" in [n for n, _ in names]
+        assert "tictactoe" in p.get_by_test_id("world-list").inner_text()
+        p.close()
+    finally:
+        assert studio.stop() == 130

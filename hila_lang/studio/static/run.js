@@ -226,7 +226,7 @@ export async function mount() {
   $("program-editor").addEventListener("input", () => { markDirty(); clearTimeout(checkTimer); checkTimer = setTimeout(check, 250); });
   $("program-save").addEventListener("click", () => (R.open ? saveTo(R.open, true) : saveAs()));
   $("program-save-as").addEventListener("click", saveAs);
-  window.addEventListener("beforeunload", (e) => { if (dirty()) { e.preventDefault(); e.returnValue = ""; } });
+  window.addEventListener("beforeunload", (e) => { if (dirty()) { e.preventDefault(); e.returnValue = "unsaved changes"; } });
   $("btn-start").addEventListener("click", () => { R.breaks.clear();
     send({ cmd: "start", path: $("program").value, backend: $("backend").value, robot: $("robot-choice").value,
       settings: worldSettings() }); });
