@@ -58,7 +58,7 @@ def test_a_failed_step_is_said_with_its_state_line_and_message(tmp_path):
         assert run.snapshot()["failed"] is None
         COMMANDS["run"](run, {})
         snap = _until(out, lambda s: s["failed"] is not None)
-        assert snap["failed"]["state"] == "main/back" and snap["failed"]["line"] == 9 and not snap["failed"]["stopped"]
+        assert snap["failed"]["state"] == "main/back" and snap["failed"]["line"] == 9
         assert "an obstacle's radius must be a number of metres > 0, got -0.01" in snap["failed"]["message"]
         assert snap["current"] == "main/back" and not snap["done"] and snap["outcome"] is None
         assert any(m.get("type") == "step" and m["failed"] for m in out)  # the step message carries it too

@@ -10,6 +10,8 @@
   and why; ``refused`` for a path or size the studio does not take).
 - :class:`JSONSocket`: a websocket of JSON objects, one answer per message; a bad message or a
   failed one is answered with the reason and the socket goes on.
+- :func:`plugins`: the back ends, robots and worlds the registry's plug-ins declare, for the
+  pages' menus (an installed plug-in is there as it is for ``hila exec``).
 """
 
 from __future__ import annotations
@@ -137,3 +139,15 @@ def template_json(template) -> dict:
                 icps={k: v.tolist() for k, v in template.icps.items()},
                 segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments],
                 description=template.description, dim=int(template.path.shape[1]))
+
+
+def plugins() -> dict:
+    """What the registry's plug-ins declare, for the page's menus: ``backends``, ``robots`` (the
+    default robot first) and ``worlds``, each ``[{name, doc}]`` (a world with its default back end)."""
+    from ..plugins import registry
+    from ..robot.spec import DEFAULT_ROBOT
+
+    robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first
+    return dict(backends=[dict(name=b.name, doc=b.doc) for b in registry.declarations("back end")],
+                robots=[dict(name=r.name, doc=r.doc) for r in robots],
+                worlds=[dict(name=w.name, doc=w.doc, backend=w.default_backend) for w in registry.declarations("world")])

@@ -1,17 +1,16 @@
 """The Run page: a program checked as it is typed (``POST /api/check``: ``hila lsp``'s analysis and
-what the program's world offers here), run on a back end and a robot or a recording replayed, and
-watched.  ``GET /api/plugins`` lists the back ends, robots and worlds the registry's plug-ins
-declare (:mod:`hila_lang.plugins.registry`): an installed plug-in is on the page's menus as it
-is in ``hila exec --backend``.  The websocket ``/ws/run`` holds one :class:`Session`:
-``{"cmd": "start", path, backend, robot, settings, seed}`` opens a :class:`RunSession` (the run
-``hila repl`` builds, :func:`hila_lang.session.runner.prepare`), ``{"cmd": "open", path}`` a
-:class:`ReplaySession` (a ``.hilarec``); both under :class:`hila_lang.session.repl.Repl` and both
-answer :data:`COMMANDS`: the REPL's commands in a worker thread, one at a time, ``stop``, ``answer``
-(a person's line to the world: a board's button), ``view`` (turn the 3-D view), ``scrub``; what a
-session cannot do it says.  After each step the page gets the state, the trace line, the world's
-board (its plug-in's), the left eye's image and the 3-D view (:mod:`hila_lang.session.view3d`); a
-state that failed (``failed``: state, program line, message) until the next step, back or reload;
-and at the end what the world says of it (``outcome``: who won, from the world's studio view)."""
+what the program's world offers here), run on a back end and a robot (the registry's, ``GET
+/api/plugins``: :func:`.page.plugins`) or a recording replayed, and watched.  The websocket
+``/ws/run`` holds one :class:`Session`: ``{"cmd": "start", path, backend, robot, settings, seed}``
+opens a :class:`RunSession` (the run ``hila repl`` builds, :func:`hila_lang.session.runner.prepare`),
+``{"cmd": "open", path}`` a :class:`ReplaySession` (a ``.hilarec``); both under
+:class:`hila_lang.session.repl.Repl` and both answer :data:`COMMANDS`: the REPL's commands in a
+worker thread, one at a time, ``stop``, ``answer`` (a person's line to the world: a board's
+button), ``view`` (turn the 3-D view), ``scrub``; what a session cannot do it says.  After each
+step the page gets the state, the trace line, the world's board (its plug-in's), the left eye's
+image, the 3-D view (:mod:`hila_lang.session.view3d`), the state that failed (``failed``: state,
+program line, message; until the next step, back or reload) and at the end what the world says
+of it (``outcome``: who won)."""
 
 from __future__ import annotations
 
@@ -33,7 +32,7 @@ from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError
 from ..plugins.studio import StudioView
-from .page import JSONSocket, Page, read_json, studio_of
+from .page import JSONSocket, Page, plugins, read_json, studio_of
 
 
 def analyse(path: Path, text: str) -> dict:
@@ -106,6 +105,7 @@ class Session:
 
     def __init__(self, emit) -> None:
         self.emit, self.repl, self.interp, self._lock = emit, None, None, threading.Lock()
+        self.failed: dict | None = None  # the state that failed last (a run's): until the next step, back or reload
 
     def command(self, line: str) -> None:
         """Run one REPL command in a worker thread (one at a time: a second waits its turn)."""
@@ -137,8 +137,8 @@ class Session:
     def snapshot(self) -> dict:
         """The state for the page: where the engine is, its steps, its last path, and :meth:`details`."""
         it, path = self.interp, self.interp.last_path
-        return {**dict(type="state", current=None if it.done else it.current, done=it.done, steps=it.trace.total,
-                       path=None if path is None else path.tolist(), failed=None, outcome=None), **self.details()}
+        return dict(type="state", current=None if it.done else it.current, done=it.done, steps=it.trace.total,
+                    path=None if path is None else path.tolist(), failed=self.failed, **self.details())
 
     def details(self) -> dict:
         raise NotImplementedError
@@ -165,9 +165,7 @@ class RunSession(Session):
                                   stdout=self.stdout)
         self.interp = prepare(program, self.options, backend)
         view = registry.world(self.interp.checked.world).studio
-        self._board = view.load("board") if view is not None and view.board else None
-        self._outcome = view.load("outcome") if view is not None and view.outcome else None
-        self.failed: dict | None = None  # the state that failed last: until the next step, back or reload
+        self._board, self._outcome = (view.load(a) if view and getattr(view, a) else None for a in ("board", "outcome"))
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
         self.interp.observers.append(self._observe)
         self.last_eye = self.robot = None  # base64 PNGs: the left eye's last image, the 3-D view
@@ -175,9 +173,8 @@ class RunSession(Session):
         self._view()
 
     def _observe(self, entry) -> None:
-        if entry.error is not None:  # a failed or stopped step: lit on the page, its message at the top
-            self.failed = dict(state=entry.state, line=entry.line or None, step=entry.step, message=entry.error,
-                               stopped=entry.text == "interrupted")
+        if entry.error is not None:  # a failed step: lit on the page, its message at the top
+            self.failed = dict(state=entry.state, line=entry.line or None, step=entry.step, message=entry.error)
         if entry.kind == "run":
             eyes = self.interp.backend.eyes
             try:
@@ -209,8 +206,7 @@ class RunSession(Session):
         board = None if self._board is None else self._board(self.interp.world)
         outcome = self._outcome(self.interp.world) if self._outcome is not None and self.interp.done else None
         return dict(waiting=self.stdin.waiting, board=None if board is None else board.to_json(), eye=self.last_eye,
-                    failed=self.failed, outcome=outcome,
-                    robot=self.robot, arm=self.options.robot.name,  # the arm that runs
+                    outcome=outcome, robot=self.robot, arm=self.options.robot.name,  # the arm that runs
                     breakpoints=list(self.repl.breakpoints) if self.repl else [])
 
     def answer(self, text: str) -> None:
@@ -264,7 +260,7 @@ class ReplaySession(Session):
         n, steps, images = self.interp.trace.total, self.record.get("steps", []), self.record.get("images", {})
         eye = next((base64.b64encode(images[s["eye"]]).decode() for s in reversed(steps[:n]) if s.get("eye") in images),
                    None)  # the last eye image recorded up to step n
-        return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[],
+        return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[], outcome=None,
                     entry=str(steps[n - 1]["text"]) if n else "")
 
 
@@ -341,22 +337,6 @@ class RunSocket(JSONSocket):
         await self._close()
 
 
-def plugins() -> dict:
-    """What the registry's plug-ins declare, for the page's menus: ``backends``, ``robots`` (the
-    default robot first) and ``worlds``, each ``[{name, doc}]`` (a world with its default back end)."""
-    from ..plugins import registry
-    from ..robot.spec import DEFAULT_ROBOT
-
-    robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first
-    return dict(backends=[dict(name=b.name, doc=b.doc) for b in registry.declarations("back end")],
-                robots=[dict(name=r.name, doc=r.doc) for r in robots],
-                worlds=[dict(name=w.name, doc=w.doc, backend=w.default_backend) for w in registry.declarations("world")])
-
-
-async def _plugins(request: Request) -> Response:
-    return JSONResponse(await run_in_threadpool(plugins))
-
-
 async def _check(request: Request) -> Response:
     doc = await read_json(request)
     path = studio_of(request).path(str(doc.get("path") or "untitled.hila"))
@@ -365,6 +345,6 @@ async def _check(request: Request) -> Response:
 
 PAGE = Page("run", "3 Run & watch", "run.js", routes=[
     Route("/api/check", _check, methods=["POST"]),
-    Route("/api/plugins", _plugins),
+    Route("/api/plugins", lambda request: JSONResponse(plugins())),  # a plain function: run in a thread
     WebSocketRoute("/ws/run", RunSocket),
 ])

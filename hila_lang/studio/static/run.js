@@ -71,7 +71,7 @@ function onMessage(msg) {
     R.state = msg;
     drawFSM(msg.current);
     const f = msg.failed;
-    if (f) status(`${f.stopped ? "stopped" : "failed"} in ${f.state}${f.line ? ` (line ${f.line})` : ""}: ${f.message}`, "failed");
+    if (f) status(`failed in ${f.state}${f.line ? ` (line ${f.line})` : ""}: ${f.message}`, "failed");
     else if (msg.done) status(msg.outcome ? `finished: ${msg.outcome} (after ${msg.steps} steps)` : `finished after ${msg.steps} steps`,
       "done");
     else status(msg.waiting ? "your turn: choose on the board" : `at ${msg.current} (step ${msg.steps})`, "");
@@ -165,7 +165,7 @@ async function check() {
 function showProblems() {
   const ul = $("problems"), f = R.state && R.state.failed, items = R.problems.map((p) =>
     [p.severity, `${p.line + 1}:${p.character + 1}: ${p.severity}: ${p.message}`, p.line]);
-  if (f) items.unshift(["error run-failed", `${f.line || "?"}: run ${f.stopped ? "stopped" : "failed"} in ${f.state}: ${f.message}`,
+  if (f) items.unshift(["error run-failed", `${f.line || "?"}: run failed in ${f.state}: ${f.message}`,
     f.line ? f.line - 1 : null]);
   ul.innerHTML = "";
   if (!items.length) items.push(["ok", "no problems", null]);
