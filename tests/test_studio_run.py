@@ -270,7 +270,9 @@ def test_open_a_recording_and_scrub(page, studio, tmp_path):
             assert page.get_by_test_id("fsm-current").get_attribute("data-state") == steps[n]["state"]
         else:
             assert state["done"]
-        assert f"step {n} of {len(steps)}" in page.get_by_test_id("scrub-at").inner_text()
+        label = page.get_by_test_id("scrub-at").inner_text()  # the step replayed, then the state lit: next
+        assert label.startswith(f"after step {n} of {len(steps)}: ") and steps[n - 1]["state"] in label
+        assert label.endswith(" (the end)" if n == len(steps) else f"next: {steps[n]['state']}")
     page.screenshot(path=tmp_path / "recording.png")
 
 

@@ -261,7 +261,7 @@ class ReplaySession(Session):
         eye = next((base64.b64encode(images[s["eye"]]).decode() for s in reversed(steps[:n]) if s.get("eye") in images),
                    None)  # the last eye image recorded up to step n
         return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[], outcome=None,
-                    entry=str(steps[n - 1]["text"]) if n else "")
+                    entry=f"{steps[n - 1]['state']}: {steps[n - 1]['text']}" if n else "")
 
 
 #: the page's messages to an open session: what each asks of it

@@ -2,7 +2,7 @@
 // Nothing typed is lost: the tab and the Save button say when the editor holds unsaved changes
 // (and leaving the page asks); Save writes the file it opened, Save As asks a name and asks again
 // before it replaces another file (the server refuses with 409 until told overwrite).
-import { $, api, post, socket, fitH, polyline, fill, refreshFiles } from "/static/common.js";
+import { $, api, post, socket, fitH, polyline, fill, refreshFiles, askingToOverwrite } from "/static/common.js";
 
 export const html = `
   <p class="help">Write or open a program; problems show as you type. <b>Start</b> loads it on a back end,
@@ -81,7 +81,9 @@ function onMessage(msg) {
     if (msg.eye) { $("eye").src = "data:image/png;base64," + msg.eye; $("eye").hidden = false; }
     drawTop(msg.path);
     if (msg.robot) { $("robot").src = "data:image/png;base64," + msg.robot; $("robot-box").hidden = false; }
-    if (msg.length != null) $("scrub-at").textContent = `step ${msg.steps} of ${msg.length}` + (msg.entry ? ": " + msg.entry : "");
+    if (msg.length != null)   // the step just replayed, and the state lit in the graph: the next one
+      $("scrub-at").textContent = `after step ${msg.steps} of ${msg.length}` + (msg.entry ? ": " + msg.entry.trim() : "") +
+        (msg.done ? " (the end)" : ` · next: ${msg.current}`);
   }
 }
 
@@ -190,16 +192,12 @@ function markDirty() {
 function opened(name, text) { R.open = name || null; R.saved = text; $("program").value = name || ""; markDirty(); }
 
 // write the editor's text to `name`; `overwrite`: replace an existing file (the person said so, or
-// it is the file the editor opened).  A refusal because the file exists (409) asks before it replaces.
+// it is the file the editor opened); else a refusal because the file exists (409) asks first
 async function saveTo(name, overwrite) {
-  const text = $("program-editor").value, url = (o) => "/api/file?path=" + encodeURIComponent(name) + (o ? "&overwrite=1" : "");
-  try {
-    try { await api(url(overwrite), { method: "PUT", body: text }); }
-    catch (e) {
-      if (e.status !== 409 || !confirm(`${name} exists. Replace it with the editor's program?`)) throw e;
-      await api(url(true), { method: "PUT", body: text });
-    }
-  } catch (e) { $("save-status").textContent = "not saved: " + e.message; return false; }
+  const text = $("program-editor").value, put = (o) => api("/api/file?path=" + encodeURIComponent(name) +
+    (o ? "&overwrite=1" : ""), { method: "PUT", body: text });
+  try { await (overwrite ? put(true) : askingToOverwrite(put)); }
+  catch (e) { $("save-status").textContent = e.message.startsWith("not saved") ? e.message : "not saved: " + e.message; return false; }
   await refreshFiles(); opened(name, text);
   $("save-status").textContent = "saved " + name;
   return true;
