@@ -1,7 +1,4 @@
 // hila studio, page 3: Run & watch -- write a program (checked as you type), run it or a recording, watch it.
-// Nothing typed is lost: the tab and the Save button say when the editor holds unsaved changes
-// (and leaving the page asks); Save writes the file it opened, Save As asks a name and asks again
-// before it replaces another file (the server refuses with 409 until told overwrite).
 import { $, api, post, socket, fitH, polyline, fill, refreshFiles, askingToOverwrite } from "/static/common.js";
 
 export const html = `
@@ -182,6 +179,9 @@ function showLine(line) {   // select line (0-based) in the editor
 }
 
 // ---------------------------------------------------------------- nothing lost: unsaved changes, Save, Save As
+// The tab and the toolbar say when the editor holds unsaved changes (and leaving the page, or
+// opening another program, asks); Save writes the file it opened, Save As asks a name and asks
+// again before it replaces another file (the server refuses with 409 until told overwrite).
 const dirty = () => $("program-editor").value !== R.saved;
 function markDirty() {
   const d = dirty(), tab = document.querySelector('[data-testid="tab-run"]');
