@@ -62,8 +62,6 @@ PARK_HEIGHT = (0.08, 0.13)
 IDLE_WAITS = 3
 #: the game stops after this many circles drawn out of turn or over a mark (the referee's fouls)
 MAX_FOULS = 3
-#: the game's result (:meth:`TicTacToeWorld.result`) in words: the last line of a run, the studio's outcome
-RESULT_WORDS = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw", None: "unfinished"}
 _NAMES = {"": "empty", "O": "a circle (O)", "X": "a cross (X)"}
 
 
@@ -387,6 +385,10 @@ class TicTacToeWorld:
             report["out"] = str(folder)
             self._print(f"outputs written to {folder}")
         return report
+
+
+#: the game's result (:meth:`TicTacToeWorld.result`) in words: the last line of a run, the studio's outcome
+RESULT_WORDS = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw", None: "unfinished"}
 
 
 def make_world(options, settings) -> TicTacToeWorld:
