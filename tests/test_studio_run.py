@@ -464,6 +464,13 @@ def test_a_failed_run_is_lit_at_the_top_and_in_the_editor(page, studio):
     page.get_by_test_id("back").click()  # back: the failure is history
     wait_status(page, "!s.failed && s.current === 'main/let#1'")
     assert "failed" not in status.get_attribute("class") and page.get_by_test_id("run-problem").count() == 0
+    seen = _dialogs(page, [False])  # Start with unsaved changes: save them first? no -- the file as saved runs
+    page.get_by_test_id("program-editor").press("End")
+    page.keyboard.type("# an edit")
+    page.get_by_test_id("start").click()
+    wait_status(page, "s.steps === 0 && s.current === 'main/reach'")
+    assert seen[0][0] == "confirm" and "without the editor's unsaved changes" in seen[0][1]
+    assert (studio.folder / "fail.hila").read_text() == FAILING and page.get_by_test_id("program-dirty").is_visible()
 
 
 @pytest.mark.slow  # a browser and a server (tests/conftest.py)

@@ -49,8 +49,8 @@ export const html = `
 // the page's state: the state machine (graph) and its layout, the breakpoints the page set, the
 // session's last snapshot (state), what the program's world offers (offered: setting -> {value: label}),
 // the program the editor holds (open: its file, or null for a new one; saved: its text as last
-// read or written; files: the folder's files) and the last check's problems
-export const state = { breaks: new Set(), offered: {}, open: null, saved: "", files: [], problems: [] };
+// read or written; files: the folder's files), the last check's problems and the program started last (running)
+export const state = { breaks: new Set(), offered: {}, open: null, saved: "", files: [], problems: [], running: null };
 const R = state;
 
 const ws = socket("/ws/run", onMessage);
@@ -162,7 +162,8 @@ async function check() {
 // the editor's problems: the check's, and the state a run failed in, at its program line (a click
 // puts the editor's cursor on the line)
 function showProblems() {
-  const ul = $("problems"), f = R.state && R.state.failed, items = R.problems.map((p) =>
+  const f = R.state && R.state.failed && R.running === $("program").value ? R.state.failed : null;  // this program's run
+  const ul = $("problems"), items = R.problems.map((p) =>
     [p.severity, `${p.line + 1}:${p.character + 1}: ${p.severity}: ${p.message}`, p.line]);
   if (f) items.unshift(["error run-failed", `${f.line || "?"}: run failed in ${f.state}: ${f.message}`,
     f.line ? f.line - 1 : null]);
@@ -225,7 +226,10 @@ export async function mount() {
   $("program-save").addEventListener("click", () => (R.open ? saveTo(R.open, true) : saveAs()));
   $("program-save-as").addEventListener("click", saveAs);
   window.addEventListener("beforeunload", (e) => { if (dirty()) { e.preventDefault(); e.returnValue = "unsaved changes"; } });
-  $("btn-start").addEventListener("click", () => { R.breaks.clear();
+  $("btn-start").addEventListener("click", async () => {   // a run reads the file: unsaved changes are offered a save first
+    if (dirty() && confirm(`Start runs ${R.open || "a saved program"}, without the editor's unsaved changes. Save them first?`)
+        && !(await (R.open ? saveTo(R.open, true) : saveAs()))) return;
+    R.breaks.clear(); R.running = $("program").value;
     send({ cmd: "start", path: $("program").value, backend: $("backend").value, robot: $("robot-choice").value,
       settings: worldSettings() }); });
   for (const c of ["step", "run", "back", "reload", "stop"]) $("btn-" + c).addEventListener("click", () => send({ cmd: c }));
