@@ -175,6 +175,16 @@ def test_one_session_protocol_for_a_run_and_a_recording(tmp_path):
     assert replay.snapshot()["steps"] == 4 and replay.length > 4 and replay.snapshot()["board"] is None
 
 
+def _start_and_run(page, first: str, until: str) -> None:
+    """Start the chosen program on the dry back end, see it at state ``first``, Run it until the
+    page's snapshot ``s`` satisfies ``until`` (JavaScript)."""
+    page.get_by_test_id("backend").select_option("dry")
+    page.get_by_test_id("start").click()
+    wait_status(page, f"s.current === '{first}'")
+    page.get_by_test_id("run").click()
+    wait_status(page, until)
+
+
 #: docs/studio.md's walk-through: a straight stroke across the tic-tac-toe grid, corner to corner
 SWIPE_JS = """
 async () => {
@@ -341,11 +351,7 @@ def test_the_docs_walk_through_swipe_save_two_line_program_run(page, studio, tmp
     assert page.get_by_test_id("opponent").count() == 0  # the scripted world offers no opponent
     page.get_by_test_id("program-save").click()
     page.wait_for_function("document.querySelector('[data-testid=program-select]').value === 'mine.hila'")
-    page.get_by_test_id("backend").select_option("dry")
-    page.get_by_test_id("start").click()
-    wait_status(page, "s.current === 'main/swipe'")
-    page.get_by_test_id("run").click()
-    wait_status(page, "s.done")
+    _start_and_run(page, "main/swipe", "s.done")
     assert "finished after 2 steps" in page.get_by_test_id("run-status").inner_text()
     page.screenshot(path=tmp_path / "walk-through.png")
 
@@ -445,11 +451,7 @@ def test_a_failed_run_is_lit_at_the_top_and_in_the_editor(page, studio):
     page.get_by_test_id("tab-run").click()
     page.get_by_test_id("program-select").select_option("fail.hila")
     page.wait_for_function("document.querySelector('#problems').innerText.includes('no problems')")
-    page.get_by_test_id("backend").select_option("dry")
-    page.get_by_test_id("start").click()
-    wait_status(page, "s.current === 'main/reach'")
-    page.get_by_test_id("run").click()
-    wait_status(page, "s.failed")
+    _start_and_run(page, "main/reach", "s.failed")
     status = page.get_by_test_id("run-status")
     assert "failed" in status.get_attribute("class")
     assert status.inner_text().startswith("failed in main/back (line 9): an obstacle's radius must be")
