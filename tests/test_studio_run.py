@@ -270,6 +270,8 @@ def test_open_a_recording_and_scrub(page, studio, tmp_path):
     page.get_by_test_id("tab-run").click()
     page.get_by_test_id("recording-select").select_option("game.hilarec")
     wait_status(page, "s.length > 0")
+    assert page.get_by_test_id("program-editor").input_value() == (studio.folder / "game.hila").read_text()
+    assert page.get_by_test_id("program-dirty").is_hidden()  # the recording's program, shown as it ran
     scrub = page.get_by_test_id("scrub")
     for n in (len(steps) // 2, 5, len(steps)):
         scrub.evaluate("(el, n) => { el.value = n; el.dispatchEvent(new Event('input')); }", n)

@@ -3,14 +3,13 @@ what the program's world offers here), run on a back end and a robot (the regist
 /api/plugins``: :func:`.page.plugins`) or a recording replayed, and watched.  The websocket
 ``/ws/run`` holds one :class:`Session`: ``{"cmd": "start", path, backend, robot, settings, seed}``
 opens a :class:`RunSession` (the run ``hila repl`` builds, :func:`hila_lang.session.runner.prepare`),
-``{"cmd": "open", path}`` a :class:`ReplaySession` (a ``.hilarec``); both under
-:class:`hila_lang.session.repl.Repl` and both answer :data:`COMMANDS`: the REPL's commands in a
-worker thread, one at a time, ``stop``, ``answer`` (a person's line to the world: a board's
+``{"cmd": "open", path}`` a :class:`ReplaySession` (a ``.hilarec``: its program's text comes too);
+both under :class:`hila_lang.session.repl.Repl`, both answer :data:`COMMANDS`: the REPL's commands
+in a worker thread, one at a time, ``stop``, ``answer`` (a person's line to the world: a board's
 button), ``view`` (turn the 3-D view), ``scrub``; what a session cannot do it says.  After each
-step the page gets the state, the trace line, the world's board (its plug-in's), the left eye's
-image, the 3-D view (:mod:`hila_lang.session.view3d`), the state that failed (``failed``: state,
-program line, message; until the next step, back or reload) and at the end what the world says
-of it (``outcome``: who won)."""
+step the page gets the state, the trace line, the world's board, the left eye's image, the 3-D
+view (:mod:`hila_lang.session.view3d`), ``failed`` (the state that failed, its line and message,
+until the next step, back or reload) and ``outcome`` (at the end: who won, the world's words)."""
 
 from __future__ import annotations
 
@@ -99,13 +98,13 @@ def _png(rgb) -> str:
 
 class Session:
     """What the Run page steps under the REPL, one command at a time: ``interp`` is its engine,
-    ``length`` a recording's steps (None: a run); the base class answers as a recording does."""
+    ``length``/``program`` a recording's steps/text (None: a run); the base class answers as a recording does."""
 
     length: int | None = None
+    program: str | None = None
 
     def __init__(self, emit) -> None:
-        self.emit, self.repl, self.interp, self._lock = emit, None, None, threading.Lock()
-        self.failed: dict | None = None  # the state that failed last (a run's): until the next step, back or reload
+        self.emit, self.repl, self.interp, self.failed, self._lock = emit, None, None, None, threading.Lock()
 
     def command(self, line: str) -> None:
         """Run one REPL command in a worker thread (one at a time: a second waits its turn)."""
@@ -246,7 +245,7 @@ class ReplaySession(Session):
         self.record = read_record(file)
         self.interp = ReplayEngine(self.record)
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=Output(emit))
-        self.length = len(self.record.get("steps", []))
+        self.length, self.program = len(self.record.get("steps", [])), self.record["program"].get("text")
 
     def scrub(self, n: int) -> None:
         n = max(0, min(int(n), self.length))
@@ -303,7 +302,8 @@ class RunSocket(JSONSocket):
             path = studio_of(websocket).path(str(doc.get("path", "")))
             opening = (lambda: self._start(path, doc)) if cmd == "start" else (lambda: ReplaySession(path, self.emit))
             self.session = await run_in_threadpool(opening)
-            self.emit(dict(type="fsm", graph=fsm_graph(self.session.interp.fsm), length=self.session.length))
+            self.emit(dict(type="fsm", graph=fsm_graph(self.session.interp.fsm), length=self.session.length,
+                           program=self.session.program))
             self.emit(self.session.snapshot())
         elif cmd not in COMMANDS:
             raise InputError(f"unknown command {cmd!r}; expected start, open or {', '.join(COMMANDS)}")

@@ -61,7 +61,10 @@ function status(text, kind) { const el = $("run-status"); el.textContent = text;
 
 function onMessage(msg) {
   if (msg.type === "fsm") { R.graph = msg.graph; $("trace").textContent = ""; drawFSM(null);
-    const s = $("scrub"); s.disabled = msg.length == null; s.max = msg.length || 0; s.value = 0; }
+    const s = $("scrub"); s.disabled = msg.length == null; s.max = msg.length || 0; s.value = 0;
+    if (msg.program != null && msg.program !== $("program-editor").value &&   // a recording: its program, unnamed
+        (!dirty() || confirm("Show the recording's program in the editor? Its unsaved changes would be lost."))) {
+      $("program-editor").value = msg.program; opened(null, msg.program); check(); } }
   else if (msg.type === "out") traceAdd(msg.text);
   else if (msg.type === "error") { traceAdd("error: " + msg.text + "\n"); status("error: " + msg.text, "failed"); }
   else if (msg.type === "state" || msg.type === "step") {
