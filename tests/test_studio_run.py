@@ -69,6 +69,28 @@ def test_a_failed_step_is_said_with_its_state_line_and_message(tmp_path):
         run.close()
 
 
+def test_a_bug_in_a_step_is_lit_as_failed_too(tmp_path, monkeypatch):
+    """A step that fails by a bug (not a HilaError: hila's ``internal error``, exit 3 on the command
+    line) is lit like a failed step, at its state and line, with the first line of what the CLI says."""
+    import shutil
+
+    shutil.copy(ROOT / "primitives" / "reach.yaml", tmp_path / "reach.yaml")
+    (tmp_path / "fail.hila").write_text(FAILING)
+    out = []
+    run = RunSession(tmp_path / "fail.hila", out.append, backend="dry")
+    try:
+        def broken():
+            raise IndexError("list index out of range")
+        monkeypatch.setattr(run.interp, "step", broken)
+        COMMANDS["step"](run, {})
+        snap = _until(out, lambda s: s["failed"] is not None)
+        assert snap["failed"] == {"state": "main/reach", "line": 7,
+                                  "message": "internal error: IndexError: list index out of range"}
+        assert any(m.get("type") == "out" and "This is a bug in hila" in m["text"] for m in out)
+    finally:
+        run.close()
+
+
 def test_a_finished_game_says_who_won():
     """The page's words at the end are the world's result (the report's ``result``), not a count of steps."""
     from hila_lang.worlds.tictactoe.world import RESULT_WORDS

@@ -29,7 +29,8 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
-from ..core.errors import HilaError, InputError
+from ..core.errors import HilaError, InputError, internal_error_message
+from ..core.fileio import png_bytes, read_text
 from ..plugins.studio import StudioView
 from .page import JSONSocket, Page, plugins, read_json, studio_of
 
@@ -91,8 +92,6 @@ def fsm_graph(fsm) -> dict:
 
 
 def _png(rgb) -> str:
-    from ..core.fileio import png_bytes
-
     return base64.b64encode(png_bytes(rgb)).decode()
 
 
@@ -112,8 +111,11 @@ class Session:
             with self._lock:
                 try:
                     self.repl.onecmd(line)
-                except Exception as exc:  # noqa: BLE001 - reported on the page, the session goes on
-                    self.emit({"type": "out", "text": f"error: {exc}\n"})
+                except Exception as exc:  # noqa: BLE001 - a bug: said on the page, lit as failed; the session goes on
+                    text, at = internal_error_message(exc), self.interp.current
+                    self.emit({"type": "out", "text": text + "\n"})
+                    where = self.interp.fsm.states[at].line if at in self.interp.fsm.states else None
+                    self.failed = dict(state=at, line=where or None, message=text.splitlines()[0])
                 self.emit(self.snapshot())
         threading.Thread(target=work, daemon=True).start()
 
@@ -314,8 +316,6 @@ class RunSocket(JSONSocket):
 
     def _start(self, path: Path, doc: dict) -> RunSession:
         """A run of ``path`` with the given settings its world declares (not another program's)."""
-        from ..core.fileio import read_text
-
         given = doc.get("settings") or {}
         if not isinstance(given, dict):
             raise InputError(f"expected the settings as a JSON object, got {given!r}")
