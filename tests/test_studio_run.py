@@ -412,7 +412,7 @@ def test_save_never_replaces_another_file_without_asking(page, studio):
     answers = ["other.hila", False, False]  # Save As other.hila; replace it? no; (later) discard? no
     seen = _dialogs(page, answers)
     page.get_by_test_id("program-save-as").click()
-    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.includes('not saved')")
+    page.wait_for_function("document.querySelector('[data-testid=program-save-status]').textContent.includes('not saved')")
     assert [t for t, _ in seen] == ["prompt", "confirm"] and "other.hila exists" in seen[1][1]
     assert (studio.folder / "other.hila").read_text() == "# someone else's\nmain {\n}\n"
     assert page.get_by_test_id("program-dirty").is_visible()
@@ -422,7 +422,8 @@ def test_save_never_replaces_another_file_without_asking(page, studio):
     assert page.get_by_test_id("program-select").input_value() == "mine.hila"
     assert "# mine, edited" in page.get_by_test_id("program-editor").input_value()
     page.get_by_test_id("program-save").click()  # the open file: written without a question
-    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent === 'saved mine.hila'")
+    page.wait_for_function("document.querySelector('[data-testid=program-save-status]').textContent === 'saved mine.hila'")
+    assert page.get_by_test_id("program-save-status").is_visible()  # on the Run page, beside Save
     assert len(seen) == 3 and (studio.folder / "mine.hila").read_text() == "main {\n    # mine, edited\n}\n"
     assert page.get_by_test_id("program-dirty").is_hidden() and "dirty" not in page.get_by_test_id("tab-run").get_attribute("class")
     page.get_by_test_id("program-editor").fill("main {\n    # copied\n}\n")
@@ -459,7 +460,8 @@ def test_a_file_that_appeared_meanwhile_is_replaced_only_when_the_person_says_so
     page.route("**/api/file?path=late.hila*", route)
     seen = _dialogs(page, ["late.hila", False, "late.hila", True])
     page.get_by_test_id("program-save").click()  # the list is on "choose...": a name is asked
-    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.includes('exists')")
+    page.wait_for_function("document.querySelector('[data-testid=program-save-status]').textContent.startsWith('not saved')")
+    assert "late.hila" in page.get_by_test_id("program-save-status").inner_text()
     assert [t for t, _ in seen] == ["prompt", "confirm"] and not (studio.folder / "late.hila").exists()
     assert len(sent) == 1 and "overwrite" not in sent[0]
     page.get_by_test_id("program-save").click()

@@ -10,7 +10,7 @@ export const html = `
     <button id="program-save" data-testid="program-save">Save</button>
     <button id="program-save-as" data-testid="program-save-as">Save As…</button>
     <span id="program-dirty" data-testid="program-dirty" class="dirty-mark" hidden>● unsaved changes</span>
-    <span id="save-status" data-testid="save-status" class="muted"></span>
+    <span id="program-save-status" data-testid="program-save-status" class="muted"></span>
     <label>back end <select id="backend" data-testid="backend"></select></label>
     <label>robot <select id="robot-choice" data-testid="robot-choice"></select></label>
     <span id="world-settings"></span>
@@ -201,18 +201,18 @@ async function saveTo(name, overwrite) {
   const text = $("program-editor").value, put = (o) => api("/api/file?path=" + encodeURIComponent(name) +
     (o ? "&overwrite=1" : ""), { method: "PUT", body: text });
   try { await (overwrite ? put(true) : askingToOverwrite(put)); }
-  catch (e) { $("save-status").textContent = e.message.startsWith("not saved") ? e.message : "not saved: " + e.message; return false; }
+  catch (e) { $("program-save-status").textContent = e.message.startsWith("not saved") ? e.message : "not saved: " + e.message; return false; }
   await refreshFiles(); opened(name, text);
-  $("save-status").textContent = "saved " + name;
+  $("program-save-status").textContent = "saved " + name;
   return true;
 }
 async function saveAs() {
   let name = prompt("save the program as (a name in the studio's folder, e.g. mine.hila)", R.open || "mine.hila");
-  if (!name || !(name = name.trim())) { $("save-status").textContent = "not saved: no name given"; return false; }
+  if (!name || !(name = name.trim())) { $("program-save-status").textContent = "not saved: no name given"; return false; }
   if (!name.endsWith(".hila")) name += ".hila";
   const exists = name !== R.open && R.files.includes(name);
   if (exists && !confirm(`${name} exists. Replace it with the editor's program?`)) {
-    $("save-status").textContent = `not saved: ${name} exists`; return false; }
+    $("program-save-status").textContent = `not saved: ${name} exists`; return false; }
   return saveTo(name, exists || name === R.open);
 }
 
