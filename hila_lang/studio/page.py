@@ -4,14 +4,14 @@
   title, ES module (in ``static/``) and routes; :mod:`.app` assembles the app from the pages.
 - :class:`Studio`: the folder a studio serves and what it keeps while it runs (templates read
   once per change); a handler reaches it as ``request.app.state.studio``.
+- :func:`plugins`: the back ends, robots and worlds the registry's plug-ins declare, for the
+  pages' menus (an installed plug-in is there as it is for ``hila exec``).
 - :func:`read_json` / :func:`read_body`: the one door a request's body comes in by (bounded by
   :data:`.security.MAX_UPLOAD`; where a schema of every request belongs).
 - :func:`problem`: what a failed request says (hila's message and hint; an OSError as the file
   and why; ``refused`` for a path or size the studio does not take).
 - :class:`JSONSocket`: a websocket of JSON objects, one answer per message; a bad message or a
   failed one is answered with the reason and the socket goes on.
-- :func:`plugins`: the back ends, robots and worlds the registry's plug-ins declare, for the
-  pages' menus (an installed plug-in is there as it is for ``hila exec``).
 """
 
 from __future__ import annotations
