@@ -9,6 +9,7 @@ Modules, one line each:
 - ``files``        the folder's files: listed, read, written (every write the studio makes), uploaded
 - ``security``     the token, the Host/Origin check (DNS rebinding), paths kept inside the folder (docs/design.md §6)
 - ``demonstrate``  page 1: scenes to draw on, pointer samples -> a timed path, saved as ``hila learn`` does
+- ``camera``       page 1's Camera scene: webcam frames (or an uploaded video) tracked as ``hila learn --sheet`` does
 - ``imitate``      page 2: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason
 - ``run``          page 3: a program checked as typed, run (or a recording replayed) and watched
 

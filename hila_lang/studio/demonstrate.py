@@ -24,7 +24,8 @@ method's replace its segments afterwards (the description says so).
 
 Routes: ``GET /api/scenes``, ``GET /api/scene?name=``, ``GET /api/scene-image?name=``, ``POST
 /api/demonstration`` (samples -> path, times, speed and proposed cuts), ``POST /api/save``, ``GET
-/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``.
+/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``; and the Camera
+scene's (:mod:`.camera`: a pen on the printed sheet before the webcam).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
 from ..core.errors import InputError
-from . import files
+from . import camera, files
 from .page import Page, read_json, studio_of, template_json
 from .security import inside
 
@@ -55,12 +56,14 @@ def _sheet_H(height: int) -> np.ndarray:
 
 
 def scenes() -> list[dict]:
-    """What the page offers to draw on: ``[{name, label}]``, a blank sheet and every world's scene."""
+    """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene and
+    the Camera scene (:mod:`.camera`)."""
     from ..plugins import registry
 
     return [dict(name="blank", label="blank sheet")] + [
         dict(name=f"world:{info.name}", label=info.studio.scene_label or info.name)
-        for info in registry.declarations("world") if info.studio is not None and info.studio.scene]
+        for info in registry.declarations("world") if info.studio is not None and info.studio.scene] + [
+        dict(name="camera", label="camera: a pen on the printed sheet")]
 
 
 def _world_scene(name: str):
@@ -81,6 +84,10 @@ def scene(name: str, folder: Path) -> dict:
     if name == "blank":
         w, h = SHEET_SIZE
         return dict(name=name, image=None, width=w, height=h, H=_sheet_H(h).tolist(), z=None, features=[], lift=None)
+    if name == "camera":  # the printed sheet from above, until a recording says which (studio/camera.py)
+        from ..perception.sheet import SheetLayout
+
+        return camera.sheet_scene(SheetLayout("a4", grid=True))
     if name.startswith("world:"):
         sc = _world_scene(name[len("world:"):])
         return dict(name=name, image=f"/api/scene-image?name={name}", width=sc.width, height=sc.height,
@@ -92,7 +99,7 @@ def scene(name: str, folder: Path) -> dict:
         h, w = read_picture(inside(folder, name[len("upload:"):]), "uploaded image").shape[:2]
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=w, height=h, H=_sheet_H(h).tolist(),
                     z=None, features=[], lift=None)
-    raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
+    raise InputError(f"unknown scene {name!r}; expected blank, camera, world:NAME or upload:FILE")
 
 
 def scene_image(name: str) -> bytes:
@@ -181,7 +188,8 @@ def save(folder: Path, req: dict) -> dict:
     ``NAME.yaml`` in ``folder``; returns ``{template, demo, icps, command, segments}``.
 
     ``req``: ``name``, ``path`` (T, D), ``times`` (T,), ``icps`` {name: point}, ``tags``
-    (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
+    (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices) with
+    ``cuts_from``, where they come from when not from a hand (the Camera scene: the pen's tracked contact).
     """
     from ..hierarchy.learn import learn_files
     from ..language.transformer import usable_as_tag
@@ -218,7 +226,8 @@ def save(folder: Path, req: dict) -> dict:
         segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
         check_segments(segs, len(path), "cuts")
         template.segments = segs
-        template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
+        why = str(req.get("cuts_from") or "") or "moved by hand in hila studio"
+        template.description += f" Cuts {why}: {[int(c) for c in cuts]} (proposed {proposed})."
     files.write(folder, {target.name: template_text(template)})
     return dict(template=target.name, demo=demo.name, icps=icps_file.name, command="hila learn " + " ".join(argv),
                 segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments])
@@ -313,4 +322,5 @@ PAGE = Page("demo", "1 Demonstrate", "demonstrate.js", routes=[
     Route("/api/save", _save, methods=["POST"]),
     Route("/api/open", _open),
     Route("/api/lasa", _lasa),
+    *camera.ROUTES,  # the Camera scene (studio/camera.py, static/camera.js)
 ])
