@@ -12,8 +12,19 @@ export async function api(path, opts = {}) {
   const r = await fetch(path, Object.assign({ credentials: "same-origin" }, opts));
   const type = r.headers.get("content-type") || "";
   const body = type.includes("json") ? await r.json() : await r.text();
-  if (!r.ok) throw new Error(body.error || body);
+  if (!r.ok) throw Object.assign(new Error(body.error || body), { status: r.status, exists: !!body.exists });
   return body;
+}
+
+// a save that may replace a file (the overwrite contract): sent first without overwrite; when the
+// server answers 409 (the file exists) the person is asked, and only if they agree is it sent
+// again with overwrite.  send(overwrite) makes the request; declined, it throws "not saved: ..."
+export async function askingToOverwrite(send) {
+  try { return await send(false); } catch (err) {
+    if (err.status !== 409) throw err;
+    if (!confirm(err.message.replace(/ \(send overwrite.*\)$/, "") + ".\nReplace it?")) throw new Error("not saved: " + err.message.split(" exists")[0] + " was kept");
+    return await send(true);
+  }
 }
 
 export const post = (path, doc) => api(path, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(doc) });
