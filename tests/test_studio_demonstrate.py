@@ -63,7 +63,9 @@ def test_save_is_hila_learn_and_moved_cuts_replace_the_segments(tmp_path):
                         "-o", str(tmp_path / "cli.yaml"), "--name", "swipe"], capture_output=True, text=True)
     assert r.returncode == 0 and (tmp_path / "cli.yaml").read_text() == learned
     proposed = out["segments"][1]["start"]
-    moved = demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7]))
+    with pytest.raises(InputError, match="swipe.demo.csv exists"):  # the overwrite contract: asked first
+        demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7]))
+    moved = demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7], overwrite=True))
     assert moved["segments"][1]["start"] == proposed + 7
     tpl = load_template(tmp_path / "swipe.yaml")
     assert [(s.start, s.stop, s.contact) for s in tpl.segments] == [(0, proposed + 7, False), (proposed + 7, 60, True)]

@@ -82,16 +82,18 @@ def learn(name: str, path, icps: dict, *, times=None, tags: Sequence[str] = (), 
 
 def learn_files(demo: str | Path, icps: str | Path, *, name: str, tags: Sequence[str] = (),
                 contact: Sequence[str] = (), k: int | None = None, method: str = DEFAULT_METHOD, seed: int = 0,
-                description: str | None = None) -> Template:
+                description: str | None = None, named: tuple[str, str] | None = None) -> Template:
     """:func:`learn` of the demonstration CSV ``demo`` with the ICPs of the YAML ``icps``.
 
-    The description, unless given, names both files as given and how the path was cut, as
+    The description, unless given, names both files as given (or as ``named``: the names they
+    are published under, when they are read from a staging place) and how the path was cut, as
     ``hila learn`` writes it.  A problem with the path names ``demo``."""
     k, tags = default_tags(tags, k)
     points, times = read_demo_csv(demo)
     scene = load_icps(icps, points.shape[1])
+    shown_demo, shown_icps = named or (demo, icps)
     if description is None:
-        description = (f"learned from {demo} ({len(points)} points) with ICPs from {icps}."
+        description = (f"learned from {shown_demo} ({len(points)} points) with ICPs from {shown_icps}."
                        + (f" {describe(method, k)}" if tags else ""))
     return learn(name, points, scene, times=times, tags=tags, contact=contact, k=k, method=method, seed=seed,
-                 description=description, source=str(demo))
+                 description=description, source=str(shown_demo))

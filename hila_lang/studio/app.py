@@ -39,6 +39,8 @@ def static_dir() -> Path:
 
 async def answer_problem(request: Request, exc: Exception) -> Response:
     status, text = problem(exc)
+    if isinstance(exc, files.Exists):  # the overwrite contract: 409, the page asks the person
+        return JSONResponse({"error": text, "exists": True}, status_code=409)
     return JSONResponse({"error": text}, status_code=status)
 
 
@@ -90,6 +92,9 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
 
     token = token or new_token()
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    # SO_REUSEADDR: a restart on the same --port right after requests binds at once (without it the
+    # connections' TIME_WAIT held the port ~60 s); two listeners on one port are still refused
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind(("127.0.0.1", port))
     except OSError as exc:

@@ -29,7 +29,7 @@ Routes: ``GET /api/scenes``, ``GET /api/scene?name=``, ``GET /api/scene-image?na
 
 from __future__ import annotations
 
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 from starlette.concurrency import run_in_threadpool
@@ -38,9 +38,10 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
 from ..core.errors import InputError
-from . import files
+from . import files, schema
 from .page import Page, read_json, studio_of, template_json
-from .security import inside
+from .schema import query
+from .security import inside, opened
 
 #: metres per pixel of a blank sheet or an uploaded picture: 0.25 mm, so an 840-pixel-wide
 #: canvas is an A4 sheet's width (0.21 m)
@@ -89,7 +90,8 @@ def scene(name: str, folder: Path) -> dict:
     if name.startswith("upload:"):
         from ..core.images import read_picture
 
-        h, w = read_picture(inside(folder, name[len("upload:"):]), "uploaded image").shape[:2]
+        with opened(folder, name[len("upload:"):], "uploaded image") as picture:
+            h, w = read_picture(picture, "uploaded image").shape[:2]
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=w, height=h, H=_sheet_H(h).tolist(),
                     z=None, features=[], lift=None)
     raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
@@ -140,6 +142,7 @@ def demonstration_path(samples: list, z: float | None, lift_max: float | None = 
     fewer than 2 left is an InputError.
     """
     from ..evaluation.lasa import RATE_HZ, resample_in_time
+    from .schema import MAX_SECONDS
 
     if not isinstance(samples, list):
         raise InputError("expected the demonstration as a list of pointer samples")
@@ -160,6 +163,9 @@ def demonstration_path(samples: list, z: float | None, lift_max: float | None = 
     arr = np.array([r[:3] for r in kept])
     down = np.array([r[3] for r in kept])
     t = (arr[:, 0] - arr[0, 0]) / 1000.0
+    if t[-1] > MAX_SECONDS:  # resampled at 20 Hz, a longer span would be a path of any length
+        raise InputError(f"the demonstration lasts {t[-1]:.0f} s; the studio takes at most {MAX_SECONDS:.0f} s "
+                         "(its time stamps are milliseconds)")
     pts = arr[:, 1:] if z is None else lift(arr[:, 1:], down, float(z), float(lift_max))
     path = resample_in_time(t, pts, RATE_HZ)
     return path, np.arange(len(path)) / RATE_HZ
@@ -203,23 +209,28 @@ def save(folder: Path, req: dict) -> dict:
     contact = [str(t) for t in req.get("contact") or []]
     method, seed = str(req.get("method", "speed")), int(req.get("seed", 0))
     target = inside(folder, f"{name}.yaml")
-    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv(path, times),
-                                           f"{name}.icps.yaml": icps_text(icps)})
+    demo, icps_file = inside(folder, f"{name}.demo.csv"), inside(folder, f"{name}.icps.yaml")
     k = max(len(tags), 1)
-    template = learn_files(str(demo), str(icps_file), name=name, tags=tags, contact=contact, k=k, method=method,
-                           seed=seed)
+    # one transaction: the three files staged, the template learned from the staged two (so it is
+    # what hila learn reads from them), then all published under the name's lock -- or none
+    with files.Transaction(folder, overwrite=bool(req.get("overwrite"))) as staging:
+        staging.check([demo.name, icps_file.name, target.name])
+        staged_demo = staging.stage(demo.name, demo_csv(path, times))
+        staged_icps = staging.stage(icps_file.name, icps_text(icps))
+        template = learn_files(str(staged_demo), str(staged_icps), name=name, tags=tags, contact=contact, k=k,
+                               method=method, seed=seed, named=(str(demo), str(icps_file)))
+        cuts = req.get("cuts")
+        proposed = [s.start for s in template.segments[1:]]
+        if cuts is not None and tags and [int(c) for c in cuts] != proposed:
+            bounds = [0, *[int(c) for c in cuts], len(path)]
+            segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
+            check_segments(segs, len(path), "cuts")
+            template.segments = segs
+            template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
+        staging.stage(target.name, template_text(template))
     argv = [str(demo), "--icps", str(icps_file), "-k", str(k), "--method", method, "--seed", str(seed),
             "-o", str(target)] + (["--tags", ",".join(tags)] if tags else []) + \
         (["--contact", ",".join(contact)] if contact else [])
-    cuts = req.get("cuts")
-    proposed = [s.start for s in template.segments[1:]]
-    if cuts is not None and tags and [int(c) for c in cuts] != proposed:
-        bounds = [0, *[int(c) for c in cuts], len(path)]
-        segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
-        check_segments(segs, len(path), "cuts")
-        template.segments = segs
-        template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
-    files.write(folder, {target.name: template_text(template)})
     return dict(template=target.name, demo=demo.name, icps=icps_file.name, command="hila learn " + " ".join(argv),
                 segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments])
 
@@ -231,14 +242,22 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
     if kind == "template":
         from ..osila.template import load_template
 
-        return template_json(load_template(inside(folder, name)))
+        with opened(folder, name, "template") as file:
+            return template_json(load_template(file))
     if kind == "csv":
         from ..osila.demofile import load_icps, read_demo_csv
 
         file = inside(folder, name)
-        path, times = read_demo_csv(file)
-        side = file.with_name(file.name.replace(".demo.csv", "").replace(".csv", "") + ".icps.yaml")
-        icps = load_icps(side, path.shape[1]) if side.exists() else {}
+        with opened(folder, name, "demonstration CSV") as csv:
+            path, times = read_demo_csv(csv)
+        side = str(PurePosixPath(name).with_name(file.name.replace(".demo.csv", "").replace(".csv", "") + ".icps.yaml"))
+        try:  # the sidecar opened as the CSV was: inside the folder, no link followed (issue 32)
+            with opened(folder, side, "scene ICP file") as sidecar:
+                icps = load_icps(sidecar, path.shape[1])
+        except InputError as exc:
+            if not exc.message.startswith("no scene ICP file"):
+                raise
+            icps = {}
         return dict(name=file.stem.replace(".demo", ""), path=path.tolist(),
                     times=None if times is None else times.tolist(), icps=icps, segments=[],
                     description=f"from {name}", dim=int(path.shape[1]))
@@ -259,6 +278,8 @@ def demonstration(doc: dict) -> dict:
     times, the hand's speed and the cuts proposed for ``k`` segments by ``method``."""
     if "samples" in doc:
         path, times = demonstration_path(doc["samples"], doc.get("z"), doc.get("lift"))
+    elif "path" not in doc:
+        raise InputError("expected the demonstration as samples (pointer samples) or a path")
     else:
         path = np.asarray(doc["path"], float)
         times = np.asarray(doc["times"] if doc.get("times") is not None else np.arange(len(path)) * 0.05)
@@ -275,12 +296,12 @@ async def _scenes(request: Request) -> Response:
 
 
 async def _scene(request: Request) -> Response:
-    name = request.query_params.get("name", "blank")
+    name = query(request, schema.SCENE_QUERY).get("name", "blank")
     return JSONResponse(await run_in_threadpool(scene, name, studio_of(request).folder))
 
 
 async def _scene_image(request: Request) -> Response:
-    data = await run_in_threadpool(scene_image, request.query_params.get("name", ""))
+    data = await run_in_threadpool(scene_image, query(request, schema.SCENE_QUERY).get("name", ""))
     return Response(data, media_type="image/png")
 
 
@@ -294,9 +315,8 @@ async def _save(request: Request) -> Response:
 
 
 async def _open(request: Request) -> Response:
-    q = request.query_params
-    return JSONResponse(await run_in_threadpool(open_source, studio_of(request).folder, q.get("kind", ""),
-                                                q.get("name", "")))
+    q = query(request, schema.OPEN_QUERY)
+    return JSONResponse(await run_in_threadpool(open_source, studio_of(request).folder, q["kind"], q["name"]))
 
 
 async def _lasa(request: Request) -> Response:

@@ -26,7 +26,9 @@ from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError
+from . import schema
 from .page import JSONSocket, Page, read_json, studio_of, template_json
+from .schema import query
 
 #: the controls drawn beside OSILA (names of hila_lang.evaluation.controls)
 CONTROLS = ("tps", "similarity", "dmp-aligned")
@@ -167,7 +169,7 @@ def load(folder: Path, name: str):
 
 
 async def _template(request: Request) -> Response:
-    return JSONResponse(template_json(studio_of(request).template(request.query_params.get("path", ""))))
+    return JSONResponse(template_json(studio_of(request).template(query(request, schema.TEMPLATE_QUERY)["path"])))
 
 
 async def _export(request: Request) -> Response:
