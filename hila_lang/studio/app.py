@@ -25,9 +25,12 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from ..core.errors import HilaError
-from . import demonstrate, files, imitate, run
+from . import demonstrate, files, imitate, run, worker
 from .page import Studio, problem
 from .security import MAX_UPLOAD, Guard, cookie_name
+
+#: seconds Ctrl-C waits for requests under way before it cancels them (and kills the workers)
+SHUTDOWN_S = 0.3
 
 #: the pages, in tab order; a new page is its module here, its script in static/ and its test
 PAGES = (demonstrate.PAGE, imitate.PAGE, run.PAGE)
@@ -113,8 +116,13 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
         import webbrowser
 
         webbrowser.open(url)
+    # timeout_graceful_shutdown: Ctrl-C (or SIGTERM) waits at most this long for requests under
+    # way (their heavy work is in workers, killed then), so the studio stops within a second
     config = uvicorn.Config(make_app(folder, token, port), log_level="warning", lifespan="off",
-                            ws_max_size=MAX_UPLOAD)
+                            ws_max_size=MAX_UPLOAD, timeout_graceful_shutdown=SHUTDOWN_S)
     server = uvicorn.Server(config)
-    server.run(sockets=[sock])
+    try:
+        server.run(sockets=[sock])
+    finally:
+        worker.stop()
     return 0

@@ -38,7 +38,8 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
 from ..core.errors import InputError
-from . import files, schema
+from . import files, schema, worker
+from .save import _names, learned, save  # noqa: F401 - save: called by the tests as the page saves
 from .page import Page, read_json, studio_of, template_json
 from .schema import query
 from .security import inside, opened
@@ -182,59 +183,6 @@ def proposal(path, times, k: int, method: str, seed: int = 0) -> dict:
     return dict(cuts=[int(a) for a, _ in ranges[1:]], speed=[float(v) for v in speed(path, times)])
 
 
-def save(folder: Path, req: dict) -> dict:
-    """Write ``NAME.demo.csv`` and ``NAME.icps.yaml``, learn them as ``hila learn`` does and write
-    ``NAME.yaml`` in ``folder``; returns ``{template, demo, icps, command, segments}``.
-
-    ``req``: ``name``, ``path`` (T, D), ``times`` (T,), ``icps`` {name: point}, ``tags``
-    (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
-    """
-    from ..hierarchy.learn import learn_files
-    from ..language.transformer import usable_as_tag
-    from ..osila.demofile import demo_csv, icps_text
-    from ..osila.template import Segment, check_segments, template_text
-
-    name = str(req.get("name", "")).strip()
-    if not usable_as_tag(name):
-        raise InputError(f"template name {name!r}: a program imports it by name, so use a letter or '_' and "
-                         "then letters, digits or '_'")
-    path = np.asarray(req.get("path"), float)
-    times = np.asarray(req.get("times"), float)
-    if path.ndim != 2 or path.shape[1] not in (2, 3) or len(times) != len(path):
-        raise InputError(f"expected a path (T, 2 or 3) with T times, got {path.shape} and {times.shape}")
-    icps = req.get("icps") or {}
-    if not icps:
-        raise InputError("place at least one ICP (click on the scene) before saving")
-    tags = [str(t) for t in req.get("tags") or []]
-    contact = [str(t) for t in req.get("contact") or []]
-    method, seed = str(req.get("method", "speed")), int(req.get("seed", 0))
-    target = inside(folder, f"{name}.yaml")
-    demo, icps_file = inside(folder, f"{name}.demo.csv"), inside(folder, f"{name}.icps.yaml")
-    k = max(len(tags), 1)
-    # one transaction: the three files staged, the template learned from the staged two (so it is
-    # what hila learn reads from them), then all published under the name's lock -- or none
-    with files.Transaction(folder, overwrite=bool(req.get("overwrite"))) as staging:
-        staging.check([demo.name, icps_file.name, target.name])
-        staged_demo = staging.stage(demo.name, demo_csv(path, times))
-        staged_icps = staging.stage(icps_file.name, icps_text(icps))
-        template = learn_files(str(staged_demo), str(staged_icps), name=name, tags=tags, contact=contact, k=k,
-                               method=method, seed=seed, named=(str(demo), str(icps_file)))
-        cuts = req.get("cuts")
-        proposed = [s.start for s in template.segments[1:]]
-        if cuts is not None and tags and [int(c) for c in cuts] != proposed:
-            bounds = [0, *[int(c) for c in cuts], len(path)]
-            segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
-            check_segments(segs, len(path), "cuts")
-            template.segments = segs
-            template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
-        staging.stage(target.name, template_text(template))
-    argv = [str(demo), "--icps", str(icps_file), "-k", str(k), "--method", method, "--seed", str(seed),
-            "-o", str(target)] + (["--tags", ",".join(tags)] if tags else []) + \
-        (["--contact", ",".join(contact)] if contact else [])
-    return dict(template=target.name, demo=demo.name, icps=icps_file.name, command="hila learn " + " ".join(argv),
-                segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments])
-
-
 def open_source(folder: Path, kind: str, name: str) -> dict:
     """An existing demonstration to edit: ``template`` (a YAML in the folder), ``csv`` (a
     demonstration CSV in the folder, ICPs from ``NAME.icps.yaml`` beside it when there is one)
@@ -306,12 +254,16 @@ async def _scene_image(request: Request) -> Response:
 
 
 async def _demonstration(request: Request) -> Response:
-    return JSONResponse(await run_in_threadpool(demonstration, await read_json(request)))
+    return JSONResponse(await worker.run(demonstration, await read_json(request)))
 
 
 async def _save(request: Request) -> Response:
-    doc = await read_json(request)
-    return JSONResponse(await run_in_threadpool(save, studio_of(request).folder, doc))
+    doc, folder = await read_json(request), studio_of(request).folder
+    overwrite = bool(doc.get("overwrite"))
+    files.refuse_existing(folder, _names(doc), overwrite)  # 409 before the work
+    texts, answer = await worker.run(learned, folder, doc)  # the learning off the event loop, in its budget
+    await run_in_threadpool(lambda: files.write(folder, texts, overwrite=overwrite))
+    return JSONResponse(answer)
 
 
 async def _open(request: Request) -> Response:

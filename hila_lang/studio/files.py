@@ -5,13 +5,14 @@ Routes:
 - ``GET /api/files`` the folder's templates, programs, demonstrations, pictures and recordings
   (:data:`LISTED`; hidden files, links out of the folder and anything deeper than 3 levels left
   out);
-- ``GET|PUT /api/file?path=`` a text file (a program) read, or written atomically;
-- ``GET /api/raw?path=`` a file's bytes (an uploaded picture); ``POST /api/upload?path=`` a file
-  up to :data:`.security.MAX_UPLOAD` bytes, written atomically.
+- ``GET|PUT /api/file?path=(&overwrite=1)`` a text file (a program) read, or written;
+- ``GET /api/raw?path=`` a file's bytes (an uploaded picture); ``POST
+  /api/upload?path=(&overwrite=1)`` a file up to :data:`.security.MAX_UPLOAD` bytes.
 
-Every file the studio writes goes through :func:`write` (a page's save as well as an upload), each
-atomically (:mod:`hila_lang.core.fileio`), each inside the folder (:func:`.security.inside`):
-that is where several files saved together become one transaction.
+Every file the studio writes goes through :func:`write` (a page's save as well as an upload):
+one :class:`Transaction` per action, all its files published together or none, under per-name
+locks; a name that exists is replaced only with ``overwrite`` (else :class:`Exists`, answered
+409).  Every file it reads, :func:`read` opens once, inside the folder, following no link.
 """
 
 from __future__ import annotations
@@ -67,18 +68,12 @@ def _lock(folder: Path, name: str) -> threading.Lock:
         return _locks.setdefault(key, threading.Lock())
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 class Transaction:
     """Every file one action writes, published together or not at all.
 
-    ``stage(name, data)`` writes a file into a private staging folder (``.hila-staging-*`` in
-    FOLDER, so publishing is a rename on one file system) and returns a path to read it back
-    before it is published (learning reads the staged CSV).  Leaving the ``with`` block publishes:
+    ``stage(name, data)`` writes a file (fsynced) into a private staging folder
+    (``.hila-staging-*`` in FOLDER, so publishing is a rename on one file system).  Leaving the
+    ``with`` block publishes:
     under the per-name locks of every name (taken in sorted order, so two saves of one name
     wait for each other and neither sees the other's half), each name is checked (it must not
     exist unless ``overwrite``: :class:`Exists`, nothing replaced), then renamed into place
@@ -99,33 +94,16 @@ class Transaction:
             os.close(self._root)
             raise
 
-    def stage(self, name: str, data: str | bytes) -> Path:
+    def stage(self, name: str, data: str | bytes) -> None:
         inside(self.folder, name)  # a bad name refused now; the write itself opens it again without links
         staged = str(len(self.staged))
-        fd = os.open(staged, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600, dir_fd=self._stage)
+        # 0666 less the umask, as any new file (the staging folder itself is 0700 meanwhile)
+        fd = os.open(staged, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666, dir_fd=self._stage)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data.encode("utf-8") if isinstance(data, str) else data)
             fh.flush()
             os.fsync(fh.fileno())
         self.staged[name] = staged
-        return Path(f"/proc/self/fd/{self._stage}/{staged}")
-
-    def check(self, names) -> None:
-        """Refuse now (:class:`Exists`) when one of ``names`` exists and ``overwrite`` is not set:
-        before the work of staging them (publishing checks again, under the locks)."""
-        if self.overwrite:
-            return
-        for name in names:
-            dfd, leaf = open_folder(self.folder, name, create=False) if _parent_exists(self.folder, name) else (None, None)
-            if dfd is None:
-                continue
-            try:
-                os.stat(leaf, dir_fd=dfd, follow_symlinks=False)
-            except FileNotFoundError:
-                continue
-            finally:
-                os.close(dfd)
-            raise Exists(f"{name} exists: saving would replace it (send overwrite to replace it)")
 
     def __enter__(self) -> "Transaction":
         return self
@@ -151,7 +129,6 @@ class Transaction:
             for name in names:  # every name checked (and its folder opened) before anything is replaced
                 folders[name] = open_folder(self.folder, name, create=True)
                 dfd, leaf = folders[name]
-                mode = 0o666 & ~_umask()
                 try:
                     st = os.stat(leaf, dir_fd=dfd, follow_symlinks=False)
                 except FileNotFoundError:
@@ -159,10 +136,9 @@ class Transaction:
                 if st is not None and stat.S_ISDIR(st.st_mode):
                     raise InputError(f"cannot write {name!r}: it is a folder")
                 if st is not None and not self.overwrite:
-                    raise Exists(f"{name} exists: saving would replace it (send overwrite to replace it)")
-                if st is not None and stat.S_ISREG(st.st_mode):
-                    mode = st.st_mode & 0o7777  # the file replaced keeps its mode
-                os.chmod(self.staged[name], mode, dir_fd=self._stage)
+                    raise _exists(name)
+                if st is not None and stat.S_ISREG(st.st_mode):  # the file replaced keeps its mode
+                    os.chmod(self.staged[name], st.st_mode & 0o7777, dir_fd=self._stage)
             done: list[tuple[str, str | None]] = []  # (name, its backup's name or None: it was new)
             try:
                 for name in names:
@@ -195,8 +171,29 @@ class Transaction:
                 lock.release()
 
 
-def _parent_exists(folder: Path, name: str) -> bool:
-    return inside(folder, name).parent.is_dir()
+def _exists(name: str) -> Exists:
+    return Exists(f"{name} exists: saving would replace it (send overwrite to replace it)")
+
+
+def refuse_existing(folder: Path, names, overwrite: bool) -> None:
+    """Refuse now (:class:`Exists`) when one of ``names`` exists and ``overwrite`` is not set:
+    before the work of making them (publishing checks again, under the names' locks)."""
+    if overwrite:
+        return
+    for name in names:
+        try:
+            dfd, leaf = open_folder(folder, name)
+        except InputError as exc:
+            if exc.message.startswith("no file"):
+                continue  # its folder is not there: neither is it
+            raise
+        try:
+            os.stat(leaf, dir_fd=dfd, follow_symlinks=False)
+        except FileNotFoundError:
+            continue
+        finally:
+            os.close(dfd)
+        raise _exists(name)
 
 
 def write(folder: Path, contents: dict[str, str | bytes], *, overwrite: bool) -> list[str]:
