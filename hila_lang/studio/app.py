@@ -80,6 +80,23 @@ def make_app(folder: Path, token: str, port: int):
     return Guard(app, token, port)
 
 
+def _server_class():
+    import threading
+
+    import uvicorn
+
+    class Server(uvicorn.Server):
+        """uvicorn's server whose Ctrl-C (SIGTERM) first kills the workers (from a thread: the
+        handler may have interrupted the main thread inside :mod:`.worker`'s lock), so requests
+        under way are answered at once and the shutdown does not wait for their work."""
+
+        def handle_exit(self, sig, frame) -> None:
+            threading.Thread(target=worker.stop, daemon=True).start()
+            super().handle_exit(sig, frame)
+
+    return Server
+
+
 def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str | None = None) -> int:
     """Bind 127.0.0.1:``port`` (0: a free one), print the URL line, serve until Ctrl-C.
 
@@ -93,6 +110,7 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
 
     from .security import new_token
 
+    _Server = _server_class()
     token = token or new_token()
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     # SO_REUSEADDR: a restart on the same --port right after requests binds at once (without it the
@@ -120,7 +138,7 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
     # way (their heavy work is in workers, killed then), so the studio stops within a second
     config = uvicorn.Config(make_app(folder, token, port), log_level="warning", lifespan="off",
                             ws_max_size=MAX_UPLOAD, timeout_graceful_shutdown=SHUTDOWN_S)
-    server = uvicorn.Server(config)
+    server = _Server(config)
     try:
         server.run(sockets=[sock])
     finally:
