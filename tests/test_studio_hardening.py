@@ -302,3 +302,103 @@ def test_ctrl_c_and_sigterm_stop_the_studio_within_a_second_during_heavy_work(tm
             c.close()
     finally:
         s.stop()
+
+
+# ----------------------------------------------------------------------------- in real Chromium
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from studio_support import BROWSER_ARGS, chromium_or_skip
+
+    exe, sync_api = chromium_or_skip()
+    with sync_api.sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS)
+        yield b
+        b.close()
+
+
+@pytest.mark.slow
+def test_a_page_on_another_port_reads_nothing_while_the_studio_page_works(browser, studio, tmp_path):
+    """Before: a page on 127.0.0.1:OTHER loaded <img src=http://127.0.0.1:PORT/api/raw?path=pic.png>
+    with the studio's cookie (SameSite does not separate ports).  Now the image fails to load and a
+    fetch of /api/file gets nothing, while the studio's own page still reads and saves."""
+    import functools
+    import http.server
+
+    from hila_lang.core.fileio import write_png
+    from studio_support import READY
+
+    write_png(studio.folder / "pic.png", np.full((20, 30, 3), 200, np.uint8))
+    base = f"http://127.0.0.1:{studio.port}"
+    (tmp_path / "evil.html").write_text(f"""<!doctype html><html><body>
+<img id="pic" src="{base}/api/raw?path=pic.png">
+<script>
+window.result = {{}};
+const img = document.getElementById("pic");
+img.onload = () => window.result.img = "loaded " + img.naturalWidth;
+img.onerror = () => window.result.img = "failed";
+fetch("{base}/api/file?path=prog.hila", {{credentials: "include"}})
+  .then((r) => r.text()).then((t) => window.result.cors = t, (e) => window.result.cors = "error");
+fetch("{base}/api/file?path=prog.hila", {{credentials: "include", mode: "no-cors"}})
+  .then((r) => r.text()).then((t) => window.result.nocors = "read:" + t, (e) => window.result.nocors = "error");
+</script></body></html>""")
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(tmp_path))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    context = browser.new_context()
+    try:
+        own = context.new_page()
+        own.goto(studio.url)  # the cookie is set for 127.0.0.1
+        own.wait_for_function(READY)
+        evil = context.new_page()
+        evil.goto(f"http://127.0.0.1:{server.server_address[1]}/evil.html")
+        evil.wait_for_function("window.result.img && window.result.cors && window.result.nocors", timeout=30000)
+        result = evil.evaluate("window.result")
+        assert result["img"] == "failed"
+        assert result["cors"] == "error" and result["nocors"] == "read:"  # an opaque answer: nothing
+        # the studio's own page: its fetch (X-Hila-Token) and its own <img> (same-origin) still work
+        files_seen = own.evaluate("(async () => (await (await import('/static/common.js')).api('/api/files')).files)()")
+        assert "pic.png" in files_seen and "prog.hila" in files_seen
+        width = own.evaluate(f"""new Promise((ok) => {{ const i = new Image(); i.onload = () => ok(i.naturalWidth);
+            i.onerror = () => ok(-1); i.src = "/api/raw?path=pic.png"; }})""")
+        assert width == 30
+    finally:
+        context.close()
+        server.shutdown()
+
+
+@pytest.mark.slow
+def test_the_demonstrate_page_asks_before_overwriting(browser, studio):
+    """Saving under a name that exists asks the person (a confirm dialog): declined, the files are
+    kept; accepted, they are replaced.  A new name saves without asking."""
+    from studio_support import READY
+
+    page = browser.new_page()
+    dialogs, answer = [], {"accept": False}
+    try:
+        page.goto(studio.url)
+        page.wait_for_function(READY)
+        t = np.linspace(0, 1, 40)
+        page.evaluate("""([path, times]) => { const D = window.hilaStudio.demo;
+            D.path = path; D.times = times; D.icps = {a: [0, 0], b: [1, 0.2]}; }""",
+                      [np.column_stack([t, t * 0.2]).tolist(), (t * 2).tolist()])
+        page.get_by_test_id("template-name").fill("asked")
+        page.on("dialog", lambda d: (dialogs.append(d.message), d.accept() if answer["accept"] else d.dismiss()))
+        page.get_by_test_id("save-template").click()
+        page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.startsWith('saved')")
+        assert dialogs == [] and (studio.folder / "asked.yaml").exists()
+        before = _snapshot(studio.folder, "asked")
+        page.evaluate("window.hilaStudio.demo.icps = {a: [0.5, 0.5], b: [1, 0.2]}")
+        page.get_by_test_id("save-template").click()
+        page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.includes('not saved')")
+        assert len(dialogs) == 1 and "asked." in dialogs[0] and "exists" in dialogs[0]
+        assert _snapshot(studio.folder, "asked") == before
+        answer["accept"] = True
+        page.evaluate("window.hilaStudio.demo.saved = undefined")
+        page.get_by_test_id("save-template").click()
+        page.wait_for_function("window.hilaStudio.demo.saved !== undefined")
+        assert len(dialogs) == 2
+        assert "0.5" in (studio.folder / "asked.icps.yaml").read_text()
+    finally:
+        page.close()

@@ -26,6 +26,17 @@ export async function api(path, opts = {}) {
   return body;
 }
 
+// a save that may replace a file (the overwrite contract): sent first without overwrite; when the
+// server answers 409 (the file exists) the person is asked, and only if they agree is it sent
+// again with overwrite.  send(overwrite) makes the request; declined, it throws "not saved: ..."
+export async function askingToOverwrite(send) {
+  try { return await send(false); } catch (err) {
+    if (err.status !== 409) throw err;
+    if (!confirm(err.message.replace(/ \(send overwrite.*\)$/, "") + ".\nReplace it?")) throw new Error("not saved: " + err.message.split(":")[0] + " was kept");
+    return await send(true);
+  }
+}
+
 export const post = (path, doc) => api(path, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(doc) });
 
 // a websocket to `path` (kept open, reopened when closed) whose JSON messages go to onMessage;

@@ -1,5 +1,5 @@
 // hila studio, page 3: Run & watch -- write a program (checked as you type), run it or a recording, watch it.
-import { $, api, post, socket, fitH, polyline, fill, refreshFiles } from "/static/common.js";
+import { $, api, post, socket, fitH, polyline, fill, refreshFiles, askingToOverwrite } from "/static/common.js";
 
 export const html = `
   <p class="help">Write or open a program; problems show as you type. <b>Start</b> loads it on a back end,
@@ -154,8 +154,9 @@ export async function mount() {
   });
   $("program-editor").addEventListener("input", () => { clearTimeout(checkTimer); checkTimer = setTimeout(check, 250); });
   $("program-save").addEventListener("click", async () => {
-    const p = $("program").value || prompt("save as (e.g. mine.hila)"); if (!p) return;
-    await api("/api/file?path=" + encodeURIComponent(p), { method: "PUT", body: $("program-editor").value });
+    const opened = $("program").value, p = opened || prompt("save as (e.g. mine.hila)"); if (!p) return;
+    await askingToOverwrite((o) => api("/api/file?path=" + encodeURIComponent(p) + (o || opened ? "&overwrite=1" : ""),
+      { method: "PUT", body: $("program-editor").value }));  // the file it opened is replaced; another name asks
     await refreshFiles(); $("program").value = p;
   });
   $("btn-start").addEventListener("click", () => { R.breaks.clear();
