@@ -64,7 +64,7 @@ def request(s, method, path, body=None, headers=None):
 # ----------------------------------------------------------------------------- saves
 
 
-@pytest.mark.parametrize("bad", [dict(method="bogus"), dict(tags=["-bad", "a2"]), dict(cuts=[70]),
+@pytest.mark.parametrize("bad", [dict(method="bogus"), dict(tags=["-bad", "a2"]), dict(cuts=[70]), dict(cuts=[]),
                                  dict(icps=[1, 2]), dict(icps=5), dict(seed=1e999)])
 def test_a_refused_save_replaces_nothing(studio, bad):
     """Before: method 'bogus' (a 500) or the tag '-bad' (a 400) had already replaced NAME.demo.csv
@@ -402,3 +402,49 @@ def test_the_demonstrate_page_asks_before_overwriting(browser, studio):
         assert "0.5" in (studio.folder / "asked.icps.yaml").read_text()
     finally:
         page.close()
+
+
+@pytest.mark.slow
+def test_programs_checked_in_the_studio_import_only_inside_the_folder(studio, tmp_path):
+    """Before: ``import "/abs/path.yaml" as s``, ``"../x.yaml"`` or a system file's path from a
+    program checked in the studio loaded it (its ICP names came back) and revealed whether any
+    path exists.  Now an import by path stays inside FOLDER (or the installed templates): the
+    same located error whether the file outside exists or not."""
+    import shutil
+
+    from studio_support import ROOT
+
+    shutil.copy(ROOT / "primitives" / "reach.yaml", tmp_path / "secret.yaml")
+    shutil.copy(ROOT / "primitives" / "reach.yaml", studio.folder / "mine.yaml")
+    (studio.folder / "out.yaml").symlink_to(tmp_path / "secret.yaml")
+    messages = {}
+    for source in ("/etc/passwd", str(tmp_path / "secret.yaml"), str(tmp_path / "nothing.yaml"), "../secret.yaml",
+                   "out.yaml", "mine.yaml"):
+        text = f'import "{source}" as s\nmain {{\n    run s(home = (0.1, 0.1, 0.1), object = (0.2, 0.2, 0.2))\n}}\n'
+        status, answer = request(studio, "POST", "/api/check", json.dumps({"path": "p.hila", "text": text}))
+        assert status == 200
+        messages[source] = [p["message"].split("\n")[0] for p in answer["problems"] if p["severity"] == "error"]
+    assert messages["mine.yaml"] == []
+    for source in ("/etc/passwd", str(tmp_path / "secret.yaml"), str(tmp_path / "nothing.yaml"), "../secret.yaml",
+                   "out.yaml"):
+        (message,) = messages[source]
+        assert "not found" in message and "stays inside the studio's folder" in message
+        assert "home" not in message and "object" not in message
+    # an existing file outside and a missing one read the same: nothing is revealed
+    assert messages[str(tmp_path / "secret.yaml")][0].replace("secret", "X") == \
+        messages[str(tmp_path / "nothing.yaml")][0].replace("nothing", "X")
+    status, answer = request(studio, "POST", "/api/check", json.dumps({"path": "p.hila", "text": "import reach\nmain {\n}\n"}))
+    assert status == 200 and not [p for p in answer["problems"] if p["severity"] == "error"]  # installed ones still
+
+
+@pytest.mark.slow
+def test_the_hostile_script_gets_no_500_and_no_bug(tmp_path):
+    """bench/hostile_studio.py --quick: every route and socket with malformed bodies, bad values
+    in every field, huge counts, deep JSON, 1e308, binary frames: 0 answers of 500, 0 'bug in
+    hila', the studio answers normally afterwards."""
+    from studio_support import ROOT
+
+    r = subprocess.run([sys.executable, str(ROOT / "bench" / "hostile_studio.py"), "--quick"], capture_output=True,
+                       text=True, timeout=900)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
+    assert "500s: 0; 'bug in hila' or no answer: 0; answers normally afterwards: yes" in r.stdout

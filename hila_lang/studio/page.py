@@ -60,6 +60,16 @@ class Studio:
         return self._templates[name][1]
 
 
+def studio_env(folder: Path | None):
+    """The language environment of the programs the studio checks and runs: their imports only
+    inside ``folder`` and the installed templates (:func:`.security.folder_templates`); None
+    (hila's own) without a folder."""
+    from ..language.environment import Environment
+    from .security import folder_templates
+
+    return None if folder is None else Environment(templates=folder_templates(folder))
+
+
 def studio_of(conn: Request | WebSocket) -> Studio:
     return conn.app.state.studio
 

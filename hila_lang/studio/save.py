@@ -67,6 +67,8 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
         (["--contact", ",".join(contact)] if contact else [])
     cuts = req.get("cuts")
     proposed = [s.start for s in template.segments[1:]]
+    if cuts is not None and tags and len(cuts) != len(tags) - 1:
+        raise InputError(f"cuts: expected {len(tags) - 1} cuts for {len(tags)} tags, got {len(cuts)}")
     if cuts is not None and tags and [int(c) for c in cuts] != proposed:
         bounds = [0, *[int(c) for c in cuts], len(path)]
         segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]

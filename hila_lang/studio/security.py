@@ -249,3 +249,47 @@ def opened(folder: Path, name: str, what: str = "file"):
         raise
     finally:
         os.close(fd)
+
+
+def folder_templates(folder: Path):
+    """A template loader (:class:`hila_lang.language.loader.TemplateLoader`) for the programs the
+    studio checks and runs: ``import NAME`` looks in the program's own folder (inside FOLDER),
+    FOLDER's ``primitives/`` and the installed templates; ``import "PATH"`` names a file inside
+    FOLDER only.  An absolute path, a ``..`` or a link out of FOLDER is simply not a candidate:
+    the program gets the same located "not found" error whether that file exists or not, so its
+    existence and kind are not revealed."""
+    from ..core.resources import shipped
+    from ..language.loader import TemplateLoader
+
+    root = folder.resolve()
+    installed = Path(shipped("primitives")).resolve()
+
+    def allowed(path: Path) -> bool:
+        real = Path(os.path.realpath(path))
+        return any(real == base or base in real.parents for base in (root, installed))
+
+    class FolderTemplates(TemplateLoader):
+        def folders(self, program_file):
+            here = Path(os.path.realpath(program_file)).parent if program_file and not str(program_file).startswith("<") \
+                else root
+            here = here if allowed(here) else root
+            return [here, here / "primitives", root / "primitives", installed]
+
+        def candidates(self, source, is_path, program_file):
+            outside = [Path(f"{root} (an import by path stays inside the studio's folder)")]  # named, never read
+            if is_path and (PurePosixPath(source).is_absolute() or PureWindowsPath(source).drive
+                            or ".." in PurePosixPath(source.replace("\\", "/")).parts):
+                return outside
+            return [c for c in super().candidates(source, is_path, program_file) if allowed(c)] or outside
+
+        def find(self, source, is_path, program_file):
+            return next((c for c in self.candidates(source, is_path, program_file) if allowed(c) and c.is_file()), None)
+
+        def load(self, path):
+            if not allowed(Path(path)):
+                raise InputError(f"refused: {Path(path).name!r} is not inside the studio's folder")
+            return super().load(path)
+
+        __call__ = load
+
+    return FolderTemplates()
