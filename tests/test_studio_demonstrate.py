@@ -63,7 +63,7 @@ def test_save_is_hila_learn_and_moved_cuts_replace_the_segments(tmp_path):
                         "-o", str(tmp_path / "cli.yaml"), "--name", "swipe"], capture_output=True, text=True)
     assert r.returncode == 0 and (tmp_path / "cli.yaml").read_text() == learned
     proposed = out["segments"][1]["start"]
-    with pytest.raises(InputError, match="swipe.demo.csv exists"):  # the overwrite contract: asked first
+    with pytest.raises(InputError, match="swipe.yaml exists"):  # the overwrite contract: asked first
         demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7]))
     moved = demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7], overwrite=True))
     assert moved["segments"][1]["start"] == proposed + 7

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from studio_support import Studio
+from studio_support import browser  # noqa: F401 - the fixture (Debian's chromium through Playwright)
 
 pytest.importorskip("starlette")
 
@@ -88,7 +89,7 @@ def test_overwriting_a_name_needs_overwrite_409_otherwise(studio):
     assert status == 200
     before = _snapshot(studio.folder, "over")
     status, answer = request(studio, "POST", "/api/save", json.dumps(_req("over", shift=0.3)))
-    assert status == 409 and answer["exists"] is True and answer["error"].startswith("over.")
+    assert status == 409 and answer["exists"] is True and answer["error"].startswith("over.yaml exists: ")
     assert _snapshot(studio.folder, "over") == before
     status, _ = request(studio, "POST", "/api/save", json.dumps(_req("over", shift=0.3, overwrite=True)))
     assert status == 200 and _snapshot(studio.folder, "over") != before
@@ -307,17 +308,6 @@ def test_ctrl_c_and_sigterm_stop_the_studio_within_a_second_during_heavy_work(tm
 # ----------------------------------------------------------------------------- in real Chromium
 
 
-@pytest.fixture(scope="module")
-def browser():
-    from studio_support import BROWSER_ARGS, chromium_or_skip
-
-    exe, sync_api = chromium_or_skip()
-    with sync_api.sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS)
-        yield b
-        b.close()
-
-
 @pytest.mark.slow
 def test_a_page_on_another_port_reads_nothing_while_the_studio_page_works(browser, studio, tmp_path):
     """Before: a page on 127.0.0.1:OTHER loaded <img src=http://127.0.0.1:PORT/api/raw?path=pic.png>
@@ -370,6 +360,7 @@ fetch("{base}/api/file?path=prog.hila", {{credentials: "include", mode: "no-cors
 
 @pytest.mark.slow
 def test_the_demonstrate_page_asks_before_overwriting(browser, studio):
+    # (a screenshot of the declined save is left beside the studio's folder: declined.png)
     """Saving under a name that exists asks the person (a confirm dialog): declined, the files are
     kept; accepted, they are replaced.  A new name saves without asking."""
     from studio_support import READY
@@ -392,7 +383,9 @@ def test_the_demonstrate_page_asks_before_overwriting(browser, studio):
         page.evaluate("window.hilaStudio.demo.icps = {a: [0.5, 0.5], b: [1, 0.2]}")
         page.get_by_test_id("save-template").click()
         page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.includes('not saved')")
-        assert len(dialogs) == 1 and "asked." in dialogs[0] and "exists" in dialogs[0]
+        assert len(dialogs) == 1 and dialogs[0].startswith("asked.yaml exists")
+        assert page.get_by_test_id("save-status").text_content() == "error: not saved: asked.yaml was kept"
+        page.screenshot(path=str(studio.folder.parent / "declined.png"))  # looked at by a person (issue 32)
         assert _snapshot(studio.folder, "asked") == before
         answer["accept"] = True
         page.evaluate("window.hilaStudio.demo.saved = undefined")

@@ -15,14 +15,15 @@ from .security import inside
 
 
 def _names(req: dict) -> tuple[str, str, str]:
-    """(``NAME.demo.csv``, ``NAME.icps.yaml``, ``NAME.yaml``) of a save, its name checked."""
+    """(``NAME.yaml``, ``NAME.demo.csv``, ``NAME.icps.yaml``) of a save, its name checked (the
+    template first: a 409 names it)."""
     from ..language.transformer import usable_as_tag
 
     name = str(req.get("name", "")).strip()
     if not usable_as_tag(name):
         raise InputError(f"template name {name!r}: a program imports it by name, so use a letter or '_' and "
                          "then letters, digits or '_'")
-    return f"{name}.demo.csv", f"{name}.icps.yaml", f"{name}.yaml"
+    return f"{name}.yaml", f"{name}.demo.csv", f"{name}.icps.yaml"
 
 
 def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
@@ -41,7 +42,7 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
     from ..osila.demofile import demo_csv, icps_text
     from ..osila.template import Segment, check_segments, template_text
 
-    demo_name, icps_name, target_name = _names(req)
+    target_name, demo_name, icps_name = _names(req)
     name = target_name[:-len(".yaml")]
     path = np.asarray(req.get("path"), float)
     times = np.asarray(req.get("times"), float)

@@ -32,7 +32,7 @@ export async function api(path, opts = {}) {
 export async function askingToOverwrite(send) {
   try { return await send(false); } catch (err) {
     if (err.status !== 409) throw err;
-    if (!confirm(err.message.replace(/ \(send overwrite.*\)$/, "") + ".\nReplace it?")) throw new Error("not saved: " + err.message.split(":")[0] + " was kept");
+    if (!confirm(err.message.replace(/ \(send overwrite.*\)$/, "") + ".\nReplace it?")) throw new Error("not saved: " + err.message.split(" exists")[0] + " was kept");
     return await send(true);
   }
 }
