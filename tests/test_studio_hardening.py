@@ -441,3 +441,23 @@ def test_the_hostile_script_gets_no_500_and_no_bug(tmp_path):
                        text=True, timeout=900)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
     assert "500s: 0; 'bug in hila' or no answer: 0; answers normally afterwards: yes" in r.stdout
+
+
+@pytest.mark.slow
+def test_heavy_work_past_its_budget_is_killed_and_the_next_runs():
+    import asyncio
+
+    from hila_lang.studio import worker
+
+    async def go():
+        start = time.monotonic()
+        with pytest.raises(InputError, match="budget of 0.5 s"):
+            await worker.run(time.sleep, 30, budget=0.5)
+        took = time.monotonic() - start
+        assert await worker.run(abs, -3) == 3  # a new pool after the kill
+        return took
+
+    try:
+        assert asyncio.run(go()) < 10  # the 30 s sleep was killed (the pool's first start included)
+    finally:
+        worker.stop()

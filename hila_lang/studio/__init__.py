@@ -9,7 +9,7 @@ Modules, one line each:
 - ``files``        the folder's files: listed, read, written (one transaction per action, per-name locks), uploaded
 - ``security``     the token, the Host/Origin check (DNS rebinding), files opened inside the folder without links (docs/design.md §6)
 - ``schema``       the door: the shape of every request body, query and socket message, and the studio's limits
-- ``worker``       heavy work in worker processes: a time budget, cancelled with its request, killed by Ctrl-C
+- ``worker``       heavy work in worker processes: a time budget, killed past it or by Ctrl-C
 - ``save``         a demonstration saved as a template: learned as ``hila learn`` does, written as one transaction
 - ``demonstrate``  page 1: scenes to draw on, pointer samples -> a timed path, saved as ``hila learn`` does
 - ``imitate``      page 2: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason

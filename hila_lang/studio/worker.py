@@ -1,7 +1,9 @@
 """The studio's heavy work -- learning a template, processing a demonstration, OSILA for a scene --
 in worker processes, so the server's event loop never computes: each call has a time budget
-(:data:`BUDGET_S`), is cancelled when its request goes away, and Ctrl-C (or SIGTERM) stops the
-studio within a second whatever a worker is doing (:func:`stop` kills them).
+(:data:`BUDGET_S`) past which it is killed, a call cancelled by the server (its shutdown) kills
+it too, and Ctrl-C (or SIGTERM) stops the studio within a second whatever a worker is doing
+(:func:`stop` kills them).  A browser that goes away does not stop its request's work: the
+budget does.
 
 The workers are a :class:`concurrent.futures.ProcessPoolExecutor` of :data:`WORKERS` processes
 started by a fork server (a fresh process with hila's OSILA modules imported once, not a fork
