@@ -182,7 +182,7 @@ def adjustment(sizes, repeat: int) -> None:
 
     modules = [importlib.import_module(f"hila_lang.osila.{m}") for m in ("adjust", "timing")]
     spent: list[float] = []
-    real = modules[0].fit_warp
+    real = modules[0].choose_warp  # OSILA's warp (the path warp where pairs hold the path's ends, else fit_warp)
 
     def timed(*args, **kwargs):
         a = time.perf_counter()
@@ -196,7 +196,7 @@ def adjustment(sizes, repeat: int) -> None:
     print(f"  {'D':>2} {'K':>5} {'rounds':>6}  {'run, bordered':>13} {'refactorised':>12} {'ratio':>6}  "
           f"{'fits, bordered':>14} {'refactorised':>12} {'ratio':>6}")
     for m in modules:
-        m.fit_warp = timed
+        m.choose_warp = timed
     try:
         for dim in (2, 3):
             for K in sizes:
@@ -220,7 +220,7 @@ def adjustment(sizes, repeat: int) -> None:
                       f"{fit[True] / fit[False]:>6.2f}", flush=True)
     finally:
         for m in modules:
-            m.fit_warp = real
+            m.choose_warp = real
         bordered.REUSE = True
 
 

@@ -115,8 +115,9 @@ def timing_synthetic(pairs: int, seed: int) -> None:
                 for n in (2, 3, 4):
                     a = [round(k * (len(tp) - 1) / n) for k in range(n + 1)]
                     b = [round(k * (len(task) - 1) / n) for k in range(n + 1)]
+                    when = [k / (len(task) - 1) for k in b]  # the pairs carry the task's time: re-timed
                     for p in PRIORS:
-                        out = imitate(tp, tp[a], task[b], timing=p)
+                        out = imitate(tp, tp[a], task[b], timing=p, task_times=when)
                         res.setdefault((n, p), []).append((msd(out, task) / ext**2 * 1e4, frechet(out, task) / ext * 100))
         print(f"  {label}:")
         for n in (2, 3, 4):

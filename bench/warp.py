@@ -1,4 +1,4 @@
-"""Measurement behind ``hila_lang.osila.tps.MAX_AMPLIFICATION``: when does the TPS stop paying?
+"""When does the TPS stop paying?  The amplification limit of ``hila_lang.osila.tps.fit_warp``.
 
 Synthetic pairs with a KNOWN answer (no evaluation data set is used):
 
@@ -10,7 +10,10 @@ Synthetic pairs with a KNOWN answer (no evaluation data set is used):
 - K = D+1..8 ICPs: points of the template path (as boundary constraints) or points around it (as
   scene features), half and half; their task positions are g(ICP) plus noise N(0, sigma) — how
   well an ICP is located (sigma = 0.01, i.e. 1 % of the extent, is OSILA's default distortion
-  threshold: "the same place" at the method's own tolerance).
+  threshold: "the same place" at the method's own tolerance);
+- the template as a sensor measures it: the path plus the same noise N(0, sigma), from which
+  OSILA's default precision of the pairs is measured (``hila_lang.osila.noise.amplification_limit``:
+  the template's position noise, the sensor's, carried by the similarity's scale).
 
 For each pair the exact TPS and the similarity fallback (least-squares similarity plus exact
 interpolation of its residuals) map the template; the RMS error against g(template) is binned
@@ -19,8 +22,10 @@ The threshold is where the TPS stops beating the fallback.  Several (sigma, alph
 printed to show how the crossover moves: more ICP noise or less true deformation favours the
 fallback earlier.  Last, per scenario, the error of always using the TPS, always the fallback,
 and ``fit_warp``'s own choice (the fallback for K = D + 1 pairs; otherwise the map with the
-smaller leave-one-out error at the ICPs, the TPS only while Λ <= MAX_AMPLIFICATION).  Not a
-test.  Seeded; about a minute.
+smaller leave-one-out error at the ICPs, the TPS only while Λ is within the data's limit: Λ·σ <=
+the similarity's RMS residual at the pairs), beside the same choice with the former fixed limit
+(:data:`FORMER_LIMIT`, Λ <= 6 in 2-D and 8 in 3-D, which these bins once measured).  Not a test.
+Seeded; about a minute.
 
     python bench/warp.py [--pairs 4000]
 """
@@ -31,7 +36,10 @@ import argparse
 
 import numpy as np
 
-from hila_lang.osila.tps import MAX_AMPLIFICATION, _similarity, _similarity_parts, _tps, affine_rank, amplification, fit_warp
+from hila_lang.evaluation.ablation import FORMER_LIMIT  # the limit these bins once measured
+from hila_lang.osila.fallback import fit_similarity
+from hila_lang.osila.noise import position_noise
+from hila_lang.osila.tps import _similarity, _similarity_parts, _tps, affine_rank, amplification, fit_warp
 
 EDGES = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 64, np.inf)
 SCENARIOS = ((0.01, 0.1, 0.05), (0.005, 0.1, 0.05), (0.02, 0.1, 0.05), (0.01, 0.05, 0.02), (0.01, 0.2, 0.1))
@@ -60,7 +68,8 @@ def true_map(rng, dim: int, alpha: float, beta: float):
 
 
 def run(dim: int, sigma: float, alpha: float, beta: float, pairs: int, seed: int) -> np.ndarray:
-    """Rows (Λ, TPS error, fallback error, error of fit_warp's choice, K) for ``pairs`` synthetic pairs."""
+    """Rows (Λ, TPS error, fallback error, error of fit_warp's choice, K, error of the choice with
+    the former fixed limit) for ``pairs`` synthetic pairs."""
     rng = np.random.default_rng(seed)
     rows = []
     for _ in range(pairs):
@@ -76,10 +85,16 @@ def run(dim: int, sigma: float, alpha: float, beta: float, pairs: int, seed: int
         # the two maps themselves, without fit_warp's choice between them
         tps = _tps(src, dst, np.zeros(K))
         fallback = _similarity(src, dst, *_similarity_parts(src, dst, np.zeros(K), dim), None)
-        chosen = fit_warp(src, dst, on=path)  # what OSILA uses: its own choice between the two
+        # what OSILA uses: its own choice between the two; the pairs' precision as OSILA measures it
+        # by default, on the template as the sensor saw it
+        measured = path + rng.normal(0, sigma, path.shape)
+        scale = fit_similarity(src, dst, dim)[0]
+        chosen = fit_warp(src, dst, on=path, precision=position_noise(measured) * scale)
+        former = fit_warp(src, dst, on=path, max_amplification=FORMER_LIMIT[dim])
         truth = g(path)
-        err = [float(np.sqrt(((m - truth) ** 2).sum(1).mean())) for m in (tps(path), fallback(path), chosen.mapped)]
-        rows.append((amplification(src, path), *err, K))
+        err = [float(np.sqrt(((m - truth) ** 2).sum(1).mean()))
+               for m in (tps(path), fallback(path), chosen.mapped, former.mapped)]
+        rows.append((amplification(src, path), *err[:3], K, err[3]))
     return np.array(rows)
 
 
@@ -88,7 +103,7 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, default=4000, help="synthetic pairs per scenario (default 4000)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
-    print(f"MAX_AMPLIFICATION in use: {MAX_AMPLIFICATION}")
+    print(f"the amplification limit: the data's (Λ·σ <= the similarity's residual); the former fixed one: {FORMER_LIMIT}")
     print("median RMS error (unit extent) of the exact TPS / the similarity fallback, and the share of pairs")
     print("where the TPS is better, per amplification bin")
     for dim in (2, 3):
@@ -106,9 +121,10 @@ def main() -> None:
                 print(f"  Λ {lo:>4g}-{hi:<4g} n = {int(m.sum()):4d}   TPS {tps:.4f}   fallback {fb:.4f}   "
                       f"TPS better in {100 * np.mean(a[m, 1] < a[m, 2]):3.0f}%")
             print(f"  -> the TPS's median error exceeds the fallback's from Λ = {cross}")
-            med, mean = np.median(a[:, 1:4], axis=0), a[:, 1:4].mean(0)
+            med, mean = np.median(a[:, [1, 2, 3, 5]], axis=0), a[:, [1, 2, 3, 5]].mean(0)
             print(f"  all pairs, median / mean error: always TPS {med[0]:.4f} / {mean[0]:.4f}, always fallback "
-                  f"{med[1]:.4f} / {mean[1]:.4f}, fit_warp's choice {med[2]:.4f} / {mean[2]:.4f}")
+                  f"{med[1]:.4f} / {mean[1]:.4f}, fit_warp's choice {med[2]:.4f} / {mean[2]:.4f} "
+                  f"(with the former limit {med[3]:.4f} / {mean[3]:.4f})")
 
 
 if __name__ == "__main__":

@@ -58,7 +58,9 @@ def test_similarity_of_icps_moves_path_alike(dim, seed):
     scale, shift = rng.uniform(0.5, 2.0), rng.normal(0, 1, dim)
     move = lambda p: scale * p @ R.T + shift  # noqa: E731
     res = imitate_detailed(path, icps, move(icps))
-    assert res.warp.kind == "tps"
+    # an exact similarity leaves no deformation for a TPS to follow: the data's amplification
+    # limit (nothing beyond the similarity / the path's noise) is 0, and the fallback is that similarity
+    assert res.warp.kind == "similarity"
     err = np.linalg.norm(res.path - move(path), axis=1)
     assert err.max() <= res.threshold * (1 + 1e-6)
 
@@ -334,50 +336,91 @@ def test_nearly_collinear_icps_do_not_blow_up():
     src, dst = path[idx], target[idx]  # the middle point lies on the other side of the chord
     bare = fit_warp(src, dst)(path)
     res = imitate_detailed(path, src, dst, threshold=0)
-    assert res.warp.kind == "similarity"  # D + 1 pairs: an affine map with nothing to check it
+    # D + 1 pairs: an affine map with nothing to check it; the path's ends are pairs, so the path is bent
+    assert res.warp.kind == "path"
     err = lambda p: np.linalg.norm(p - target, axis=1).max()  # noqa: E731
     assert err(bare) > 0.2  # the exact affine map flips the S
     assert err(res.path) < 0.05
     np.testing.assert_allclose(res.path[idx], dst, atol=1e-9)  # the constraints are still met
 
 
-def test_an_amplifying_tps_falls_back_even_when_it_fits_the_icps_best():
+def test_an_amplifying_tps_falls_back_when_the_pairs_precision_does_not_allow_it():
     # four nearly collinear ICPs moved by an exact (anisotropic) affine map: the TPS predicts every
     # ICP from the others perfectly, but off the line it multiplies any ICP error by Λ
+    from hila_lang.osila.noise import amplification_limit
+
     t = np.linspace(0, 1, 200)
     path = np.column_stack([t, 0.3 * np.sin(2 * np.pi * t)])
-    src = np.array([[0.0, 0.0], [0.33, 0.004], [0.66, -0.003], [1.0, 0.002]])
+    src = np.array([[0.0, 0.2], [0.33, 0.204], [0.66, 0.197], [1.0, 0.202]])
     A = np.array([[1.1, 0.2], [0.1, 0.7]])
     tps = fit_warp(src, src @ A.T, on=path, max_amplification=np.inf)
     assert tps.kind == "tps" and tps.amplification > 50
-    warp = fit_warp(src, src @ A.T, on=path)
-    assert warp.kind == "similarity" and warp.amplification == pytest.approx(tps.amplification)
+    # pairs located to 1 % of the extent: the limit is the similarity's residual over that
+    limit = amplification_limit(src, src @ A.T, path, 2, precision=0.01)
+    assert limit < tps.amplification
+    warp = fit_warp(src, src @ A.T, on=path, precision=0.01)
+    assert warp.kind == "similarity" and warp.amplification > limit
     np.testing.assert_allclose(warp(src), src @ A.T, atol=1e-9)
+    # the same pairs known to 1e-6: what the TPS corrects outweighs any error it can amplify
+    kept = fit_warp(src, src @ A.T, on=path, precision=1e-6)
+    assert kept.kind == "tps" and kept.amplification == pytest.approx(tps.amplification)
+    # by default the pairs' precision is the template's own measured noise: noisier, stricter
+    rng = np.random.default_rng(3)
+    noisy = path + rng.normal(0, 0.003, path.shape)
+    assert amplification_limit(src, src @ A.T, noisy, 2) < amplification_limit(src, src @ A.T, path, 2)
+    assert fit_warp(src, src @ A.T, on=noisy).kind == "similarity"
+    # OSILA's option: the ICPs' precision, when they are placed less precisely than the template was measured
+    assert imitate_detailed(path, src, src @ A.T, threshold=0).warp.kind == "tps"
+    assert imitate_detailed(path, src, src @ A.T, threshold=0, precision=0.01).warp.kind == "similarity"
 
 
 def test_loo_chooses_the_map_that_predicts_left_out_icps():
-    from hila_lang.osila.tps import similarity_loo
+    from hila_lang.osila.tps import LOO_PAIRS, similarity_loo
 
     rng = np.random.default_rng(11)
     path = wavy_path()
-    src = icps_around(path, 7, 3)
+    src = icps_around(path, 12, 3)
+    assert len(src) >= LOO_PAIRS  # enough pairs for their leave-one-out errors to judge
     bent = src + 0.15 * np.sin(3 * src[:, ::-1])  # a smooth bend: the TPS predicts it better
     noisy = 1.2 * src + rng.normal(0, 0.05, src.shape)  # a similarity plus noise: the similarity does
-    assert fit_warp(bent, bent, on=path).kind == "tps"
+    assert fit_warp(bent, bent, on=path).kind == "similarity"  # the identity: nothing for a TPS to follow
     w_bent = fit_warp(src, bent, on=path)
     w_noisy = fit_warp(src, noisy, on=path)
     assert w_bent.kind == "tps" and w_bent.loo < similarity_loo(src, bent)
-    assert w_noisy.kind == "similarity"
+    assert w_noisy.kind == "similarity" and w_noisy.loo is None
     # Rippa's closed form equals refitting without each pair
     explicit = np.mean([((fit_warp(np.delete(src, k, 0), np.delete(bent, k, 0))(src[k:k + 1]) - bent[k]) ** 2).sum()
                         for k in range(len(src))])
     assert w_bent.loo == pytest.approx(explicit, rel=1e-6)
 
 
+def test_below_ten_pairs_the_stability_test_alone_chooses():
+    """A handful of leave-one-out errors is too noisy to choose by: with fewer than LOO_PAIRS pairs
+    the TPS is kept while it cannot amplify errors of the pairs' precision (the template's measured
+    noise by default) beyond the deformation it corrects."""
+    rng = np.random.default_rng(11)
+    path = wavy_path()
+    src = icps_around(path, 7, 3)
+    noisy = 1.2 * src + rng.normal(0, 0.05, src.shape)  # a similarity plus noise of 5 % of the extent
+    tps = fit_warp(src, noisy, on=path, max_amplification=np.inf)
+    assert tps.kind == "tps"
+    # a template measured as coarsely as the pairs: the pairs' deviation from a similarity is
+    # their noise, which the TPS would amplify: the fallback
+    coarse = path + rng.normal(0, 0.05 / 1.2, path.shape)
+    assert fit_warp(src, noisy, on=coarse).kind == "similarity"
+    assert fit_warp(src, noisy, on=path, precision=0.05).kind == "similarity"
+    # a template known far more precisely than that deviation: it is deformation, the TPS follows it
+    # (the leave-one-out errors, which prefer the similarity here, are not asked at K = 7)
+    from hila_lang.osila.tps import similarity_loo
+
+    assert tps.loo > similarity_loo(src, noisy)
+    assert fit_warp(src, noisy, on=path).kind == "tps"
+
+
 def test_well_spread_icps_keep_the_tps():
     path = wavy_path()
     icps = icps_around(path, 6, 0)
-    res = imitate_detailed(path, icps, icps * 1.1)
+    res = imitate_detailed(path, icps, icps @ np.array([[1.1, 0.1], [0.0, 0.9]]).T)  # a stretch and a shear
     assert res.warp.kind == "tps" and 1.0 <= res.warp.amplification <= 6
 
 

@@ -8,7 +8,7 @@ from hila_lang.metrics import frechet, msd
 from hila_lang.osila import imitate, imitate_detailed
 from hila_lang.osila.fallback import fit_similarity
 from hila_lang.osila.noise import NOISE_MULTIPLE, position_noise
-from hila_lang.osila.timing import _bending, _similarity_ss, retime
+from hila_lang.osila.timing import WINDOW, _bending, _similarity_ss, retime, timed_stamps
 from hila_lang.osila.tps import affine_rank, fit_warp, kernel
 from hila_lang.osila.motion import minimum_jerk
 
@@ -26,6 +26,11 @@ def fractions(template, task, n):
     a = [round(k * (len(template) - 1) / n) for k in range(n + 1)]
     b = [round(k * (len(task) - 1) / n) for k in range(n + 1)]
     return a, template[a], task[b]
+
+
+def task_times(task, n):
+    """When the task passes its points at time fractions k/N: the pairs' task times."""
+    return [round(k * (len(task) - 1) / n) / (len(task) - 1) for k in range(n + 1)]
 
 
 # ------------------------------------------------------------------ the ball: the template's noise
@@ -89,22 +94,26 @@ def test_a_later_speed_peak_is_recovered_and_every_pair_met_at_its_own_stamp(n):
     R = np.array([[np.cos(0.4), -np.sin(0.4)], [np.sin(0.4), np.cos(0.4)]])
     task = 1.3 * task_shape @ R.T + [5.0, -2.0]  # the same stroke, moved, drawn with its speed peak later
     stamps, src, dst = fractions(template, task, n)
-    res = imitate_detailed(template, src, dst)
+    res = imitate_detailed(template, src, dst, task_times=task_times(task, n))
     assert res.retimed, "the pairs disagree in timing: some must move"
     # the task reaches each point later in the stroke than the template does at the same time
     assert all(s < t for t, s in res.retimed.items())
     np.testing.assert_array_equal(res.path[stamps], dst)  # still met exactly, at the pair's own stamp
-    kept = imitate_detailed(template, src, dst, timing=0)
+    kept = imitate_detailed(template, src, dst, timing=0, task_times=task_times(task, n))
     assert kept.retimed == {}
     for metric in (msd, frechet):
         assert metric(res.path, task) < 0.75 * metric(kept.path, task)
+    # the same points without their times are positions: nothing to re-time
+    positions = imitate_detailed(template, src, dst)
+    assert positions.retimed == {}
+    np.testing.assert_array_equal(positions.path, kept.path)
 
 
 def test_the_same_timing_moves_nothing():
     template = stroke(100)
     task = 0.8 * template + [1.0, 2.0]
     stamps, src, dst = fractions(template, task, 4)
-    res = imitate_detailed(template, src, dst)
+    res = imitate_detailed(template, src, dst, task_times=task_times(task, 4))
     assert res.retimed == {}
     np.testing.assert_allclose(res.path, task, atol=res.threshold * (1 + 1e-9))
 
@@ -114,7 +123,7 @@ def test_ends_pins_and_scene_icps_never_move():
     stamps, src, dst = fractions(template, task, 4)
     scene = np.array([[1.0, 1.5], [1.0, -1.5]])
     src2, dst2 = np.vstack([scene, src]), np.vstack([1.1 * scene, dst])
-    out = retime(template, src2, dst2, 0.03, fixed=(stamps[2],))
+    out = retime(template, src2, dst2, 0.03, fixed=(stamps[2],), times=[None, None, *task_times(task, 4)])
     assert out.stamps and stamps[2] not in out.stamps and 0 not in out.stamps and 99 not in out.stamps
     np.testing.assert_array_equal(out.src[:2], scene)  # off the path: nothing to re-time
     for t, s in out.stamps.items():
@@ -124,6 +133,32 @@ def test_ends_pins_and_scene_icps_never_move():
     assert np.all(np.diff(np.interp(np.arange(100), sorted(out.stamps), [out.stamps[t] for t in sorted(out.stamps)])) >= 0)
     for k, t in enumerate(stamps):  # each moved pair's template point is the template's point it now has
         np.testing.assert_array_equal(out.src[k + 2], template[out.stamps.get(t, t)])
+
+
+def test_only_pairs_whose_timing_agrees_are_re_timed():
+    template = stroke(101)
+    stamps = [0, 25, 50, 75, 100]
+    src = template[stamps]
+    assert timed_stamps(template, src, None, 0.03) == set()  # positions: no pair carries a time
+    assert timed_stamps(template, src, [0.0, 0.25, 0.5, 0.75, 1.0], 0.03) == set(stamps)
+    assert timed_stamps(template, src, [0.0, 0.25, 0.5, 0.75, 1.0], 0.0) == set()  # timing = 0: none
+    # a pair whose task time is outside the window of its template point's own time is a position
+    off = 0.5 + 1.01 * WINDOW * 0.03
+    assert timed_stamps(template, src, [0.0, 0.25, off, 0.75, 1.0], 0.03) == {0, 25, 75, 100}
+    assert timed_stamps(template, src, [0.0, 0.25, 0.5 + 0.99 * WINDOW * 0.03, 0.75, 1.0], 0.03) == set(stamps)
+    # task times against the path's order: the timing contradicts the template, no pair is re-timed
+    assert timed_stamps(template, src, [0.0, 0.3, 0.27, 0.75, 1.0], 0.03) == set()
+    # unknown times (None / NaN) leave those pairs as positions; a scene point off the path carries nothing
+    assert timed_stamps(template, src, [None, 0.25, float("nan"), 0.75, None], 0.03) == {25, 75}
+    scene = np.vstack([src, [[1.0, 2.0]]])
+    assert timed_stamps(template, scene, [0.0, 0.25, 0.5, 0.75, 1.0, 0.6], 0.03) == set(stamps)
+
+
+def test_task_times_option_is_checked():
+    with pytest.raises(InputError, match="one entry per ICP pair"):
+        imitate(stroke(20), [[0, 0], [2, 0]], [[0, 0], [2, 0]], task_times=[0.0])
+    with pytest.raises(InputError, match=r"\[0, 1\] or None, got 1.5 for pair 1"):
+        imitate(stroke(20), [[0, 0], [2, 0]], [[0, 0], [2, 0]], task_times=[0.0, 1.5])
 
 
 def test_timing_option_is_checked():

@@ -198,13 +198,17 @@ def test_retime_variants_use_osilas_retiming(pair):
     from hila_lang.osila.timing import TIMING, retime
 
     template, task = pair
-    c = protocols.constraints(template, task, 3, "positions")
-    moved = retime(template.path, c.src, c.dst, TIMING)
+    c = protocols.constraints(template, task, 3, "fractions")  # points at time fractions: timed pairs
+    moved = retime(template.path, c.src, c.dst, TIMING, times=c.times)
     assert moved.stamps  # something moved on this pair
     got = baselines.generator("laplacian+retime", template.path)(c)
     want = baselines.laplacian(moved.path, protocols.Constraints(moved.src, c.dst, c.labels, c.at, c.n))
     np.testing.assert_array_equal(got, want)
     assert np.abs(got - baselines.generator("laplacian", template.path)(c)).max() > 1e-6
+    # positions carry no time: OSILA's re-timing moves nothing, and X+retime is X
+    c = protocols.constraints(template, task, 3, "positions")
+    np.testing.assert_array_equal(baselines.generator("laplacian+retime", template.path)(c),
+                                  baselines.generator("laplacian", template.path)(c))
 
 
 # ----------------------------------------------------------------------------- ablation
@@ -216,7 +220,7 @@ def test_the_composed_osila_is_osila_so_the_warp_rows_differ_by_the_warp_only():
         c = protocols.constraints(trials[i], trials[j], n, protocol)
         path = trials[i].path
         np.testing.assert_array_equal(ablation.variant(path, c, "auto", {"threshold": 2.0}),
-                                      imitate(path, c.src, c.dst, threshold=2.0))
+                                      imitate(path, c.src, c.dst, threshold=2.0, task_times=c.times))
     c = protocols.constraints(trials[3], trials[8], 3, "positions")
     sim = ablation.generator("osila-similarity", trials[3].path, {"threshold": 2.0})(c)
     tps = ablation.generator("osila-tps", trials[3].path, {"threshold": 2.0})(c)
@@ -244,3 +248,96 @@ def test_holm_and_the_shape_level_comparison():
 def test_protocols_are_checked_against_the_data(tmp_path, capsys):
     assert cli.main(["eval", "--protocol", "fractions", "--out", str(tmp_path), "--trials-per-setup", "1"]) == 2
     assert "--protocol fractions is for --dataset lasa" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- the confirmatory family
+
+
+def _grid(scores: dict, segments=(1, 2), setups=4, per=2):
+    """A GridResult of made-up scores: ``scores[method]`` (S, J, J, M) for J = setups x per trials."""
+    from hila_lang.evaluation.run import GridResult
+
+    J = setups * per
+    trial_setup = np.repeat(np.arange(setups), per)
+    mask = (trial_setup[:, None] == trial_setup[None, :]) & ~np.eye(J, dtype=bool)
+    return GridResult([f"s{k}/t{i}" for k in range(setups) for i in range(per)], trial_setup,
+                      [f"s{k}" for k in range(setups)], tuple(segments), tuple(scores), "positions",
+                      metrics.names(2), mask, scores=scores, seconds={m: np.zeros((len(segments), J, J)) for m in scores})
+
+
+def test_holm_runs_within_the_declared_family_and_everything_else_is_exploratory():
+    rng = np.random.default_rng(0)
+    J, M = 8, len(metrics.names(2))
+    base = rng.uniform(1, 2, (2, J, J, M))
+    scores = {"osila": base, "similarity": base + rng.uniform(0, 1, base.shape),
+              "laplacian": base + rng.uniform(-0.2, 1, base.shape), "promp": base + rng.uniform(0, 1, base.shape),
+              "promp+retime": None, "osila-noadjust": base.copy()}
+    scores["promp+retime"] = scores["promp"].copy()  # re-timing changed nothing: the same on every pair
+    result = _grid(scores)
+    assert stats.confirmatory(result) == [("laplacian", 2, "frechet"), ("promp", 2, "frechet"),
+                                          ("promp+retime", 2, "frechet")]
+    rows = {(r["method"], r["segments"], r["metric"]): r for r in stats.test_rows(result)}
+    conf = [r for r in rows.values() if r["family"] == "confirmatory"]
+    assert {(r["method"], r["segments"], r["metric"]) for r in conf} == set(stats.confirmatory(result))
+    # the duplicate is said once: it carries its twin's figures and does not count twice in Holm
+    dup = rows[("promp+retime", 2, "frechet")]
+    assert dup["same_as"] == "promp" and dup["p_value"] == rows[("promp", 2, "frechet")]["p_value"]
+    counted = [rows[("laplacian", 2, "frechet")], rows[("promp", 2, "frechet")]]
+    np.testing.assert_allclose([r["p_holm"] for r in counted], stats.holm(np.array([r["p_value"] for r in counted])))
+    assert dup["p_holm"] == rows[("promp", 2, "frechet")]["p_holm"]
+    # everything else is exploratory: the controls, N = 1, the other metrics; no Holm there
+    for key in [("similarity", 2, "frechet"), ("laplacian", 1, "frechet"), ("laplacian", 2, "dtw")]:
+        assert rows[key]["family"] == "exploratory" and np.isnan(rows[key]["p_holm"])
+    # a method identical to OSILA is a tie, not a loss
+    tie = rows[("osila-noadjust", 2, "frechet")]
+    assert tie["same_as"] == "osila" and tie["tied_share"] == 1.0 and tie["osila_better_share"] == 0.0
+    assert tie["osila_worse_share"] == 0.0 and tie["p_value"] == 1.0
+    assert stats.duplicates(result)[2] == {"promp+retime": "promp", "osila-noadjust": "osila"}
+
+
+def test_ties_are_counted_as_ties():
+    row = stats.compare(np.array([1.0, 2.0, 3.0, 4.0]), np.array([1.0, 2.5, 2.0, 4.0]), "lower")
+    assert (row["osila_better_share"], row["tied_share"], row["osila_worse_share"]) == (0.25, 0.5, 0.25)
+
+
+def test_the_tables_say_duplicates_once_and_name_the_family(capsys):
+    from hila_lang.evaluation import tables
+
+    rng = np.random.default_rng(1)
+    base = rng.uniform(1, 2, (2, 8, 8, len(metrics.names(2))))
+    scores = {"osila": base, "laplacian": base + 0.1, "laplacian+retime": base + 0.1, "osila-noretime": base.copy()}
+    text = tables.render(_grid(scores), tables=False)
+    row = next(line for line in text.splitlines() if line.startswith("laplacian+retime |"))
+    assert [c.strip() for c in row.split("|")[1:]] == ["= laplacian", "= laplacian"]  # not its numbers again
+    assert "CONFIRMATORY family, declared in advance (frechet, OSILA against each baseline, N = 2): 1 distinct tests" in text
+    assert "EXPLORATORY" in text and "laplacian+retime = laplacian at N = 1, 2" in text
+    assert "osila-noretime = osila (a tie with OSILA) at N = 1, 2" in text
+
+
+# ----------------------------------------------------------------------------- re-timing asks the pairs
+
+
+def test_only_protocols_that_give_a_time_give_osila_task_times():
+    tr = generate(seed=2, trials_per_setup=2)
+    a, b = tr[0], tr[3]
+    assert protocols.constraints(a, b, 3, "positions").times is None
+    assert protocols.constraints(a, b, 1, "held-out").times is None
+    paper = protocols.constraints(a, b, 3, "paper")
+    assert [t is None for t in paper.times] == [at is None for at in paper.at]  # scene ICPs: positions
+    assert [round(t * (len(b.path) - 1)) for t in paper.times if t is not None] == protocols.boundaries(len(b.path), 3)
+
+
+def test_timing_reaches_every_retime_baseline():
+    from hila_lang.osila.timing import retime
+
+    tr = generate(seed=2, trials_per_setup=2)
+    c = protocols.constraints(tr[0], tr[3], 3, "paper")
+    for name in ("promp+retime", "laplacian+retime", "gp+retime"):
+        if name.startswith("promp"):
+            pytest.importorskip("movement_primitives")
+        wide = baselines.generator(name, tr[0].path, {"timing": 0.1})(c)
+        none = baselines.generator(name, tr[0].path, {"timing": 0.0})(c)
+        plain = baselines.generator(name.split("+")[0], tr[0].path, {})(c)
+        np.testing.assert_array_equal(none, plain)  # timing 0: nothing re-timed, the plain baseline
+        moved = retime(tr[0].path, c.src, c.dst, 0.1, times=c.times)
+        assert moved.stamps and not np.array_equal(wide, plain)  # the spread given is the one used

@@ -39,8 +39,8 @@ def small_run(tmp_path_factory):
 
 
 SUMMARY_KEYS = {"method", "n", "r", "msd", "frechet", "dtw"}
-TEST_KEYS = {"method", "segments", "metric", "unit", "n", "osila_better_share", "p_value", "p_holm", "median_diff",
-             "ci_low", "ci_high"}
+TEST_KEYS = {"method", "segments", "metric", "unit", "n", "osila_better_share", "tied_share", "osila_worse_share",
+             "p_value", "p_holm", "median_diff", "ci_low", "ci_high", "family", "same_as"}
 
 
 def check_contract(doc, methods, segments):
@@ -55,7 +55,12 @@ def check_contract(doc, methods, segments):
     assert {(r["method"], r["segments"]) for r in doc["tests"]} == {(m, n) for m in controls for n in segments}
     for r in doc["tests"]:
         assert TEST_KEYS <= set(r) and r["unit"] == "shape" and r["n"] == len(doc["run"]["setups"])
-        assert 0 <= r["osila_better_share"] <= 1 and 0 <= r["p_value"] <= r["p_holm"] <= 1
+        shares = r["osila_better_share"] + r["tied_share"] + r["osila_worse_share"]
+        assert 0 <= r["osila_better_share"] <= 1 and shares == pytest.approx(1.0) and 0 <= r["p_value"] <= 1
+        if r["family"] == "confirmatory":  # Holm within the declared family only
+            assert r["p_value"] <= r["p_holm"] <= 1
+        else:
+            assert r["family"] == "exploratory" and r["p_holm"] is None
         assert r["ci_low"] <= r["median_diff"] <= r["ci_high"]
     assert "wall_seconds" not in doc["run"] and "ms_per_path" not in doc["summary"][0]  # timings.json
 

@@ -110,17 +110,18 @@ def test_a_malformed_script_is_bad_input_naming_the_file(tmp_path, capsys, text,
 
 
 def test_help_lists_every_osila_option_a_run_can_set(capsys):
-    from hila_lang.osila import OPTIONS
+    from hila_lang.osila import OPTIONS, PER_STEP
 
     with pytest.raises(SystemExit):
         cli.main(["exec", "--help"])
     text = " ".join(capsys.readouterr().out.split())
+    assert set(PER_STEP) == {"pin", "task_times"}  # a step's own: stamps of one path, times of its pairs
     for name in OPTIONS:
-        if name != "pin":  # pin: stamps of one path, set by each step (seed seeds reject="lmeds")
+        if name not in PER_STEP:  # (seed seeds reject="lmeds")
             assert f"osila.{name}" in text, name
     from hila_lang.plugins.options import OSILA_SETTABLE
 
-    assert sorted(OSILA_SETTABLE) == sorted(set(OPTIONS) - {"pin"})
+    assert sorted(OSILA_SETTABLE) == sorted(set(OPTIONS) - set(PER_STEP))
 
 
 def test_an_osila_setting_is_checked_by_its_declaration_which_osila_agrees_with():
@@ -171,6 +172,9 @@ def test_a_pin_is_the_steps_own_and_cannot_be_set_for_a_run(capsys):
     code = cli.main(["check", str(ROOT / "programs" / "abc.hila"), "--set", "osila.pin=[5]"])
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("error: --set osila.pin: a pin fixes stamps of one path; each step pins")
+    code = cli.main(["check", str(ROOT / "programs" / "abc.hila"), "--set", "osila.task_times=[0.5]"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("error: --set osila.task_times: task times belong to one step's ICP pairs")
 
 
 def test_the_readme_documents_the_scripts_setting_and_the_search_path():

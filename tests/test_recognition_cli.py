@@ -106,6 +106,26 @@ def test_game_reach_circle_known_cross_new(tmp_path, library, capsys, seed):
         assert np.linalg.norm(mine[0] - path[seg.start]) < 0.02
 
 
+def test_without_icps_the_library_run_uses_the_demonstrations_own_ends(tmp_path, library, capsys):
+    path, times, icps, truth, _ = circle_then_cross(0)
+    demo, _ = _write_demo(tmp_path, path, times, icps)
+    out, report = tmp_path / "second.yaml", tmp_path / "parts.json"
+    rc = main(["learn", demo, "--library", str(library), "--report", str(report), "--tags", "cross", "-o", str(out)])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "no --icps: the demonstration's own ends are its ICPs: start (" in text  # said, not silent
+    written = load_template(out)
+    assert list(written.icps) == ["start", "end"]
+    np.testing.assert_array_equal(written.icps["start"], path[0])
+    np.testing.assert_array_equal(written.icps["end"], path[-1])
+    assert "its own ends as ICPs" in written.description
+    known = [s for s in json.loads(report.read_text())["segments"] if s["template"] is not None]
+    assert [(s["template"], s["tag"]) for s in known] == [("circle", "reach"), ("circle", "draw")]
+    # without --library a CSV demonstration still needs its scene
+    assert main(["learn", demo, "-o", str(tmp_path / "x.yaml")]) == 2
+    assert "DEMO.csv needs its scene ICPs: add --icps ICPS.yaml" in capsys.readouterr().err
+
+
 def test_report_needs_library(tmp_path, capsys):
     path, times, icps, *_ = circle_then_cross(0)
     demo, scene = _write_demo(tmp_path, path, times, icps)

@@ -16,9 +16,13 @@ compared with the task's own human path.  Every method gets exactly the same con
 OSILA; the controls none (a spline through the anchor points), similarity (the template moved
 rigidly), tps (the bare warp), dmp and dmp-aligned; the baselines promp, laplacian (Laplacian
 trajectory editing) and gp, each also +retime (with OSILA's re-timing); and OSILA's ablation
-osila-noroute, -noretime, -noadjust, -tps, -similarity.  Printed: per method and N, mean
-Frechet and DTW (time-free) and MSD where no timing is given away; then tests over shapes
-(Wilcoxon, Holm-corrected, median difference with a bootstrap CI, share of shapes won).
+osila-noroute, -noretime, -noadjust, -tps, -similarity, -nopath (no path warp), -retimeall
+(every on-path pair re-timed, as if timed) and -fixedlimit (the former amplification limit).
+Printed: per method and N, mean Frechet and DTW (time-free) and MSD where no timing is given
+away; methods identical to another on every pair, once; then tests over shapes (Wilcoxon,
+median difference with a bootstrap CI, shapes won / tied / lost): the CONFIRMATORY family
+declared in advance -- Frechet, OSILA against each baseline, N >= 2 (N = 1 where the protocol
+has no other) -- Holm-corrected within it; every other test printed as exploratory (raw p).
 
 Protocols (what a method is told about the task):
   held-out   (default) the task's scene ICPs only (hand start, object corners, waypoint area),
@@ -35,7 +39,8 @@ Data:
                     reaches following its Fig. 5, image pixels), saved to OUT/dataset
   --dataset lasa    LASA human handwriting (pip install 'hila-lang[lasa]'): every ordered pair of
                     the 7 demonstrations of a shape, constraints at arc-length fractions k/N of the
-                    task (N = 1..4); --shapes picks the shapes (default: the 14-shape development set)
+                    task (N = 1..4); --shapes picks the shapes (default: the 14-shape development
+                    set; held-back: the other 16)
   --dataset FOLDER  your trials: FOLDER/<set-up>/<trial>.csv (header t,x,y[,z] or x,y[,z]) and
                     <trial>.icps.yaml beside it ('name: [x, y]'); paired on shared ICP names
 
@@ -44,7 +49,8 @@ seed), timings.json and heatmaps to --out."""
 
 DEFAULT_METHODS = ("osila", "none", "similarity", "tps", "dmp", "dmp-aligned",
                    "promp", "promp+retime", "laplacian", "laplacian+retime", "gp", "gp+retime",
-                   "osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity")
+                   "osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity",
+                   "osila-nopath", "osila-retimeall", "osila-fixedlimit")
 #: the defaults that need movement_primitives (the 'peers' extra)
 PEERS = ("dmp", "dmp-aligned", "promp", "promp+retime")
 
@@ -83,7 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="what a method is told about the task (default: held-out; LASA: positions); "
                              "positions and fractions for LASA, held-out, paper and positions for data with ICPs")
     parser.add_argument("--shapes", default=None, metavar="LIST",
-                        help="LASA only: 'dev' (the 14-shape development set, default), 'all', or NAME,NAME")
+                        help="LASA only: 'dev' (the 14-shape development set, default), 'held-back' (the other "
+                             "16), 'all', or NAME,NAME")
     parser.add_argument("--methods", type=_methods, default=None, metavar="LIST",
                         help="comma list of methods (default: " + ",".join(DEFAULT_METHODS) +
                              "; dmp, dmp-aligned and promp need pip install 'hila-lang[peers]'); 'hila' adds the "
@@ -98,7 +105,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "otherwise)")
     parser.add_argument("--timing", type=number(0), default=None, metavar="S",
                         help="OSILA's prior spread of when the task passes an ICP on the template path, a "
-                             "fraction of the duration (default 0.03; 0 keeps the template's timing)")
+                             "fraction of the duration (default 0.03; 0 keeps the template's timing); the +retime "
+                             "baselines use it too.  Only pairs that carry the task's time are re-timed (paper, "
+                             "fractions)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
 
 
@@ -121,7 +130,8 @@ def _data(args: argparse.Namespace, out: Path):
                              "(fractions) fractions k/N")
         shapes = lasa.resolve_shapes(args.shapes)
         trials = lasa.load(shapes)
-        label = "the development set" if shapes == lasa.DEVELOPMENT else "all shapes" if len(shapes) == 30 else "shapes"
+        label = ("the development set" if shapes == lasa.DEVELOPMENT else "the held-back shapes"
+                 if shapes == lasa.held_back() else "all shapes" if len(shapes) == 30 else "shapes")
         source = (f"LASA handwriting, {label}: {', '.join(shapes)} ({len(trials)} demonstrations at "
                   f"{lasa.RATE_HZ:g} Hz; pairs of different demonstrations of a shape)")
         return trials, source, args.protocol or "positions", pair_mask(trials, within_setup_only=True), args.threshold

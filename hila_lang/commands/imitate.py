@@ -44,7 +44,7 @@ def load_task(path, dim: int) -> dict:
 
     from ..core.errors import InputError
     from ..core.fileio import load_yaml
-    from ..osila import OPTIONS
+    from ..osila import OPTIONS, PER_STEP
 
     doc = load_yaml(path, "task", unique_keys=True)
     if not isinstance(doc, dict):
@@ -71,7 +71,7 @@ def load_task(path, dim: int) -> dict:
     if not isinstance(options, dict):
         raise InputError("expected field 'options' as a mapping", file=str(path))
     for key in options:
-        if key not in OPTIONS or key == "pin":
+        if key not in OPTIONS or key in PER_STEP:
             raise InputError(f"unknown option {key!r} in field 'options'; expected: threshold, rounds, smoothing, "
                              "distortion, margin, shells, directions, timing", file=str(path))
     return {"icps": icps, "forced": doc.get("forced"), "obstacles": doc.get("obstacles"), "options": dict(options)}

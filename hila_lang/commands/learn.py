@@ -47,7 +47,8 @@ hold (each template and its tagged sub-templates), wherever, however big, turned
 were made; known parts are copied from the library (with provenance in the description), the
 rest become new segments (tagged new1, new2, ... or by --tags, one per new part).  --report
 FILE.json writes every part: {"segments": [{"start", "end", "template", "tag", "distance"}]}.
-See docs/recognition.md.
+Without --icps a CSV demonstration's own ends are its ICPs (start, end; said when used): recognition
+needs only the path.  See docs/recognition.md.
 Example: hila learn demo2.csv --icps scene.yaml --library primitives --report parts.json -o demo2.yaml
 
 A pen on the printed sheet (VIDEO --sheet): the sheet's markers give the paper's plane, the ball
@@ -66,7 +67,8 @@ Example: hila learn pen.mp4 --sheet --cell 5 -k 3 --tags reach,draw,retract --co
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("demo", metavar="DEMO.csv", nargs="?", help="demonstrated path (header t,x,y[,z] or x,y[,z])")
-    parser.add_argument("--icps", metavar="ICPS.yaml", help="scene ICPs of DEMO.csv: name: [x, y, z]")
+    parser.add_argument("--icps", metavar="ICPS.yaml", help="scene ICPs of DEMO.csv: name: [x, y, z] (with --library: "
+                                                            "default its own ends, start and end)")
     seen = parser.add_argument_group("learning by perception (stereo eye cameras)")
     seen.add_argument("--from-sim", action="store_true", help="record the demonstration in PyBullet and learn it by perception")
     seen.add_argument("--keep-recording", metavar="DIR", help="with --from-sim: keep the recorded frames in DIR")
@@ -163,8 +165,9 @@ def _source(args: argparse.Namespace) -> str:
         got = "none" if not given else " and ".join(given)
         raise InputError(f"expected one demonstration source (DEMO.csv, --from-sim, --frames or --left/--right), got {got}")
     source = given[0]
-    if source == "DEMO.csv" and args.icps is None:
-        raise InputError("DEMO.csv needs its scene ICPs: add --icps ICPS.yaml")
+    if source == "DEMO.csv" and args.icps is None and args.library is None:
+        raise InputError("DEMO.csv needs its scene ICPs: add --icps ICPS.yaml",
+                         hint="with --library the demonstration's own ends serve (start, end)")
     if source != "DEMO.csv" and args.icps is not None:
         raise InputError(f"--icps goes with DEMO.csv; {source} finds the ICPs in the images")
     if source == "--left/--right" and (args.left is None or args.right is None):
@@ -309,6 +312,10 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
     return out
 
 
+def _point(p) -> str:
+    return "(" + ", ".join(f"{float(v):.4g}" for v in p) + ")"
+
+
 def run(args: argparse.Namespace) -> int:
     from ..core.fileio import ensure_writable
     from ..hierarchy.learn import default_tags, learn_files
@@ -331,6 +338,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         template = learn_files(args.demo, args.icps, name=name, tags=tags, contact=contact, k=k, method=args.method,
                                seed=args.seed, description=args.description or None)
+        if args.icps is None:  # only with --library (_source): recognition needs no scene, only the path
+            ends = template.icps
+            print(f"no --icps: the demonstration's own ends are its ICPs: start {_point(ends['start'])}, "
+                  f"end {_point(ends['end'])}")
     if library is not None:
         template = _recognised(template, library, tags_new, contact_new, report, args.stream)
     save_template(template, out)

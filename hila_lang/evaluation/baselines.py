@@ -29,9 +29,11 @@ They differ in the offset:
     time, once per template.  Nothing is chosen on a task or against OSILA.
 
 ``X+retime`` runs ``X`` on the template re-timed by OSILA's own re-timing
-(:func:`hila_lang.osila.timing.retime` with OSILA's default spread): which part of the template
+(:func:`hila_lang.osila.timing.retime` with OSILA's spread, ``--timing`` or its default, and the
+pairs' task times: the pairs that carry a time are re-estimated): which part of the template
 passes each on-path pair is re-estimated first, as OSILA does before its warp.  So the re-timing's
-contribution can be told apart from the warp's.
+contribution can be told apart from the warp's.  Where no pair carries a time (the leak-free
+protocols) OSILA re-times nothing, and ``X+retime`` is ``X``.
 """
 
 from __future__ import annotations
@@ -80,26 +82,17 @@ def promp(path: np.ndarray, c: Constraints) -> np.ndarray:
 # ----------------------------------------------------------------------------- Laplacian editing
 
 
-@lru_cache(maxsize=4096)
 def _laplacian_edit(T: int, idx: tuple[int, ...]) -> np.ndarray:
     """(T, A): the offset e minimising |L e|² with e = r at the anchors, linear in r (cached).
 
     The edited path q = p + e keeps δ = L p best (|L q − δ|² = |L e|²), so only the offset is solved.
-    L is the path graph's uniform Laplacian: row t is e_t − mean of its neighbours.
+    L is the path graph's uniform Laplacian: row t is e_t − mean of its neighbours.  OSILA's path
+    warp solves the same system (:func:`hila_lang.osila.pathwarp.offsets_matrix`); the baseline is
+    it undamped (μ = 0), as Nierhoff et al. edit.
     """
-    L = np.eye(T)
-    for t in range(T):
-        nb = [u for u in (t - 1, t + 1) if 0 <= u < T]
-        L[t, nb] -= 1.0 / len(nb)
-    fixed = np.array(idx)
-    free = np.setdiff1d(np.arange(T), fixed)
-    out = np.zeros((T, len(idx)))
-    out[fixed, np.arange(len(idx))] = 1.0
-    if free.size:
-        # min |L_F e_F + L_C r|²  ->  e_F = -pinv(L_F) L_C r
-        out[free] = -np.linalg.lstsq(L[:, free], L[:, fixed], rcond=None)[0]
-    out.flags.writeable = False
-    return out
+    from ..osila.pathwarp import offsets_matrix
+
+    return offsets_matrix(T, idx, 0.0)
 
 
 def laplacian(path: np.ndarray, c: Constraints) -> np.ndarray:
@@ -180,30 +173,33 @@ class GpBaseline:
 _last: list = []  # the last re-timing: (path, constraints, timing, result)
 
 
-def retime_once(path: np.ndarray, c: Constraints, timing: float):
-    """:func:`hila_lang.osila.timing.retime` of one pair, computed once for the several methods
-    that run on the same pair in a row (the grid passes every method the same objects)."""
+def retime_once(path: np.ndarray, c: Constraints, timing: float, times=None):
+    """:func:`hila_lang.osila.timing.retime` of one pair (with the pairs' task times ``times``,
+    default ``c.times``), computed once for the several methods that run on the same pair in a row
+    (the grid passes every method the same objects)."""
     from ..osila.timing import retime
 
-    if _last and _last[0] is path and _last[1] is c and _last[2] == timing:
-        return _last[3]
-    moved = retime(path, c.src, c.dst, timing)
-    _last[:] = [path, c, timing, moved]
+    times = c.times if times is None else times
+    if _last and _last[0] is path and _last[1] is c and _last[2] == timing and _last[3] == times:
+        return _last[4]
+    moved = retime(path, c.src, c.dst, timing, times=times)
+    _last[:] = [path, c, timing, times, moved]
     return moved
 
 
-def retimed(path: np.ndarray, c: Constraints) -> tuple[np.ndarray, Constraints]:
-    """The template and constraints after OSILA's re-timing (its default spread)."""
+def retimed(path: np.ndarray, c: Constraints, timing: float | None = None) -> tuple[np.ndarray, Constraints]:
+    """The template and constraints after OSILA's re-timing (spread ``timing``, default OSILA's)."""
     from ..osila.timing import TIMING
 
-    moved = retime_once(path, c, TIMING)
+    moved = retime_once(path, c, TIMING if timing is None else timing)
     if moved.path is path:
         return path, c
-    return moved.path, Constraints(moved.src, c.dst, c.labels, c.at, c.n)
+    return moved.path, Constraints(moved.src, c.dst, c.labels, c.at, c.n, c.times)
 
 
-def generator(method: str, path: np.ndarray) -> Callable[[Constraints], np.ndarray]:
-    """A function constraints -> path (T, D) for one of :data:`BASELINES`, prepared once per template."""
+def generator(method: str, path: np.ndarray, options: dict | None = None) -> Callable[[Constraints], np.ndarray]:
+    """A function constraints -> path (T, D) for one of :data:`BASELINES`, prepared once per template;
+    ``options``: OSILA's, of which ``X+retime`` takes ``timing`` (``--timing``)."""
     base, _, retime_ = method.partition("+")
     if base == "promp":
         from .controls import require_dmp
@@ -220,6 +216,7 @@ def generator(method: str, path: np.ndarray) -> Callable[[Constraints], np.ndarr
     else:
         raise InputError(f"unknown baseline {method!r}; expected one of {', '.join(BASELINES)}")
     if retime_:
-        return lambda c: one(*retimed(path, c))
+        timing = (options or {}).get("timing")
+        return lambda c: one(*retimed(path, c, timing))
     return lambda c: one(path, c)
 

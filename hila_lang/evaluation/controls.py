@@ -6,7 +6,8 @@ OSILA gets for that pair, and nothing else about the task.  If OSILA cannot beat
 demonstration is not what makes its paths good.
 
 ``osila``
-    :func:`hila_lang.osila.imitate` on the constraint pairs.
+    :func:`hila_lang.osila.imitate` on the constraint pairs (with their task times, where the
+    protocol gives them: OSILA re-times only those pairs).
 ``none``
     No template shape: a cubic spline in time through the *anchors* (below), at rest at both ends
     (``CubicSpline(bc_type="clamped")``: human point-to-point movements start and end at rest).
@@ -240,7 +241,7 @@ def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callabl
     if method == "osila":
         from ..osila import imitate
 
-        return lambda c: imitate(path, c.src, c.dst, **options)
+        return lambda c: imitate(path, c.src, c.dst, task_times=c.times, **options)
     if method == "none":
         return lambda c: no_template(path, c)
     if method == "similarity":

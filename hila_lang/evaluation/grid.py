@@ -48,7 +48,7 @@ METHODS = ("osila", *CONTROLS, *BASELINES, *ABLATIONS, "hila")
 def generator(method: str, path: np.ndarray, options: dict[str, Any]):
     """A function constraints -> path (T, D) for any method but ``hila``, prepared once per template."""
     if method in BASELINES:
-        return baselines.generator(method, path)
+        return baselines.generator(method, path, options)
     if method in ABLATIONS:
         return ablation.generator(method, path, options)
     return controls.generator(method, path, options)

@@ -12,7 +12,8 @@ paper and of the stand-in, by linear interpolation of the stored samples (40–1
 demonstration).  That keeps every method's and metric's cost per pair like the stand-in's.
 
 :data:`DEVELOPMENT` is the 14-shape subset that issue 11 named for development; it is the
-default of ``hila eval --dataset lasa``.  ``--shapes all`` evaluates all 30 shapes.
+default of ``hila eval --dataset lasa``.  ``--shapes held-back`` evaluates the other 16 (never
+used to choose anything), ``--shapes all`` all 30 shapes.
 """
 
 from __future__ import annotations
@@ -57,13 +58,21 @@ def all_shapes() -> tuple[str, ...]:
     return tuple(sorted(dataset.NAMES_))
 
 
+def held_back() -> tuple[str, ...]:
+    """The shapes not in :data:`DEVELOPMENT` (16), sorted: nothing is chosen on them."""
+    return tuple(s for s in all_shapes() if s not in DEVELOPMENT)
+
+
 def resolve_shapes(spec: str | None) -> tuple[str, ...]:
-    """``None``/``"dev"`` -> :data:`DEVELOPMENT`; ``"all"`` -> every shape; else a comma list, checked."""
+    """``None``/``"dev"`` -> :data:`DEVELOPMENT`; ``"held-back"`` -> the other shapes; ``"all"`` ->
+    every shape; else a comma list, checked."""
     if spec is None or spec == "dev":
         return DEVELOPMENT
     names = all_shapes()
     if spec == "all":
         return names
+    if spec == "held-back":
+        return held_back()
     out = tuple(s.strip() for s in spec.split(",") if s.strip())
     unknown = [s for s in out if s not in names]
     if unknown or not out:

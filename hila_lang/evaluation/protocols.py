@@ -72,6 +72,11 @@ class Constraints:
         in the template path; None for a scene ICP.
     n : int
         Segment count N the pairs were built for.
+    times : tuple of float or None, or None
+        When the task passes each pair's task point, a fraction of the task's duration, for a
+        pair taken from the task path at a TIME (``paper`` boundaries, ``fractions``); None for a
+        position (a scene ICP, an arc-length point).  OSILA's option ``task_times``: only pairs
+        with a time are re-timed.  None: no pair carries one.
     """
 
     src: np.ndarray
@@ -79,6 +84,7 @@ class Constraints:
     labels: tuple[str, ...]
     at: tuple[int | None, ...]
     n: int
+    times: tuple[float | None, ...] | None = None
 
 
 def fraction_index(length: int, k: int, n: int) -> int:
@@ -118,6 +124,7 @@ def constraints(template: Trial, task: Trial, n: int, protocol: str) -> Constrai
     dst: list[np.ndarray] = []
     labels: list[str] = []
     at: list[int | None] = []
+    when: list[float | None] = []  # the task's time of a pair taken from the task path at a time
     if protocol in ("held-out", "paper"):
         if protocol == "held-out" and n != 1:
             raise InputError(f"the held-out protocol has one segment only (nothing from the scored path "
@@ -127,18 +134,21 @@ def constraints(template: Trial, task: Trial, n: int, protocol: str) -> Constrai
             dst.append(task.icps[task.icp_names.index(name)])
             labels.append(name)
             at.append(None)
+            when.append(None)
         if protocol == "paper" and n > 1:
             for k, (a, b) in enumerate(zip(boundaries(len(template.path), n), boundaries(len(task.path), n)), 1):
                 src.append(template.path[a])
                 dst.append(task.path[b])
                 labels.append(f"boundary {k}/{n}")
                 at.append(a)
+                when.append(b / (len(task.path) - 1))
     elif protocol == "positions":
         for name in shared_names(template, task):
             src.append(template.icps[template.icp_names.index(name)])
             dst.append(task.icps[task.icp_names.index(name)])
             labels.append(name)
             at.append(None)
+            when.append(None)
         ends = range(1, n) if src else range(n + 1)  # scene data keep their ICPs and gain inner points
         for k in ends:
             a, b = arc_index(template.path, k, n), arc_index(task.path, k, n)
@@ -146,6 +156,7 @@ def constraints(template: Trial, task: Trial, n: int, protocol: str) -> Constrai
             dst.append(task.path[b])
             labels.append(f"s = {k}/{n}")
             at.append(a)
+            when.append(None)  # a position along the drawn shape: when it was passed is not given
     else:
         for k in range(n + 1):
             a, b = fraction_index(len(template.path), k, n), fraction_index(len(task.path), k, n)
@@ -153,9 +164,11 @@ def constraints(template: Trial, task: Trial, n: int, protocol: str) -> Constrai
             dst.append(task.path[b])
             labels.append(f"t = {k}/{n}")
             at.append(a)
+            when.append(b / max(len(task.path) - 1, 1))
     if not src:
         raise InputError(f"{template.label} and {task.label} share no ICP name; nothing to map with")
-    return Constraints(np.array(src).reshape(-1, D), np.array(dst).reshape(-1, D), tuple(labels), tuple(at), n)
+    times = tuple(when) if any(w is not None for w in when) else None
+    return Constraints(np.array(src).reshape(-1, D), np.array(dst).reshape(-1, D), tuple(labels), tuple(at), n, times)
 
 
 def segments_for(protocol: str) -> tuple[int, ...]:

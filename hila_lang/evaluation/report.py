@@ -6,8 +6,11 @@
 - ``results.json``       the contract (:func:`results_dict`): ``summary`` rows
                          ``{"method", "n", "r", "msd", "frechet", "dtw", ...}`` (means over pairs
                          of different trials), ``tests`` rows ``{"method", "segments", "metric",
-                         "unit", "n", "osila_better_share", "p_value", "p_holm", "median_diff",
-                         "ci_low", "ci_high"}`` for every other method (:mod:`.stats`), plus run
+                         "unit", "n", "family", "same_as", "osila_better_share", "tied_share",
+                         "osila_worse_share", "p_value", "p_holm", "median_diff", "ci_low",
+                         "ci_high"}`` for every other method (:mod:`.stats`; ``p_holm`` within
+                         the declared ``confirmatory`` family only), ``duplicates`` (per N: a
+                         method -> the method it equals on every pair), plus run
                          facts, per-set-up means, OSILA's Tables I–III (ICP data sets) and the
                          paper's figures (paper protocol on the stand-in).  Byte-identical for the
                          same data, seed and options, whatever the backend
@@ -94,6 +97,10 @@ def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict
                 "better": {name: metric(name).better for name in result.metrics},
                 "time_free": {name: metric(name).time_free for name in result.metrics}, **(info or {})},
         "summary": summary,
+        "confirmatory": {"note": "declared before any run: the headline metric, OSILA against each baseline, "
+                                 "N >= 2 (N = 1 where the protocol has no other); p_holm within it only",
+                         "tests": [list(t) for t in stats.confirmatory(result)]},
+        "duplicates": {str(n): same for n, same in stats.duplicates(result).items()},
         "tests": stats.test_rows(result),
         "by_setup": stats.by_setup(result),
         "failures": {m: result.failures[m] for m in result.methods},

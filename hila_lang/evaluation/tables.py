@@ -30,6 +30,9 @@ import numpy as np
 
 from . import paper
 from . import stats
+from .ablation import ABLATIONS
+from .baselines import BASELINES
+from .controls import CONTROLS
 from .run import GridResult
 
 #: (key, N, comparison, threshold, label)
@@ -214,9 +217,7 @@ def _table(head: list[str], body: list[list[str]]) -> list[str]:
 
 
 #: method groups, in print order, for the headline tables
-GROUPS = (("OSILA", ("osila",)), ("controls", ("none", "similarity", "tps", "dmp", "dmp-aligned")),
-          ("baselines", ("promp", "promp+retime", "laplacian", "laplacian+retime", "gp", "gp+retime")),
-          ("ablation", ("osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity")),
+GROUPS = (("OSILA", ("osila",)), ("controls", CONTROLS), ("baselines", BASELINES), ("ablation", ABLATIONS),
           ("hierarchical", ("hila",)))
 
 
@@ -236,6 +237,7 @@ def format_metric_table(result: GridResult, metric: str) -> str:
 
     info = info_of(metric)
     rows = {(r["method"], r["n"]): r[metric] for r in stats.summary_rows(result)}
+    same = stats.duplicates(result)
     contenders = [m for m in result.methods if not m.startswith("osila-") and m != "hila"]
     best = {}
     for n in result.segments:
@@ -251,13 +253,17 @@ def format_metric_table(result: GridResult, metric: str) -> str:
                 if not info.time_free and leaks_time(result.protocol, n):
                     cells.append("leaks")
                     continue
+                if m in same[n]:  # said once: where it was said
+                    cells.append(f"= {same[n][m]} ")
+                    continue
                 v = rows[(m, n)]
                 mark = "*" if best[n] is not None and v == best[n] and m in contenders else " "
                 cells.append(_fmt(v, metric) + mark)
             body.append([m, *cells])
     unit = f" ({info.unit})" if info.unit else ""
     title = (f"{info.title}{unit}, {info.better} is better; "
-             f"mean over pairs of different trials; * best of OSILA, controls and baselines")
+             f"mean over pairs of different trials; * best of OSILA, controls and baselines; '= m': the same "
+             f"as method m on every pair")
     return "\n".join([title, *_table(head, body)])
 
 
@@ -283,18 +289,53 @@ def format_summary(result: GridResult) -> str:
 
 
 def format_tests(result: GridResult) -> str:
-    """OSILA against every other method over shapes: shapes won, median difference [95 % CI], p, Holm p."""
+    """OSILA against every other method over shapes: the confirmatory family (Holm within it), then
+    the exploratory tests (raw p); a method equal to another on every pair is said once."""
     rows = stats.test_rows(result)
     if not rows:
         return ""
-    head = ["method", "N", "metric", "shapes", "OSILA better", "median diff [95% CI]", "p", "p (Holm)"]
-    body = [[r["method"], str(r["segments"]), r["metric"], str(r["n"]), _pct(r["osila_better_share"]).strip(),
-             f"{_fmt(r['median_diff'], r['metric'])} [{_fmt(r['ci_low'], r['metric'])}, "
-             f"{_fmt(r['ci_high'], r['metric'])}]", _p(r["p_value"]), _p(r["p_holm"])] for r in rows]
-    return "\n".join([f"Tests over shapes (the unit: one mean per shape and method, {rows[0]['n']} shapes): OSILA "
-                      "against each method; share of shapes where OSILA is better; median over shapes of OSILA "
-                      "minus the method (negative = OSILA lower) with a bootstrap 95% CI; two-sided Wilcoxon "
-                      f"signed-rank p; Holm-corrected over all {len(rows)} tests printed:", *_table(head, body)])
+    head = ["method", "N", "metric", "shapes", "OSILA better/tied/worse", "median diff [95% CI]", "p", "p (Holm)"]
+
+    def line(r: dict[str, Any]) -> list[str]:
+        n = r["n"]
+        counts = "/".join(str(int(round(n * r[k]))) if np.isfinite(r[k]) else "-"
+                          for k in ("osila_better_share", "tied_share", "osila_worse_share"))
+        return [r["method"], str(r["segments"]), r["metric"], str(n), counts,
+                f"{_fmt(r['median_diff'], r['metric'])} [{_fmt(r['ci_low'], r['metric'])}, "
+                f"{_fmt(r['ci_high'], r['metric'])}]", _p(r["p_value"]),
+                _p(r["p_holm"]) if r["family"] == "confirmatory" else "-"]
+
+    conf = [r for r in rows if r["family"] == "confirmatory" and r["same_as"] is None]
+    expl = [r for r in rows if r["family"] == "exploratory" and r["same_as"] is None]
+    said = _said_once(rows)
+    declared = stats.confirmatory(result)
+    ns = sorted({n for _, n, _ in declared})
+    parts = [f"Tests over shapes (the unit: one mean per shape and method, {rows[0]['n']} shapes): OSILA against "
+             "each method; shapes where OSILA is better / tied / worse; median over shapes of OSILA minus the method "
+             "(negative = OSILA lower) with a bootstrap 95% CI; two-sided Wilcoxon signed-rank p."]
+    if conf:
+        parts.append(f"CONFIRMATORY family, declared in advance ({stats.CONFIRMATORY_METRIC}, OSILA against each "
+                     f"baseline, N = {', '.join(map(str, ns))}): {len(conf)} distinct tests, Holm-corrected within "
+                     "the family:\n" + "\n".join(_table(head, [line(r) for r in conf])))
+    if expl:
+        parts.append(f"EXPLORATORY ({len(expl)} tests: raw p, no correction; descriptions, not evidence on their "
+                     "own):\n" + "\n".join(_table(head, [line(r) for r in expl])))
+    if said:
+        parts.append("Said once (equal on every pair, every metric; their tests are the other method's):\n"
+                     + "\n".join(f"  {text}" for text in said))
+    return "\n\n".join(parts)
+
+
+def _said_once(rows: list[dict[str, Any]]) -> list[str]:
+    """'method = other (N = 1, 2)' lines for the duplicate test rows, one per method pair."""
+    where: dict[tuple[str, str], list[int]] = {}
+    for r in rows:
+        if r["same_as"] is not None:
+            ns = where.setdefault((r["method"], r["same_as"]), [])
+            if r["segments"] not in ns:
+                ns.append(r["segments"])
+    return [f"{m} = {other}" + (" (a tie with OSILA)" if other == "osila" else "") + f" at N = {', '.join(map(str, ns))}"
+            for (m, other), ns in where.items()]
 
 
 def _p(p: float) -> str:

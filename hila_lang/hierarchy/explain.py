@@ -30,6 +30,13 @@ def warp_reason(warp, dim: int) -> str:
         return f"a thin plate spline through {kept} pairs (ICPs and any constraint pairs)"
     if warp.kind == "translation":
         return "a translation (fallback): only one distinct ICP pair, which fixes nothing but a shift"
+    if warp.kind == "path":
+        on = len(warp.at)
+        return (f"the path bent along itself: {on} of {kept} pairs lie on the template's path, its start and end "
+                f"among them, and are met where the path passes them with its shape kept between them; the other "
+                f"{kept - on} place it in space" if kept > on else
+                f"the path bent along itself: all {kept} pairs lie on the template's path, its start and end among "
+                f"them, and are met where the path passes them with its shape kept between them")
     rank = affine_rank(warp.src)
     if kept < dim + 1:
         why = f"{kept} distinct pair(s); a thin plate spline in {dim}-D needs at least {dim + 1}"

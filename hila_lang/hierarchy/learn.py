@@ -21,7 +21,7 @@ from typing import Sequence
 from ..core.errors import InputError
 from ..osila.demofile import load_icps, read_demo_csv
 from ..osila.segmentation import DEFAULT_METHOD, describe, segment_template
-from ..osila.template import Template
+from ..osila.template import END, START, Template
 
 
 def default_tags(tags: Sequence[str], k: int | None) -> tuple[int, list[str]]:
@@ -80,20 +80,24 @@ def learn(name: str, path, icps: dict, *, times=None, tags: Sequence[str] = (), 
     return template
 
 
-def learn_files(demo: str | Path, icps: str | Path, *, name: str, tags: Sequence[str] = (),
+def learn_files(demo: str | Path, icps: str | Path | None, *, name: str, tags: Sequence[str] = (),
                 contact: Sequence[str] = (), k: int | None = None, method: str = DEFAULT_METHOD, seed: int = 0,
                 description: str | None = None, named: tuple[str, str] | None = None) -> Template:
     """:func:`learn` of the demonstration CSV ``demo`` with the ICPs of the YAML ``icps``.
 
-    The description, unless given, names both files as given (or as ``named``: the names they
-    are published under, when they are read from a staging place) and how the path was cut, as
-    ``hila learn`` writes it.  A problem with the path names ``demo``."""
+    ``icps`` None: the demonstration's own ends are its ICPs (``start``, ``end``; recognition needs
+    only the path).  The description, unless given, names both files as given (or as ``named``:
+    the names they are published under, when they are read from a staging place) and how the path
+    was cut, as ``hila learn`` writes it.  A problem with the path names ``demo``."""
     k, tags = default_tags(tags, k)
     points, times = read_demo_csv(demo)
-    scene = load_icps(icps, points.shape[1])
     shown_demo, shown_icps = named or (demo, icps)
+    if icps is None:
+        scene, given = {START: points[0].copy(), END: points[-1].copy()}, "its own ends as ICPs (start, end; no --icps)"
+    else:
+        scene, given = load_icps(icps, points.shape[1]), f"ICPs from {shown_icps}"
     if description is None:
-        description = (f"learned from {shown_demo} ({len(points)} points) with ICPs from {shown_icps}."
+        description = (f"learned from {shown_demo} ({len(points)} points) with {given}."
                        + (f" {describe(method, k)}" if tags else ""))
     return learn(name, points, scene, times=times, tags=tags, contact=contact, k=k, method=method, seed=seed,
                  description=description, source=str(shown_demo))

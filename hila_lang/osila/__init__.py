@@ -1,8 +1,10 @@
 """OSILA: one-shot imitation of a template path in a new scene (docs/design.md §2.2).
 
 :func:`imitate` is the contract: re-estimate which part of the template passes an ICP that lies
-on its path (:mod:`.timing`), warp the template with a thin plate spline fitted on paired ICPs
-(:mod:`.tps`, with similarity/translation fallbacks in :mod:`.fallback`), choose the
+on its path and carries the task's time (:mod:`.timing`), warp the template with a thin plate
+spline fitted on paired ICPs (:mod:`.tps`, with similarity/translation fallbacks in
+:mod:`.fallback`) or, where the pairs hold both ends of the path, bend the path itself
+(:mod:`.pathwarp`), choose the
 minimum-energy route through a ball of candidate waypoints around every mapped point, as large
 as the template's measurement noise (:mod:`.noise`, :mod:`.candidates`, :mod:`.route`), then
 adjust the plan until forced waypoints and obstacles are satisfied (:mod:`.adjust`).  :func:`imitate_detailed` returns the same route with its
@@ -19,8 +21,9 @@ One line each:
 - ``robust``        many noisy ICP pairs: outliers rejected before the warp
 - ``tps``           the thin plate spline warp fitted on paired ICPs
 - ``fallback``      similarity and translation warps when TPS cannot be trusted
+- ``pathwarp``      the path bent along itself (Laplacian coordinates kept) where pairs hold its ends
 - ``saddle``        the warp's two systems kept as Cholesky factors: Rippa's leave-one-out errors, solves
-- ``noise``         the template's measurement noise, the candidates' radius
+- ``noise``         the template's measurement noise: the candidates' radius, the TPS's amplification limit
 - ``candidates``    a ball of candidate waypoints around every mapped point
 - ``route``         the minimum-energy route through the candidates
 - ``adjust``        plan adjustment until forced waypoints and obstacles hold
@@ -42,7 +45,8 @@ from .robust import METHODS
 from .timing import TIMING
 from .tps import Warp, fit_warp
 
-__all__ = ["imitate", "imitate_detailed", "OsilaResult", "Warp", "fit_warp", "OPTIONS", "Pairs", "obstacle_spheres"]
+__all__ = ["imitate", "imitate_detailed", "OsilaResult", "Warp", "fit_warp", "OPTIONS", "PER_STEP", "Pairs",
+           "obstacle_spheres"]
 
 #: option name -> default (see :func:`imitate`)
 OPTIONS: dict[str, Any] = {
@@ -58,7 +62,12 @@ OPTIONS: dict[str, Any] = {
     "timing": TIMING,
     "stretch": STRETCH,
     "reject": "auto",
+    "task_times": None,
+    "precision": None,
 }
+#: the options of one call's own pairs and path (a step's), not of a whole run: ``--set`` and a
+#: task file cannot give them
+PER_STEP = ("pin", "task_times")
 
 
 def obstacle_spheres(obstacles: Any, dim: int) -> np.ndarray:
@@ -104,6 +113,28 @@ def _pin(pin: Any, T: int, D: int) -> tuple[tuple[int, np.ndarray | None], ...]:
             raise InputError(f"expected 'pin' stamps in [-{T}, {T - 1}] for a path of {T} points, got {i}")
         out[int(i) % T] = None if point is None else check_points(point, D, f"pin point for stamp {i}")[0]
     return tuple(out.items())
+
+
+def _task_times(value: Any, K: int) -> np.ndarray | None:
+    """Option ``task_times`` as (K,) fractions in [0, 1], NaN where not known; None if none given."""
+    if value is None:
+        return None
+    try:
+        items = list(value)
+    except TypeError:
+        items = None
+    if items is None or len(items) != K:
+        raise InputError(f"expected option 'task_times' as one entry per ICP pair ({K}), each a fraction of the "
+                         f"task's duration in [0, 1] or None, got {value!r}")
+    out = np.full(K, np.nan)
+    for k, v in enumerate(items):
+        if v is None or (isinstance(v, float) and np.isnan(v)):
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not 0.0 <= float(v) <= 1.0:
+            raise InputError(f"expected 'task_times' entries as fractions of the task's duration in [0, 1] or None, "
+                             f"got {v!r} for pair {k}")
+        out[k] = float(v)
+    return out if np.isfinite(out).any() else None
 
 
 def _reject(value: Any) -> str:
@@ -161,6 +192,8 @@ def imitate_detailed(
         stretch=check_positive(opts["stretch"], "stretch"),
         reject=_reject(opts["reject"]),
         seed=int(opts["seed"]),
+        task_times=_task_times(opts["task_times"], len(src)),
+        precision=None if opts["precision"] is None else check_positive(opts["precision"], "precision", allow_zero=True),
     )
 
 
@@ -195,11 +228,16 @@ def imitate(
             ICP whose template point is a waypoint is met exactly there.  0 returns the warped
             path itself.  The default is measured on the path (:mod:`.noise`): the route irons
             out the template's noise and keeps its shape; on a clean recording it is nearly 0.
+        task_times : sequence of float or None, default None
+            When the task passes each ICP pair, a fraction of its duration in [0, 1] (None: not
+            known).  A pair whose template point lies on the template path and that carries a
+            time agreeing with the template's (:func:`.timing.timed_stamps`) is re-timed (below);
+            without times no pair is: a position says where the task passes, not when.
         timing : float, default 0.03
             Prior spread (a fraction of the template's duration) of when the task passes an ICP
-            whose template point lies on the template path: such a pair's template stamp is
-            re-estimated and the template re-timed so that the pair is still met exactly at its
-            own stamp (:mod:`.timing`).  0 keeps the template's timing.
+            that lies on the template path and carries a task time: such a pair's template stamp
+            is re-estimated and the template re-timed so that the pair is still met exactly at
+            its own stamp (:mod:`.timing`).  0 keeps the template's timing.
         rounds : int, default 10
             Maximum plan-adjustment rounds.
         smoothing : float or "auto", default 0
@@ -220,6 +258,12 @@ def imitate(
             at the same template point, e.g. ``{0: hand, -1: goal}`` to start where the hand
             is and end on a bound target.  A sequence, e.g. ``(0,)``, fixes each stamp at its
             mapped point (no candidate ball there).
+        precision : float, default the template's measured position noise
+            How precisely the ICPs are located (task units).  The TPS is kept only while its
+            amplification of errors of this size on the path is no larger than the deformation
+            the pairs show beyond a similarity (:func:`.noise.amplification_limit`); give it when
+            the ICPs are placed less precisely than the template was measured (points placed
+            by hand on a clean drawing).
         stretch : float, default 5
             A repair bends the route between the held targets (the first and last waypoints,
             and the waypoint nearest each ICP the template passes through), which keep the

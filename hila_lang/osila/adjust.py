@@ -1,8 +1,9 @@
 """Iterative plan adjustment: warp, route, check, add constraint pairs, repeat (docs/design.md §2.2).
 
-First, ICPs whose template point lies on the template path (a boundary, a point at a time
-fraction) are re-timed (:mod:`.timing`): which part of the template passes them is estimated
-again and the template re-timed so each is still met at its own stamp.  Then each round fits the
+First, ICPs whose template point lies on the template path and that carry the task's time (a
+boundary of an equal-time split, a point at a time fraction: option ``task_times``) are re-timed
+(:mod:`.timing`): which part of the template passes them is estimated again and the template
+re-timed so each is still met at its own stamp.  Then each round fits the
 warp on the ICP pairs plus the pairs added so far (checked for amplification
 on the template path, :mod:`.tps`), maps the template, picks the minimum-energy route through the
 candidate balls (candidates inside an obstacle are excluded up front), and checks the route:
@@ -30,7 +31,9 @@ candidate balls (candidates inside an obstacle are excluded up front), and check
   the new pair, carries the neighbouring segments out too, even when the ball is tiny).
 
 Between rounds the pairs only grow, so the warp's inverses are the last round's bordered with
-the new pairs (:mod:`.bordered`), not taken afresh.
+the new pairs (:mod:`.bordered`), not taken afresh.  Where the first round bent the path (both
+its ends were pairs: :mod:`.pathwarp`), a repair pair is one more pair on the path, met at its
+stamp with the path's shape kept around it; otherwise the warp stays spatial in every round.
 
 A repaired stamp is pinned from then on (its waypoint is the pair's point), and template points
 already used by a pair (or pinned) are not reused, so a repair pair never merges with an
@@ -54,7 +57,8 @@ from .noise import default_threshold
 from .robust import Pairs, choose_smoothing, screen
 from .route import min_energy_route
 from .timing import retime
-from .tps import MERGE_TOL, Warp, fit_warp
+from .pathwarp import choose_warp
+from .tps import MERGE_TOL, Warp
 
 #: least clearance of an obstacle repair, a fraction of the mapped path's bounding-box diagonal
 CLEARANCE = 0.01
@@ -253,6 +257,8 @@ def adjust(
     stretch: float = STRETCH,
     reject: str = "auto",
     seed: int = 0,
+    task_times: np.ndarray | None = None,
+    precision: float | None = None,
 ) -> OsilaResult:
     """Run OSILA with plan adjustment on validated arrays (see the module docstring).
 
@@ -279,11 +285,18 @@ def adjust(
         targets (:data:`STRETCH`).
     reject, seed
         Outlier rejection among the ICP pairs (:func:`.robust.screen`; pins are never screened).
+    task_times : ndarray, shape (K,), optional
+        When the task passes each ICP, a fraction of its duration (NaN: not known); only pairs
+        with a time are re-timed (:func:`.timing.timed_stamps`).
+    precision : float, optional
+        How precisely the ICPs are located (task units), for the TPS's amplification limit
+        (:func:`.noise.amplification_limit`); None: the template's measured noise.
     """
     T, D = path.shape
     pairs = screen(src, dst, reject, seed, threshold or 0.0, fast=T >= min_stamps())
     if len(pairs.rejected):
         src, dst = src[pairs.kept], dst[pairs.kept]
+        task_times = None if task_times is None else task_times[pairs.kept]
     if smoothing == "auto":  # λ by cross-validation on the kept pairs (:func:`.robust.choose_smoothing`)
         smoothing = pairs.smoothing = choose_smoothing(src, dst)
     covered = _covered(path, src, dst, obstacles, margin, pairs.kept) if len(obstacles) else []
@@ -295,9 +308,11 @@ def adjust(
     pin_dst = np.array([q for _, q in exact_pins], dtype=float).reshape(-1, D)
     # which part of the template passes an on-path ICP: re-timed before the warp (pins never move)
     refits = Refits()  # the warp's inverses, bordered from round to round while the pairs grow
+    times = None if task_times is None else np.concatenate([task_times, np.full(len(pin_src), np.nan)])
     moved = (retime(path, np.vstack([src, pin_src]), np.vstack([dst, pin_dst]), timing, fixed=tuple(given),
-                    refits=refits)
-             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given), refits=refits))
+                    refits=refits, times=times, precision=precision)
+             if len(pin_src) else retime(path, src, dst, timing, fixed=tuple(given), refits=refits, times=times,
+                                         precision=precision))
     path, src = moved.path, moved.src[: len(src)]
     pairs_src, pairs_dst = src, dst
     added: list[tuple[int, np.ndarray, str]] = []
@@ -313,7 +328,12 @@ def adjust(
         if rnd == 1 and moved.warp is not None and not smoothing:
             warp = moved.warp  # the exact warp re-timing fitted on these very pairs (nothing moved)
         else:
-            warp = fit_warp(all_src, all_dst, smoothing, exact=exact, on=path, refits=refits)
+            # the path warp in later rounds only where the given pairs chose it: the held start and
+            # goal of a repair never turn a spatial warp into a path warp halfway
+            warp = choose_warp(all_src, all_dst, smoothing, exact=exact, on=path, refits=refits,
+                               along=rnd == 1 or along, precision=precision)
+        if rnd == 1:
+            along = warp.kind == "path"
         mapped = warp.mapped
         if rnd == 1:
             # an ICP whose template point IS a waypoint (a boundary, a sub-template's start or end)

@@ -31,6 +31,8 @@ from math import comb
 
 import numpy as np
 
+from .fallback import fit_similarity
+
 #: differences of this order estimate the noise (:func:`position_noise`)
 ORDER = 3
 #: default threshold = this many σ of the mapped path's position noise
@@ -78,3 +80,36 @@ def _median(x: np.ndarray) -> float:
 def default_threshold(mapped: np.ndarray) -> float:
     """:data:`NOISE_MULTIPLE` × :func:`position_noise` of the mapped path (task units)."""
     return NOISE_MULTIPLE * position_noise(mapped)
+
+
+def amplification_limit(src: np.ndarray, dst: np.ndarray, on: np.ndarray, rank: int,
+                        precision: float | None = None) -> float:
+    """The largest amplification Λ a TPS through the pairs may have on the path ``on``: ρ / σ.
+
+    ρ is the RMS residual of the least-squares similarity of the pairs ``src`` -> ``dst`` (K, D):
+    the deformation they show beyond a rigid placement, which the TPS is there to follow.  σ is
+    how precisely the pairs are located, ``precision`` (task units) or, by default, the
+    template's own position noise (:func:`position_noise` of ``on``, the sensor's) times the
+    similarity's scale.  A TPS with Λ·σ <= ρ can make of errors of the data's size no more than
+    the deformation it corrects (:mod:`.tps`, Amplification).  ``inf`` when σ = 0.
+    """
+    scale, R, shift = fit_similarity(src, dst, rank)
+    rho = float(np.sqrt(((dst - (scale * src @ R.T + shift)) ** 2).sum(1).mean()))
+    sigma = template_noise(on) * scale if precision is None else float(precision)
+    return rho / sigma if sigma > 0 else float("inf")
+
+
+_LAST: list = [None]  # the last template's noise: (key, sigma), one reference (safe across threads)
+
+
+def template_noise(path: np.ndarray) -> float:
+    """:func:`position_noise` of a template path, remembered for the last path (OSILA asks about
+    the same template in every round and every call of a program's step: the medians cost ~0.1 ms
+    at T = 1000, the key a copy of the path's bytes, ~2 us)."""
+    key = (path.shape, path.dtype.str, path.tobytes())
+    last = _LAST[0]
+    if last is not None and last[0] == key:
+        return last[1]
+    sigma = position_noise(path)
+    _LAST[0] = (key, sigma)
+    return sigma

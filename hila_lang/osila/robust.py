@@ -55,13 +55,14 @@ from functools import lru_cache
 import numpy as np
 
 from ..core import jit
+from .tps import LOO_PAIRS
 
 #: rejection cut in robust standard deviations of the leave-one-out (or LMedS) residuals: 3.5 σ
 #: rejects about 1 in 2000 good pairs of Gaussian noise (a pair's error vector is 2- or 3-D, so
 #: its length is Rayleigh/Maxwell-distributed; 3.5 × the median-based σ is past its 99.9 %).
 CUT = 3.5
-#: fewest pairs for which rejection runs (module docstring)
-MIN_PAIRS = 10
+#: fewest pairs for which rejection runs (module docstring); the warp's leave-one-out test too
+MIN_PAIRS = LOO_PAIRS
 #: random minimal sets tried by LMedS, per dimension: with half the pairs wrong, the chance that
 #: no set is all good is (1 - 0.5²)^50 < 1e-6 in 2-D and (1 - 0.5³)^104 < 1e-6 in 3-D
 TRIALS = {2: 50, 3: 104}

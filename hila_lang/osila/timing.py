@@ -1,8 +1,22 @@
 """Re-timing: which part of the template's shape passes an ICP that lies on the template path?
 
 An ICP whose template point is a point of the template path, at stamp t_k (a segment boundary,
-a point at a time fraction), says two things: the task's movement passes the task point q_k, and
-it does so at time t_k.  People do not repeat a movement's timing: the same stroke peaks in speed
+a point at a time fraction), says where the task's movement passes: the task point q_k.  It says
+WHEN only if the pair carries the task's time too (option ``task_times`` of
+:func:`hila_lang.osila.imitate`: when the task passed q_k, a fraction τ_k of its duration) — a
+boundary of an equal-time split, a point at a time fraction.  A scene ICP, a via point, a point
+at a fraction of the drawn length carry no time: they are correspondences in position only, and
+re-timing them would pay for a correspondence in time that is not there (on LASA's leak-free
+protocol, where the pairs are at fractions of arc length, re-timing them cost 0.07–0.18 of mean
+Fréchet distance; ``docs/evaluation.md``).  So only pairs that carry a time are re-timed, and only
+while their timing agrees with the template (:func:`timed_stamps`, the test stated there): the
+pairs' task times in the order of their template stamps, and each task time within the
+re-timing window (±4 σ_t) of its template point's own time t_k / (T - 1).  A pair whose task time
+lies outside the window does not pair the template's point at a time with the task's at the
+same time; it is a position, and kept.
+
+For a pair that carries a time and agrees: it says the task's movement passes q_k, and does so
+at (about) time t_k.  People do not repeat a movement's timing: the same stroke peaks in speed
 earlier or later (time to peak speed 42–57 % of a reach, MacKenzie et al. 1987), so the
 template's point at t_k is in general not the point of the template's *shape* that passes q_k.
 An exact warp through (template point at t_k → q_k) then bends the shape to make up for a
@@ -42,7 +56,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tps import Warp, _dist, _tol, affine_rank, fit_warp, kernel
+from .pathwarp import choose_warp
+from .tps import Warp, _dist, _tol, affine_rank, kernel
 
 #: default prior spread σ_t of when the task passes an on-path ICP, a fraction of the duration
 TIMING = 0.03
@@ -119,8 +134,34 @@ def _bending(S: np.ndarray, Y: np.ndarray, mu: np.ndarray, sc: float) -> np.ndar
     return np.where(np.isfinite(E), E, np.inf)
 
 
+def timed_stamps(path: np.ndarray, src: np.ndarray, times, timing: float) -> set[int]:
+    """Stamps of the on-path pairs that carry a task time agreeing with the template (module docstring).
+
+    A pair carries a time when its entry of ``times`` (K,) is finite (the task's time, a fraction of
+    its duration in [0, 1]) and its template point is a point of ``path`` (T, D), at stamp t.  The
+    test: (1) ordered by their stamps, the pairs' task times never decrease (else the timing
+    contradicts the path's order, and no pair is re-timed); (2) a pair's task time lies within
+    :data:`WINDOW` σ_t (``timing``) of t / (T - 1), its template point's own time.
+    """
+    if times is None:
+        return set()
+    times = np.asarray(times, dtype=float)
+    T = len(path)
+    if T < 3 or timing <= 0 or not np.isfinite(times).any():
+        return set()
+    have = np.flatnonzero(np.isfinite(times))
+    r = _dist(src[have], path)
+    near = r.argmin(1)
+    on = r[np.arange(len(have)), near] <= _tol(path, src)
+    stamp = {int(near[i]): float(times[k]) for i, k in enumerate(have) if on[i]}
+    order = sorted(stamp)
+    if any(stamp[b] < stamp[a] for a, b in zip(order, order[1:])):
+        return set()
+    return {t for t in order if abs(stamp[t] - t / (T - 1.0)) <= WINDOW * timing}
+
+
 def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
-           fixed: tuple[int, ...] = (), refits=None) -> Retimed:
+           fixed: tuple[int, ...] = (), refits=None, times=None, precision: float | None = None) -> Retimed:
     """Re-estimate the template stamps of on-path pairs (module docstring) and re-time the template.
 
     Parameters
@@ -135,6 +176,11 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
         Stamps that never move (pinned stamps); the first and last stamps never move either.
     refits : :class:`.bordered.Refits`, optional
         Where the warp fitted to decide keeps its factorisation for plan adjustment's rounds.
+    times : array_like, shape (K,), optional
+        When the task passes each pair, a fraction of its duration (NaN: not known).  Only pairs
+        with a time that agrees (:func:`timed_stamps`) are re-timed; none without ``times``.
+    precision : float, optional
+        The pairs' precision for the warp's amplification limit (:func:`.pathwarp.choose_warp`).
 
     Returns
     -------
@@ -142,20 +188,21 @@ def retime(path: np.ndarray, src: np.ndarray, dst: np.ndarray, timing: float,
         The inputs themselves (not copies) when nothing moved, with the exact warp fitted to decide.
     """
     T, D = path.shape
-    if timing <= 0 or T < 3:
+    timed = timed_stamps(path, src, times, timing)
+    if not timed:
         return Retimed(path, src, {})
-    warp = fit_warp(src, dst, on=path, refits=refits)
+    warp = choose_warp(src, dst, on=path, refits=refits, precision=precision)
     unchanged = Retimed(path, src, {}, warp)
     # pairs (rows of warp.src, after merging) whose template point is the path's point at one stamp
     count = Counter(warp.at.values())
     blocked = {0, T - 1, *fixed}
-    inner = sorted((t, k) for t, k in warp.at.items() if count[k] == 1 and t not in blocked)
+    inner = sorted((t, k) for t, k in warp.at.items() if count[k] == 1 and t not in blocked and t in timed)
     if not inner:
         return unchanged
     K = len(warp.src)
     if warp.kind == "tps":
         dof = D * (K - D - 1)
-    elif warp.kind == "similarity" and affine_rank(warp.src) == D:
+    elif warp.kind in ("similarity", "path") and affine_rank(warp.src) == D:
         dof = D * K - (4 if D == 2 else 7)
     else:
         return unchanged

@@ -22,14 +22,21 @@ Which map (never a crash, never a blow-up)
 
   1. at least D+2 pairs spanning D dimensions — with D+1 the TPS is an affine map fitted
      exactly, with no pair left to check it, and any ICP error becomes shear;
-  2. it predicts each pair from the others at least as well as the fallback does (leave-one-out
-     error: Rippa's closed form for both, one inverse each for all K left-out pairs) — the data at hand says
-     whether its ICPs carry a smooth deformation or a rigid placement plus noise.  A pair without
-     which the others cannot determine a TPS (the hand above four exactly coplanar corners of a
-     drawing surface: the system without it is singular) is left out of both means: no TPS can be fitted without it, so it says
-     nothing about which map generalises, and counting it as an infinite error would hand the
-     choice to the fallback however badly that predicts the other pairs;
-  3. its amplification on the path is at most :data:`MAX_AMPLIFICATION` (below).
+  2. from :data:`LOO_PAIRS` pairs on, it predicts each pair from the others at least as well as
+     the fallback does (leave-one-out error: Rippa's closed form for both, one inverse each for
+     all K left-out pairs) — the data at hand says whether its ICPs carry a smooth deformation or
+     a rigid placement plus noise.  A pair without which the others cannot determine a TPS (the
+     hand above four exactly coplanar corners of a drawing surface: the system without it is
+     singular) is left out of both means: no TPS can be fitted without it, so it says nothing
+     about which map generalises, and counting it as an infinite error would hand the choice to
+     the fallback however badly that predicts the other pairs.  With fewer pairs the test is not
+     made: a handful of leave-one-out errors is too noisy to choose by (on the paper's stand-in,
+     K = 5–8 pairs, it chose the fallback for 30.6 / 14.8 / 9.8 px of Fréchet distance at
+     N = 2 / 3 / 4 where the stability test alone gives 27.2 / 14.4 / 9.1; on ``bench/warp.py``'s
+     synthetic pairs, K = D + 1..8, the stability test alone has the lower mean error in 9 of
+     its 10 scenarios), and the next test decides;
+  3. its amplification of ICP errors on the path is at most the data's limit (below): no more
+     than the deformation the pairs show beyond a similarity, measured in the pairs' precision.
 
   Otherwise the **similarity** fallback: the least-squares similarity transform of the pairs
   (Umeyama) plus an exact interpolation of what it leaves at each pair, with the kernel
@@ -39,10 +46,11 @@ Which map (never a crash, never a blow-up)
   instead of being extrapolated by an ill-determined affine part.  ``Warp.kind`` says which.
 
 ``bench/warp.py`` measures this choice on synthetic pairs with a known true map (10 scenarios
-of ICP noise and deformation, 2-D and 3-D): the mean error of the choice is the lowest of
-"always TPS", "always fallback" and the choice in 8 of 10 scenarios and within 1 % of the
-lowest in the other two; always using the TPS has the highest mean error in all 10 (its
-blow-ups), always using the fallback loses where the true deformation is large.
+of ICP noise and deformation, 2-D and 3-D; the template measured with the ICPs' noise): the mean
+error of the choice is the lowest of "always TPS", "always fallback" and the choice in 9 of 10
+scenarios (a tie in one) and 0.2 % above the fallback's in the tenth; always using the TPS has the
+highest mean error in all 10 (its blow-ups), always using the fallback loses where the true
+deformation is large.
 
 Amplification
 -------------
@@ -51,11 +59,24 @@ The TPS is linear in the task points: f(x) = Σ_k L_k(x) · task_k with cardinal
 constant Λ = max_t Σ_k |L_k(p_t)|: an error of δ in the task ICPs moves a mapped waypoint by at
 most Λ·δ.  Λ >= 1; it is about 1–3 for ICPs spread around the path and grows without bound as
 they become collinear (an affine part fitted on a sliver) or two of them nearly coincide while
-bound far apart.  :data:`MAX_AMPLIFICATION` (6 in 2-D, 8 in 3-D) was chosen by measurement, not
-on any evaluation data set: ``bench/warp.py`` maps synthetic templates by a known true map (a
-random stretch/shear of about 10 % plus local bends of about 5 % of the extent) with ICPs
-located to 1 % of the extent (OSILA's default threshold), and bins the error of both maps by Λ;
-the TPS's median error passes the fallback's at Λ = 6 in 2-D and Λ = 8 in 3-D (4000 pairs each).
+bound far apart.
+
+How much amplification a TPS may have follows the data (:func:`amplification_limit`): the TPS
+is kept while Λ·σ <= ρ, where ρ is the RMS residual of the least-squares similarity at the
+pairs (the deformation the pairs show that a rigid placement cannot explain, the part the TPS
+is there to follow) and σ the pairs' precision: unless given (``precision``), the template's
+own measured position noise (:func:`.noise.position_noise`, the sensor's) carried into task
+units by the similarity's scale.  So the worst the TPS can make of errors of the data's size is
+no larger than what it corrects.  It replaces a fixed limit (6 in 2-D, 8 in 3-D, measured on
+synthetic pairs whose ICPs were located to 1 % of the extent): on the paper's stand-in (a hand
+and four object corners, K = 5, Λ up to 10 between set-ups) that constant rejected the TPS for
+2,294 of 5,550 pairs and cost OSILA 61.9 against 54.9 px of Fréchet distance; the data's limit
+keeps it where the scene's deformation is large against the marker noise (the TPS kept for 89 %
+of the pairs that pass leave-one-out, the same mean Fréchet distance as always keeping it).
+``bench/warp.py`` prints both rules on its synthetic pairs (templates measured with the ICPs'
+noise): against the former constant the data's limit has a lower mean error in 4 scenarios (by
+up to 0.0021 of the extent, where the ICPs are noisiest or the deformation smallest), the same in
+one, and a higher one by at most 0.0007 in five.
 
 Cost
 ----
@@ -99,16 +120,18 @@ from ..core import jit
 from ..core.jit import min_stamps
 from . import saddle
 from .fallback import fit_similarity
+from .noise import amplification_limit
 from .saddle import Dense
 
 MERGE_TOL = 1e-6
 DEGENERATE_TOL = 1e-3
+#: fewest pairs for which the leave-one-out test judges the TPS against the fallback (below, the
+#: amplification test alone decides: module docstring, 2.); the outlier screen's count too
+#: (:data:`.robust.MIN_PAIRS`)
+LOO_PAIRS = 10
 #: (A⁻¹)_kk of the normalised TPS system at most this: the system without pair k is singular
 #: (rounding level; it is 1e-17 for the hand above four coplanar corners, about 1 otherwise)
 SINGULAR_TOL = 1e-12
-#: largest Lebesgue constant of a TPS on the mapped path before the similarity fallback is used,
-#: per dimension D (see the module docstring; measured by ``bench/warp.py``)
-MAX_AMPLIFICATION = {2: 6.0, 3: 8.0}
 #: the compiled choice kernel (loops; Gauss-Jordan inverses) is used up to this many pairs, numpy
 #: (blocked LAPACK: Cholesky of the projected systems) above: both were equal at K = 64 on this
 #: machine (2-D, 0.2 ms, measured with LU inverses in the kernel and whole inverses in numpy), the
@@ -209,7 +232,8 @@ class Warp:
     Attributes
     ----------
     kind : str
-        ``"tps"``, ``"similarity"`` or ``"translation"``.
+        ``"tps"``, ``"similarity"``, ``"translation"`` or ``"path"`` (:mod:`.pathwarp`: the
+        template's shape kept along the path; defined on that path only, :attr:`mapped`).
     src : ndarray, shape (K', D)
         Template points actually used (after merging near-duplicates).
     dst : ndarray, shape (K', D)
@@ -243,8 +267,11 @@ class Warp:
     mapped: np.ndarray | None = None
     loo: float | None = None
     at: dict = field(default_factory=dict)
+    base: Warp | None = None
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
+        if self.base is not None:  # a path warp maps other points by the spatial map it bends
+            return self.base(points)
         return self._map(np.asarray(points, dtype=float))[0]
 
     def _map(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -977,6 +1004,7 @@ def fit_warp(
     on: np.ndarray | None = None,
     max_amplification: float | None = None,
     refits=None,
+    precision: float | None = None,
 ) -> Warp:
     """Fit the template-to-task map from paired points (validated arrays, shape (K, D), K >= 1).
 
@@ -996,12 +1024,17 @@ def fit_warp(
         amplification on ``on`` is at most ``max_amplification`` (module docstring), and the
         image of ``on`` is computed with the fit (:attr:`Warp.mapped`, :attr:`Warp.at`).
         Without it, a TPS is used whenever the points span D dimensions (the paper's bare warp).
+        (OSILA asks :func:`.pathwarp.choose_warp`, which bends the path itself where the pairs
+        hold both its ends, and asks this function otherwise.)
     max_amplification : float, optional
-        Default :data:`MAX_AMPLIFICATION` for the dimension.
+        Default: the data's limit, :func:`.noise.amplification_limit` (module docstring).
     refits : :class:`.bordered.Refits`, optional
         The factorisation carried across plan-adjustment rounds: with more than
         :data:`KERNEL_MAX_PAIRS` pairs and no smoothing, the choice's inverses are the last
         round's bordered with the new pairs when the pairs only grew (the same map to rounding).
+    precision : float, optional
+        How precisely the pairs are located (task units), for the amplification limit; default
+        the template's measured position noise (:func:`.noise.amplification_limit`).
 
     Returns
     -------
@@ -1044,14 +1077,15 @@ def fit_warp(
                 tps_loo, sim_loo = ((float(tps_each[judged].mean()), float(sim_each[judged].mean()))
                                     if judged.any() else (np.inf, 0.0))
             tie = (1e-9 * float(np.abs(dst - dst.sum(0) / K).max())) ** 2
-            if tps_loo <= sim_loo + tie:
+            if K < LOO_PAIRS or tps_loo <= sim_loo + tie:
                 # the TPS predicts left-out pairs at least as well: check its amplification on the path
                 if factored is None:
                     mu = src.sum(0) / K
                     sc = float(np.abs(src - mu).max())
                 else:  # the normalisation the inverses were made in (the same map)
                     mu, sc = factored.mu, factored.sc
-                limit = MAX_AMPLIFICATION[D] if max_amplification is None else max_amplification
+                limit = (amplification_limit(src, dst, on, rank, precision) if max_amplification is None
+                         else max_amplification)
                 amplification, mapped, at = _lebesgue((on - mu) / sc, (src - mu) / sc, card.full(), dst, limit,
                                                       _tol(on, src) / sc)
                 if mapped is not None:

@@ -131,10 +131,11 @@ OSILA_OPTIONS: dict[str, OsilaOption | OsilaChoice] = {o.name: o for o in (
     OsilaOption("directions", "candidate directions per shell", 1, 2000, integer=True, words=(None,)),
     OsilaOption("timing", "a weight", 0, 1e6),
     OsilaOption("stretch", "a ratio of route lengths", 1, 1e6),
+    OsilaOption("precision", "a distance in the template's units", 0, 1e3, words=(None,)),
     OsilaChoice("reject", "outlier rejection among the ICP pairs", ("auto", "none", "loo", "lmeds")),
 )}
-#: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but ``pin``,
-#: each step's own); a test keeps it in step
+#: every OSILA option ``--set osila.NAME`` may set (all of ``hila_lang.osila.OPTIONS`` but those of
+#: one step's own pairs, ``hila_lang.osila.PER_STEP``: ``pin`` and ``task_times``); a test keeps it in step
 OSILA_SETTABLE = tuple(OSILA_OPTIONS)
 #: most candidate offsets around a waypoint, shells x directions (see :data:`OSILA_OPTIONS`)
 MAX_CANDIDATES = 2000
@@ -183,6 +184,9 @@ def osila_options(settings: dict[str, str]) -> dict:
             raise InputError("--set osila.pin: a pin fixes stamps of one path; each step pins its own bound "
                              "start and end, so a pin cannot be set for a whole run",
                              hint="bind the sub-template's 'start' or 'end' ICP in the program instead")
+        if name == "task_times":
+            raise InputError("--set osila.task_times: task times belong to one step's ICP pairs (when the task "
+                             "passes each), so they cannot be set for a whole run")
         if name not in OSILA_OPTIONS:
             close = difflib.get_close_matches(name, OSILA_SETTABLE, n=1)
             raise InputError(f"unknown OSILA option {name!r} in --set {key}; known: {', '.join(OSILA_SETTABLE)}",
