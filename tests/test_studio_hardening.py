@@ -259,6 +259,7 @@ def test_sockets_refuse_bad_messages_and_binary_frames_and_live_on(studio):
 # ----------------------------------------------------------------------------- the process
 
 
+@pytest.mark.slow
 def test_a_restart_on_the_same_port_binds_at_once(tmp_path):
     """Before: 'port ... is taken' for ~60 s after any request (no SO_REUSEADDR)."""
     s = Studio(tmp_path)
