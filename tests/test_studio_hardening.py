@@ -234,6 +234,7 @@ def _ws(studio, path):
                    open_timeout=10, max_size=None)
 
 
+@pytest.mark.slow
 def test_sockets_refuse_bad_messages_and_binary_frames_and_live_on(studio):
     with _ws(studio, "/ws/imitate") as ws:
         for message, says in ((b"\x00\x01binary", "binary frame"),
