@@ -30,7 +30,7 @@ from .page import Studio, problem
 from .security import MAX_UPLOAD, Guard, cookie_name
 
 #: seconds Ctrl-C waits for requests under way before it cancels them (and kills the workers)
-SHUTDOWN_S = 0.3
+SHUTDOWN_S = 0.1
 
 #: the pages, in tab order; a new page is its module here, its script in static/ and its test
 PAGES = (demonstrate.PAGE, imitate.PAGE, run.PAGE)
@@ -91,7 +91,7 @@ def _server_class():
         under way are answered at once and the shutdown does not wait for their work."""
 
         def handle_exit(self, sig, frame) -> None:
-            threading.Thread(target=worker.stop, daemon=True).start()
+            threading.Thread(target=worker.stop, args=(True,), daemon=True).start()
             super().handle_exit(sig, frame)
 
     return Server
@@ -139,8 +139,9 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
     config = uvicorn.Config(make_app(folder, token, port), log_level="warning", lifespan="off",
                             ws_max_size=MAX_UPLOAD, timeout_graceful_shutdown=SHUTDOWN_S)
     server = _Server(config)
+    worker.warm()
     try:
         server.run(sockets=[sock])
     finally:
-        worker.stop()
+        worker.stop(final=True)
     return 0
