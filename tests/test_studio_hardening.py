@@ -168,6 +168,34 @@ def test_a_symlink_swapped_during_saves_never_writes_outside(studio, tmp_path):
     assert set(statuses) <= {200, 403} and 200 in statuses
 
 
+def test_a_link_swapped_right_after_the_name_is_checked_writes_nothing_outside(tmp_path, monkeypatch):
+    """The race of the test above made certain: the link is swapped to a file outside right after
+    the studio checks the name (:func:`.security.inside`), before it writes.  Before, the writer
+    resolved the name again and wrote outside; now the write renames over the link itself."""
+    import inspect
+
+    folder, outside = tmp_path / "folder", tmp_path / "outside.hila"
+    folder.mkdir()
+    outside.write_text("outside\n")
+    (folder / "inner.hila").write_text("inner\n")
+    (folder / "swap.hila").symlink_to(folder / "inner.hila")
+    checked = files.inside
+
+    def check_then_swap(root, name):
+        path = checked(root, name)
+        (folder / "swap.hila").unlink()
+        (folder / "swap.hila").symlink_to(outside)
+        return path
+
+    monkeypatch.setattr(files, "inside", check_then_swap)
+    kw = {"overwrite": True} if "overwrite" in inspect.signature(files.write).parameters else {}
+    try:
+        files.write(folder, {"swap.hila": "main {\n}\n"}, **kw)
+    except InputError:
+        pass  # refused is kept too
+    assert outside.read_text() == "outside\n"
+
+
 def test_the_csv_sidecar_is_not_read_through_a_link(studio, tmp_path):
     """Before: GET /api/open?kind=csv&name=evil.csv with evil.icps.yaml a link to a file outside
     returned that file's ICPs."""
@@ -266,14 +294,18 @@ def test_a_restart_on_the_same_port_binds_at_once(tmp_path):
     s = Studio(tmp_path)
     for _ in range(3):
         assert request(s, "GET", "/api/files")[0] == 200
+    kept = http.client.HTTPConnection("127.0.0.1", s.port, timeout=30)  # a browser's keep-alive connection
+    kept.request("GET", f"/api/files?token={s.token}", headers={"Host": f"127.0.0.1:{s.port}"})
+    assert kept.getresponse().read()
     port = s.port
-    assert s.stop() == 130
+    assert s.stop() == 130  # the server closes the kept connection first: its side of it lingers
     again = subprocess.Popen([sys.executable, "-m", "hila_lang", "studio", str(tmp_path), "--port", str(port)],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = again.stdout.readline()
         assert line.startswith(f"hila studio: http://127.0.0.1:{port}/"), (line, again.stderr.read())
     finally:
+        kept.close()
         again.send_signal(signal.SIGINT)
         again.wait(timeout=30)
 
