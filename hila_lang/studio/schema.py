@@ -5,8 +5,8 @@ A schema is built from a few declarative pieces -- :class:`Num`, :class:`Int`, :
 :class:`Bool`, :class:`List`, :class:`Map`, :class:`Obj`, :class:`Either` -- and
 :func:`check` returns the value or raises :class:`InputError` naming the field
 (``icps.a[1]: expected a finite number from -1e+06 to 1e+06, got 1e+308``).  :func:`parse_json`
-bounds a document's nesting before it is parsed (a 100 000-deep array is refused by a scan, not
-by a ``RecursionError``).
+refuses a document nested beyond the parser's limit (a 100 000-deep array is a 400, not a
+``RecursionError`` in the server).
 
 The limits are stated once, here, from the command line's where it has them
 (:mod:`hila_lang.core.argtypes`: seeds; :data:`hila_lang.osila.template.MAX_COORDINATE`: the
@@ -25,8 +25,9 @@ from ..core.argtypes import SEED_MAX
 from ..core.errors import InputError
 from ..osila.template import MAX_COORDINATE
 
-#: deepest nesting of arrays and objects in a request (a scene is 4 deep: {avoid: [{centre: [x]}]})
-MAX_DEPTH = 12
+#: deepest nesting of arrays and objects in a request (a scene is 4 deep: {avoid: [{centre: [x]}]});
+#: the shapes enforce it, as each expects a number where a deeper document has a list
+MAX_DEPTH = 4
 #: pointer samples in one demonstration: 10 minutes of a 60 Hz pointer
 MAX_SAMPLES = 36_000
 #: points of a path (a demonstration at 20 Hz): 10 minutes
@@ -229,41 +230,18 @@ def check(shape: Shape, value: Any, where: str = "") -> Any:
     return shape.check(value, where)
 
 
-def depth(text: str | bytes) -> int:
-    """The deepest nesting of ``[`` and ``{`` in a JSON text (strings skipped), by one scan."""
-    if isinstance(text, bytes):
-        text = text.decode("utf-8", "replace")
-    deepest = level = 0
-    in_string = escaped = False
-    for ch in text:
-        if in_string:
-            if escaped:
-                escaped = False
-            elif ch == "\\":
-                escaped = True
-            elif ch == '"':
-                in_string = False
-        elif ch == '"':
-            in_string = True
-        elif ch in "[{":
-            level += 1
-            deepest = max(deepest, level)
-        elif ch in "]}":
-            level -= 1
-    return deepest
-
-
 def parse_json(text: str | bytes) -> dict:
-    """A JSON object from a request or a message, nested at most :data:`MAX_DEPTH` deep."""
-    if depth(text) > MAX_DEPTH:
-        raise InputError(f"refused: the JSON is nested more than {MAX_DEPTH} deep (the studio's requests are "
-                         "at most a few levels)")
+    """A JSON object from a request or a message.  Nesting is bounded twice: the parser refuses
+    a document deeper than Python's recursion limit (about 1000 levels: a ``RecursionError``,
+    answered here as a refusal), and every shape below refuses a list or an object where it
+    expects a number, so nothing deeper than a request's shape reaches a handler."""
     try:
         doc = json.loads(text)
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"expected a JSON body: {exc}") from None
-    except RecursionError:  # not reached after depth(); kept so a parser change cannot turn it into a bug
-        raise InputError(f"refused: the JSON is nested more than {MAX_DEPTH} deep") from None
+    except RecursionError:
+        raise InputError("refused: the JSON is nested deeper than the studio reads (its requests are at "
+                         f"most {MAX_DEPTH} levels deep)") from None
     if not isinstance(doc, dict):
         raise InputError("expected a JSON object")
     return doc
