@@ -5,11 +5,12 @@
 - :class:`Studio`: the folder a studio serves and what it keeps while it runs (templates read
   once per change); a handler reaches it as ``request.app.state.studio``.
 - :func:`read_json` / :func:`read_body`: the one door a request's body comes in by (bounded by
-  :data:`.security.MAX_UPLOAD`; where a schema of every request belongs).
+  :data:`.security.MAX_UPLOAD`, checked by its route's shape, :data:`.schema.BODIES`).
 - :func:`problem`: what a failed request says (hila's message and hint; an OSError as the file
   and why; ``refused`` for a path or size the studio does not take).
-- :class:`JSONSocket`: a websocket of JSON objects, one answer per message; a bad message or a
-  failed one is answered with the reason and the socket goes on.
+- :class:`JSONSocket`: a websocket of JSON objects, one answer per message, each checked by its
+  socket's shape (:data:`.schema.SOCKETS`); a bad message (a binary frame too) or a failed one
+  is answered with the reason and the socket goes on.
 """
 
 from __future__ import annotations
