@@ -32,7 +32,8 @@ is better, or a distance, lower is better), whether it is time-free, its unit an
 registry, so a new metric is one registration here.
 
 1-D inputs (T,) are treated as (T, 1).  Paths of different lengths are first resampled to the
-longer length by :func:`resample` (cubic spline), as in the paper.
+longer length by :func:`resample` (cubic spline), as in the paper; :func:`resample_in_time` resamples
+a timed path at a rate (every demonstration in hila is at 20 Hz).
 """
 
 from __future__ import annotations
@@ -100,6 +101,13 @@ def resample(path: Any, n: int) -> np.ndarray:
 #: 200 × 200 samples (LASA's paths have 40-160, the stand-in's 32-64), 320 kB a matrix, so the
 #: cache of 512 holds at most 160 MB (it held up to 8 GB: 4096 matrices of 250,000)
 MATRIX_LIMIT = 40_000
+
+
+def resample_in_time(t: np.ndarray, pos: np.ndarray, rate: float) -> np.ndarray:
+    """Positions (T, D) sampled at ``t`` (T,), linearly re-sampled at ``rate`` Hz from t[0] to t[-1]."""
+    n = max(int(round((t[-1] - t[0]) * rate)) + 1, 2)
+    u = np.linspace(t[0], t[-1], n)
+    return np.column_stack([np.interp(u, t, pos[:, d]) for d in range(pos.shape[1])])
 
 
 @lru_cache(maxsize=512)

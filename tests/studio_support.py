@@ -59,13 +59,30 @@ def chromium_or_skip():
 READY = "window.hilaStudio && window.hilaStudio.demo && window.hilaStudio.demo.scene !== undefined"
 
 
-@pytest.fixture(scope="module")
-def browser():
+def launched(extra_args=()):
+    """Debian's chromium, headless, with BROWSER_ARGS and ``extra_args`` (a generator: yields it, then closes it)."""
     exe, sync_api = chromium_or_skip()
     with sync_api.sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS)
+        b = pw.chromium.launch(executable_path=exe, headless=True, args=BROWSER_ARGS + list(extra_args))
         yield b
         b.close()
+
+
+def opened(browser, studio, height=1000):
+    """A fresh page on ``studio``, loaded (a generator: yields it; then it must have had no script error)."""
+    p = browser.new_page(viewport={"width": 1400, "height": height})
+    errors = []
+    p.on("pageerror", lambda e: errors.append(str(e)))
+    p.goto(studio.url)
+    p.wait_for_function(READY)
+    yield p
+    p.close()
+    assert not errors, errors
+
+
+@pytest.fixture(scope="module")
+def browser():
+    yield from launched()
 
 
 @pytest.fixture(scope="module")
@@ -80,14 +97,7 @@ def studio(tmp_path_factory):
 
 @pytest.fixture()
 def page(browser, studio):
-    p = browser.new_page(viewport={"width": 1400, "height": 1000})
-    errors = []
-    p.on("pageerror", lambda e: errors.append(str(e)))
-    p.goto(studio.url)
-    p.wait_for_function(READY)
-    yield p
-    p.close()
-    assert not errors, errors
+    yield from opened(browser, studio)
 
 
 def plane_to_pixel(page, H, p):

@@ -185,12 +185,10 @@ def _source(args: argparse.Namespace) -> str:
 def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     """Track the pen in the video ``args.demo`` (:mod:`hila_lang.perception.pen`), write
     OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
-    import numpy as np
-
     from ..core.fileio import atomic_write_text, ensure_writable
-    from ..evaluation.lasa import RATE_HZ, resample_in_time
     from ..osila.demofile import demo_csv, load_icps, write_icps
-    from ..perception.pen import sheet_icps, track_video
+    from ..evaluation.lasa import RATE_HZ
+    from ..perception.pen import as_demonstration, track_video
 
     stem = out.name[:-len(out.suffix)] if out.suffix else out.name
     csv, icps_file = out.with_name(f"{stem}.demo.csv"), out.with_name(f"{stem}.icps.yaml")
@@ -200,15 +198,11 @@ def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     print(f"tracking the pen in {args.demo} ...", flush=True)
     track = track_video(args.demo, ball=args.ball, ball_mm=args.ball_mm, hfov_deg=args.hfov, fps=args.fps,
                         max_gap=args.max_gap, progress=lambda n: print(f"  {n} frames", flush=True))
-    icps = given if given is not None else sheet_icps(track.layout, args.cell)
-    path = resample_in_time(track.times, np.column_stack([track.tip / 1000.0, track.contact]), RATE_HZ)
-    pen = path[:, 3] > 0.5
-    path = np.where(pen[:, None], np.column_stack([path[:, :2], np.zeros(len(path))]), path[:, :3])
-    icps = {**icps, "hand": path[0]} if "hand" not in icps else icps
+    path, times, pen, icps = as_demonstration(track, RATE_HZ, given, args.cell)
     print(f"  {track.summary()}")
     atomic_write_text(csv, f"# tracked by hila learn --sheet from {args.demo}: {track.summary()}\n"
                            "# sheet frame, metres: x right, y up the page, z off the paper; pen 1 = on the paper\n"
-                      + demo_csv(path, np.arange(len(path)) / RATE_HZ, pen))
+                      + demo_csv(path, times, pen))
     write_icps(icps_file, icps,
                header=f"ICPs of {csv.name}: the {track.layout.name} sheet's frame, metres")
     return str(csv), str(icps_file)

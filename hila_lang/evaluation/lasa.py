@@ -85,10 +85,10 @@ def resolve_shapes(spec: str | None) -> tuple[str, ...]:
 
 
 def resample_in_time(t: np.ndarray, pos: np.ndarray, rate: float = RATE_HZ) -> np.ndarray:
-    """Positions (T, D) sampled at ``t`` (T,), linearly re-sampled at ``rate`` Hz from t[0] to t[-1]."""
-    n = max(int(round((t[-1] - t[0]) * rate)) + 1, 2)
-    u = np.linspace(t[0], t[-1], n)
-    return np.column_stack([np.interp(u, t, pos[:, d]) for d in range(pos.shape[1])])
+    """:func:`hila_lang.metrics.resample_in_time` at hila's demonstration rate by default."""
+    from ..metrics import resample_in_time as resample
+
+    return resample(t, pos, rate)
 
 
 def load(shapes: tuple[str, ...] = DEVELOPMENT) -> list[Trial]:

@@ -634,6 +634,37 @@ def track_video(source, *, ball: str = "green", ball_mm: float = BALL_MM, hfov_d
     return tracker.finish(max_gap, names=names, source=Path(source).name)
 
 
+def as_demonstration(track: PenTrack, rate: float, icps: dict | None = None, cell: int | None = None):
+    """A tracked pen as every demonstration in hila is: ``(path (T, 3) metres, times (T,) s, pen
+    (T,) bool, icps)`` resampled at ``rate`` Hz (20: :data:`hila_lang.evaluation.lasa.RATE_HZ`), the tip on
+    the paper (z = 0) where the pen is down.  ``icps``: given ones (sheet frame, metres), else
+    :func:`sheet_icps` (``cell``'s corners, or the corner markers); ``hand`` is where the pen
+    starts unless they name it.  ``hila learn --sheet`` and the studio's Camera scene both use it."""
+    from ..metrics import resample_in_time
+
+    icps = dict(icps) if icps is not None else sheet_icps(track.layout, cell)
+    path = resample_in_time(track.times, np.column_stack([track.tip / 1000.0, track.contact]), rate)
+    pen = path[:, 3] > 0.5
+    path = np.where(pen[:, None], np.column_stack([path[:, :2], np.zeros(len(path))]), path[:, :3])
+    if "hand" not in icps:
+        icps["hand"] = path[0]
+    return path, np.arange(len(path)) / rate, pen, icps
+
+
+def drawn_cell(layout: SheetLayout, path: np.ndarray, pen: np.ndarray) -> int | None:
+    """The grid cell (1..9) holding the middle of what the pen drew (the mean of the pen-down
+    points of ``path``, metres), or None: a sheet without a grid, nothing drawn, or drawn off the grid."""
+    if not layout.grid or not np.any(pen):
+        return None
+    x, y = np.asarray(path, float)[np.asarray(pen, bool), :2].mean(axis=0) * 1000.0
+    feats = layout.features()
+    for cell in range(1, 10):
+        (x0, y1), (x1, y0) = feats[f"cell{cell}.tl"], feats[f"cell{cell}.br"]
+        if x0 <= x <= x1 and y0 <= y <= y1:
+            return cell
+    return None
+
+
 def sheet_icps(layout: SheetLayout, cell: int | None = None) -> dict[str, np.ndarray]:
     """The ICPs the sheet prints, metres on the paper (z = 0): the grid cell ``cell``'s corners
     ``tl``, ``tr``, ``br``, ``bl`` (a sheet printed with its grid), or without ``cell`` the

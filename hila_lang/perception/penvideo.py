@@ -91,6 +91,9 @@ class PenVideoSpec:
     cell : int or None
         The grid cell the pen draws in (1..9, as :meth:`SheetLayout.features` numbers them);
         None: chosen by the seed.
+    wait_s : float
+        Seconds more the pen waits in the air before it moves and after it stops (a person
+        pressing Record, then Stop); rendered as every frame is (noise, light), not repeated.
     """
 
     seed: int = 0
@@ -113,6 +116,7 @@ class PenVideoSpec:
     ball_mm: float = 12.0
     principal_offset_px: tuple[float, float] = (6.0, -4.0)
     cell: int | None = None
+    wait_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.ball not in BALL_RGB:
@@ -203,7 +207,7 @@ def demonstration(spec: PenVideoSpec, layout: SheetLayout):
     end = np.array([w * rng.uniform(0.6, 0.85), h * rng.uniform(0.2, 0.35), rng.uniform(45.0, 70.0)])
     hover = loop[0] + [0.0, 0.0, rng.uniform(8.0, 14.0)]
     leave = loop[-1] + [0.0, 0.0, rng.uniform(8.0, 14.0)]
-    legs = [np.repeat(start[None], n(rng.uniform(0.3, 0.5)), axis=0),  # waits in the air
+    legs = [np.repeat(start[None], n(rng.uniform(0.3, 0.5) + spec.wait_s), axis=0),  # waits in the air
             _minimum_jerk(start, hover, n(rng.uniform(1.0, 1.3))),      # reaches
             _minimum_jerk(hover, loop[0], n(rng.uniform(0.2, 0.3)))]    # comes down
     touch_index = sum(len(leg) for leg in legs) - 1
@@ -213,7 +217,7 @@ def demonstration(spec: PenVideoSpec, layout: SheetLayout):
     lift_index = sum(len(leg) for leg in legs)
     legs += [_minimum_jerk(loop[-1], leave, n(rng.uniform(0.2, 0.3))),  # lifts
              _minimum_jerk(leave, end, n(rng.uniform(0.9, 1.2))),        # goes away
-             np.repeat(end[None], n(rng.uniform(0.3, 0.5)), axis=0)]     # waits
+             np.repeat(end[None], n(rng.uniform(0.3, 0.5) + spec.wait_s), axis=0)]  # waits
     tip = np.concatenate(legs)
     times = np.arange(len(tip)) / hz
     contact = np.zeros(len(tip), bool)

@@ -24,7 +24,8 @@ method's replace its segments afterwards (the description says so).
 
 Routes: ``GET /api/scenes``, ``GET /api/scene?name=``, ``GET /api/scene-image?name=``, ``POST
 /api/demonstration`` (samples -> path, times, speed and proposed cuts), ``POST /api/save``, ``GET
-/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``.
+/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``; and the Camera
+scene's (:mod:`.camera`: a pen on the printed sheet before the webcam).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route
 
 from ..core.errors import InputError
-from . import files, schema, worker
+from . import camera, files, schema, worker
 from .save import _names, learned, save  # noqa: F401 - save: called by the tests as the page saves
 from .page import Page, read_json, studio_of, template_json
 from .schema import query
@@ -57,12 +58,14 @@ def _sheet_H(height: int) -> np.ndarray:
 
 
 def scenes() -> list[dict]:
-    """What the page offers to draw on: ``[{name, label}]``, a blank sheet and every world's scene."""
+    """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene and
+    the Camera scene (:mod:`.camera`)."""
     from ..plugins import registry
 
     return [dict(name="blank", label="blank sheet")] + [
         dict(name=f"world:{info.name}", label=info.studio.scene_label or info.name)
-        for info in registry.declarations("world") if info.studio is not None and info.studio.scene]
+        for info in registry.declarations("world") if info.studio is not None and info.studio.scene] + [
+        dict(name="camera", label="camera: a pen on the printed sheet")]
 
 
 def _world_scene(name: str):
@@ -83,6 +86,10 @@ def scene(name: str, folder: Path) -> dict:
     if name == "blank":
         w, h = SHEET_SIZE
         return dict(name=name, image=None, width=w, height=h, H=_sheet_H(h).tolist(), z=None, features=[], lift=None)
+    if name == "camera":  # the printed sheet from above, until a recording says which (studio/camera.py)
+        from ..perception.sheet import SheetLayout
+
+        return camera.sheet_scene(SheetLayout("a4", grid=True))
     if name.startswith("world:"):
         sc = _world_scene(name[len("world:"):])
         return dict(name=name, image=f"/api/scene-image?name={name}", width=sc.width, height=sc.height,
@@ -95,7 +102,7 @@ def scene(name: str, folder: Path) -> dict:
             h, w = read_picture(picture, "uploaded image").shape[:2]
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=w, height=h, H=_sheet_H(h).tolist(),
                     z=None, features=[], lift=None)
-    raise InputError(f"unknown scene {name!r}; expected blank, world:NAME or upload:FILE")
+    raise InputError(f"unknown scene {name!r}; expected blank, camera, world:NAME or upload:FILE")
 
 
 def scene_image(name: str) -> bytes:
@@ -285,4 +292,5 @@ PAGE = Page("demo", "1 Demonstrate", "demonstrate.js", routes=[
     Route("/api/save", _save, methods=["POST"]),
     Route("/api/open", _open),
     Route("/api/lasa", _lasa),
+    *camera.ROUTES,  # the Camera scene (studio/camera.py, static/camera.js)
 ])

@@ -34,7 +34,8 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
     learn NAME.demo.csv --icps NAME.icps.yaml ...`` writes.  Runs in a worker (:mod:`.worker`).
 
     ``req``: ``name``, ``path`` (T, D), ``times`` (T,), ``icps`` {name: point}, ``tags``
-    (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
+    (list), ``contact`` (list), ``method``, ``seed`` and optional ``cuts`` (k - 1 indices) with
+    ``cuts_from``, where they come from when not from a hand (the Camera scene: the pen's tracked contact).
     """
     import tempfile
 
@@ -75,7 +76,8 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
         segs = [Segment(tag, bounds[i], bounds[i + 1], tag in contact) for i, tag in enumerate(tags)]
         check_segments(segs, len(path), "cuts")
         template.segments = segs
-        template.description += f" Cuts moved by hand in hila studio to {[int(c) for c in cuts]} (proposed {proposed})."
+        why = str(req.get("cuts_from") or "") or "moved by hand in hila studio"
+        template.description += f" Cuts {why}: {[int(c) for c in cuts]} (proposed {proposed})."
     texts[target_name] = template_text(template)
     return texts, dict(template=target_name, demo=demo_name, icps=icps_name, command="hila learn " + " ".join(argv),
                        segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact)

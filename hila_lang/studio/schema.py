@@ -306,7 +306,7 @@ SCENE = dict(template=NAME, icps=ICPS, via=List(Point(), most=MAX_VIA),
 #: POST /api/save: a demonstration saved as a template
 SAVE = Obj(dict(name=Str(most=64), path=PATH, times=List(TIME, most=MAX_POINTS), icps=ICPS,
                 tags=List(TAG, most=MAX_SEGMENTS), contact=List(TAG, most=MAX_SEGMENTS), method=_Methods(),
-                seed=SEED, cuts=List(Int(0, MAX_POINTS), most=MAX_SEGMENTS), overwrite=Bool()),
+                seed=SEED, cuts=List(Int(0, MAX_POINTS), most=MAX_SEGMENTS), cuts_from=Str(), overwrite=Bool()),
            required=("name", "path", "times", "icps"))
 #: POST /api/demonstration: pointer samples (or a path) -> the path and its proposed cuts
 DEMONSTRATION = Obj(dict(
@@ -331,8 +331,14 @@ RUN = Obj(dict(cmd=Str(choices=("start", "open", "step", "run", "back", "reload"
                seed=SEED, n=Int(0, MAX_STEPS), state=Str(), text=Str(most=10_000), azimuth=Num(-1e6, 1e6)),
           required=("cmd",))
 
+#: each /ws/camera message (the Camera scene, :mod:`.camera`: its frame's size is bounded there)
+CAMERA = Obj(dict(op=Str(choices=("start", "frame", "stop")), ball=Str(most=32),
+                  ball_mm=Either((Num(0.0, 1000.0, above=True), Str(most=32))), t=Num(-1e9, 1e9),
+                  jpeg=Str(most=30_000_000), record=Bool(), cell=Either((Int(0, 10**6), Str(most=32)))),
+             required=("op",))
+
 #: each route's body shape (:func:`.page.read_json` checks a body by its route's)
 BODIES = {"/api/save": SAVE, "/api/demonstration": DEMONSTRATION, "/api/imitate/export": IMITATE,
           "/api/imitate/explain": IMITATE, "/api/check": CHECK}
 #: each websocket's message shape (:class:`.page.JSONSocket` checks every message)
-SOCKETS = {"/ws/imitate": IMITATE, "/ws/run": RUN}
+SOCKETS = {"/ws/imitate": IMITATE, "/ws/run": RUN, "/ws/camera": CAMERA}

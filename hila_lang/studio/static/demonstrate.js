@@ -1,5 +1,6 @@
 // hila studio, page 1: Demonstrate -- draw a demonstration on a scene, place its ICPs, cut and save it.
 import { $, api, post, applyH, inv3, fitH, handle, fill, refreshFiles, askingToOverwrite } from "/static/common.js";
+import { html as cameraHtml, state as cameraState, mountCamera, showCamera } from "/static/camera.js";
 
 export const html = `
   <p class="help">Draw a demonstration: move the pointer onto the picture, press and draw, lift, move away.
@@ -15,7 +16,7 @@ export const html = `
     <label>ICP name <input id="icp-name" size="8" value="p1" data-testid="icp-name"></label>
     <button id="demo-finish" data-testid="demo-finish">Finish drawing</button>
     <button id="demo-clear" data-testid="demo-clear">Clear</button>
-  </div>
+  </div>${cameraHtml}
   <div class="row"><div class="stage"><canvas id="demo-canvas" data-testid="demo-canvas" width="840" height="600"></canvas><div id="demo-handles" class="handles"></div></div>
   <div class="side"><b>ICPs</b> <span class="muted">(rename here; × removes; drag them on the picture)</span><div id="demo-icps" data-testid="demo-icps"></div></div></div>
   <div class="toolbar">
@@ -33,7 +34,7 @@ export const html = `
   </div>`;
 
 // the page's state: the scene (H: plane -> pixels), the pointer samples, the learned path, its cuts, the ICPs
-export const state = { samples: [], icps: {}, recording: false, done: false, scenes: [] };
+export const state = { samples: [], icps: {}, recording: false, done: false, scenes: [], camera: cameraState };
 const D = state;
 
 const mode = () => document.querySelector('input[name="demo-mode"]:checked').value;
@@ -47,6 +48,7 @@ async function loadScene(name) {
   D.image = null;
   if (D.scene.image) { D.image = new Image(); D.image.onload = draw; D.image.src = D.scene.image; }
   clear();
+  showCamera(name === "camera");
 }
 function clear() {
   D.samples = []; D.icps = {}; D.path = null; D.times = null; D.cuts = []; D.speed = null; D.recording = false; D.done = false;
@@ -110,7 +112,7 @@ function sample(e) {
   return { x, y, t: e.timeStamp, down, p: down ? (e.pressure || 0.5) : 0 };
 }
 function pointer(e) {
-  if (mode() !== "draw" || D.done || !D.scene) return;
+  if (mode() !== "draw" || D.done || !D.scene || D.scene.name === "camera") return;   // the camera draws there
   if (e.type === "pointerdown") try { $("demo-canvas").setPointerCapture(e.pointerId); } catch (err) { /* a synthesized pointer */ }
   if (!D.recording) { if (D.source) return; D.recording = true; D.samples = []; }
   const many = e.type === "pointermove" && e.getCoalescedEvents ? e.getCoalescedEvents() : [];
@@ -157,8 +159,23 @@ async function openSource() {
   $("template-name").value = t.name.replace(/[^A-Za-z0-9_]/g, "_");
   await propose(t.segments.length ? t.segments.slice(1).map((s) => s.start) : null);
 }
+// a pen tracked by the Camera scene (camera.js): its path on the sheet seen from above, as a drawn one
+async function useTrack(m) {
+  D.scene = m.scene; D.H = D.scene.H; D.Hinv = inv3(D.H);
+  const c = $("demo-canvas"); c.width = D.scene.width; c.height = D.scene.height;
+  D.image = new Image(); D.image.onload = draw; D.image.src = D.scene.image;
+  D.samples = []; D.recording = false; D.done = true; D.source = "camera";
+  D.path = m.path; D.times = m.times; D.icps = m.icps;
+  await propose(null);
+  // the tracker saw the pen touch and leave the paper: with one change per cut, the cuts go there
+  const changes = m.pen.flatMap((p, i) => (i && p !== m.pen[i - 1] ? [i] : []));
+  if (changes.length === D.cuts.length && changes.length) { D.cuts = changes; D.cutsFrom = "the pen touched or left the paper (tracked by the camera)"; draw(); drawSpeed(); }
+  $("save-status").textContent = `${m.path.length} points at 20 Hz (${m.times[m.times.length - 1].toFixed(2)} s)` +
+    (m.cell ? `; ICPs: cell ${m.cell}'s corners and where the pen started` : "; ICPs: the sheet's corner markers") + "; name it and save";
+}
 async function propose(keep) {
   if (!D.path) return;
+  D.cutsFrom = null;
   const r = await post("/api/demonstration", { path: D.path, times: D.times, k: tags().length || 1, method: $("seg-method").value });
   D.speed = r.speed; D.cuts = keep || r.cuts; draw(); drawSpeed();
 }
@@ -203,7 +220,8 @@ async function save() {
   if (D.cuts.length !== Math.max(tg.length - 1, 0)) await propose(null);
   try {
     const r = await askingToOverwrite((overwrite) => post("/api/save", { name: $("template-name").value.trim(), path: D.path,
-      times: D.times, icps: D.icps, tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts, overwrite }));
+      times: D.times, icps: D.icps, tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts,
+      cuts_from: D.cutsFrom, overwrite }));
     $("save-status").textContent = `saved ${r.template} (${r.segments.map((s) => s.tag + " " + s.start + "-" + s.stop).join(", ")}) = ${r.command}`;
     D.saved = r; refreshFiles();
   } catch (err) { $("save-status").textContent = "error: " + err.message; }
@@ -231,6 +249,7 @@ export async function mount() {
   dragCuts();
   ["seg-tags", "seg-contact", "seg-method"].forEach((id) => $(id).addEventListener("change", () => propose(null)));
   $("save-template").addEventListener("click", save);
+  mountCamera(useTrack);
   D.scenes = await api("/api/scenes");
   fill($("scene"), D.scenes.map((s) => [s.name, s.label]));
   await loadScene("blank");
