@@ -183,6 +183,15 @@ def round_(t: Target, quick: bool) -> None:
                  dict(cmd="answer", text="5"), dict(cmd="break", state="x")):
         run_msgs += [dumps(d).decode() for d in mutations(base, values)]
     t.socket("/ws/run", run_msgs)
+    cam_msgs = [b"\x00binary", deep(100_000).decode(), json.dumps({"op": "frame", "t": 1, "jpeg": "AAAA"})]
+    for base in (dict(op="start", ball="green", ball_mm=12), dict(op="frame", t=0.5, jpeg="/9j/AAAA", record=True),
+                 dict(op="stop", cell=5)):
+        cam_msgs += [dumps(d).decode() for d in mutations(base, values)]
+    t.socket("/ws/camera", cam_msgs)
+    for route in ("/api/camera/sheet?paper=a4", "/api/camera/sheet?paper=" + "x" * 5000, "/api/camera/sheet?grid=2"):
+        t.http("GET", route)
+    for q in ("name=v.mp4", "name=v.mp4&ball_mm=1e308", "name=v.mp4&cell=-1", "name=../v.mp4&ball=" + "x" * 500):
+        t.http("POST", f"/api/camera/video?{q}", b"\x00\x00\x00\x18ftypmp42" + b"\x00" * 1000)
 
 
 def main(argv=None) -> int:
