@@ -156,7 +156,7 @@ def round_(t: Target, quick: bool) -> None:
         for junk in (b"", b"not json", b"[1, 2]", b"null", b"\xff\xfe", deep(100_000), b'{"a": ' * 5000,
                      dumps({"icps": {str(i): [1e308, 1e308] for i in range(5000)}})):
             t.http("POST", route, junk)
-    gets = ["/api/files", "/api/pages", "/api/scenes", "/api/lasa", "/api/robots"]
+    gets = ["/api/files", "/api/pages", "/api/scenes", "/api/lasa", "/api/plugins"]
     for route in gets:
         t.http("GET", route)
     for p in HOSTILE_PATHS:

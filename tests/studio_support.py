@@ -22,14 +22,15 @@ BROWSER_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networkin
 
 
 class Studio:
-    """``hila studio FOLDER`` in a child process; ``url`` is its first line's URL."""
+    """``hila studio FOLDER`` in a child process (``env``: more environment, e.g. a PYTHONPATH
+    with a plug-in); ``url`` is its first line's URL."""
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, env: dict | None = None) -> None:
         pytest.importorskip("starlette", reason="hila studio needs the 'studio' extra (starlette, uvicorn)")
         self.folder = folder
         self.proc = subprocess.Popen([sys.executable, "-m", "hila_lang", "studio", str(folder)],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                     env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                                     env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})})
         self.first_line = self.proc.stdout.readline()
         assert self.first_line.startswith("hila studio: http://127.0.0.1:"), (self.first_line, self.proc.stderr.read())
         self.url = self.first_line.split(": ", 1)[1].strip()

@@ -10,7 +10,10 @@ The studio names no world: every world-specific thing on its pages comes from he
   simulator to render it).
 - A **board** (:class:`Board`): the running world's state as a grid of buttons, each labelled,
   and, when a person may choose it, the line the world reads for it from its ``stdin`` (a
-  person's move).  ``StudioView.board`` names ``callable(world) -> Board``.
+  person's move), and a note where a cell needs one (the robot read it otherwise).
+  ``StudioView.board`` names ``callable(world) -> Board``.
+- The **outcome** of a finished run in words (who won, from the world's own result):
+  ``StudioView.outcome`` names ``callable(world) -> str``.
 - The **settings** the Run page offers for the world (``StudioView.settings``: setting name ->
   {value: label}), e.g. who plays the opponent.
 
@@ -61,16 +64,21 @@ class Board:
     """A world's state as a grid of buttons, row by row, ``columns`` wide.
 
     ``labels[i]`` is what button i shows; ``answers[i]`` the line the world reads for it when a
-    person chooses it (its ``stdin``), or None when it is not a choice now.
+    person chooses it (its ``stdin``), or None when it is not a choice now; ``notes[i]`` (when
+    given) a line the page shows on the cell and marks it by, e.g. that the robot read it
+    otherwise, or None.
     """
 
     columns: int
     labels: tuple[str, ...]
     answers: tuple[str | None, ...]
+    notes: tuple[str | None, ...] = ()
 
     def to_json(self) -> dict:
+        notes = self.notes or (None,) * len(self.labels)
         return {"columns": self.columns,
-                "cells": [{"label": label, "answer": answer} for label, answer in zip(self.labels, self.answers)]}
+                "cells": [{"label": label, "answer": answer, "note": note}
+                          for label, answer, note in zip(self.labels, self.answers, notes)]}
 
 
 @dataclass(frozen=True)
@@ -87,6 +95,9 @@ class StudioView:
     board : str or None
         ``"module:callable"``: ``callable(world) -> Board or None``, drawn on the Run page after
         every step; None: no board.
+    outcome : str or None
+        ``"module:callable"``: ``callable(world) -> str``, what the Run page says when the
+        program has finished (who won: the world's result, in words); None: "finished".
     settings : mapping setting name -> {value: label}
         The world's settings the Run page offers, each value with the words the menu shows
         (the first value is the menu's default).
@@ -97,10 +108,11 @@ class StudioView:
     scene: str | None = None
     scene_label: str = ""
     board: str | None = None
+    outcome: str | None = None
     settings: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     hint: str = ""
 
     def load(self, attr: str):
-        """The callable ``attr`` (``"scene"`` or ``"board"``) names, imported now."""
+        """The callable ``attr`` (``"scene"``, ``"board"`` or ``"outcome"``) names, imported now."""
         module, _, name = getattr(self, attr).partition(":")
         return getattr(importlib.import_module(module), name)

@@ -4,6 +4,8 @@
   title, ES module (in ``static/``) and routes; :mod:`.app` assembles the app from the pages.
 - :class:`Studio`: the folder a studio serves and what it keeps while it runs (templates read
   once per change); a handler reaches it as ``request.app.state.studio``.
+- :func:`plugins`: the back ends, robots and worlds the registry's plug-ins declare, for the
+  pages' menus (an installed plug-in is there as it is for ``hila exec``).
 - :func:`read_json` / :func:`read_body`: the one door a request's body comes in by (bounded by
   :data:`.security.MAX_UPLOAD`, checked by its route's shape, :data:`.schema.BODIES`).
 - :func:`problem`: what a failed request says (hila's message and hint; an OSError as the file
@@ -156,3 +158,15 @@ def template_json(template) -> dict:
                 icps={k: v.tolist() for k, v in template.icps.items()},
                 segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments],
                 description=template.description, dim=int(template.path.shape[1]))
+
+
+def plugins() -> dict:
+    """What the registry's plug-ins declare, for the page's menus: ``backends``, ``robots`` (the
+    default robot first) and ``worlds``, each ``[{name, doc}]`` (a world with its default back end)."""
+    from ..plugins import registry
+    from ..robot.spec import DEFAULT_ROBOT
+
+    robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first
+    return dict(backends=[dict(name=b.name, doc=b.doc) for b in registry.declarations("back end")],
+                robots=[dict(name=r.name, doc=r.doc) for r in robots],
+                worlds=[dict(name=w.name, doc=w.doc, backend=w.default_backend) for w in registry.declarations("world")])

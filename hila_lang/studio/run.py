@@ -1,13 +1,15 @@
 """The Run page: a program checked as it is typed (``POST /api/check``: ``hila lsp``'s analysis and
-what the program's world offers here), run on a robot (``GET /api/robots``: the registry's) or a
-recording replayed, and watched.  The websocket ``/ws/run`` holds one :class:`Session`:
-``{"cmd": "start", path, backend, robot, settings, seed}`` opens a :class:`RunSession` (the run
-``hila repl`` builds, :func:`hila_lang.session.runner.prepare`), ``{"cmd": "open", path}`` a
-:class:`ReplaySession` (a ``.hilarec``); both under :class:`hila_lang.session.repl.Repl` and both
-answer :data:`COMMANDS`: the REPL's commands in a worker thread, one at a time, ``stop``, ``answer``
-(a person's line to the world: a board's button), ``view`` (turn the 3-D view), ``scrub``; what a
-session cannot do it says.  After each step the page gets the state, the trace line, the world's
-board (its plug-in's), the left eye's image and the 3-D view (:mod:`hila_lang.session.view3d`)."""
+what the program's world offers here), run on a back end and a robot (the registry's, ``GET
+/api/plugins``: :func:`.page.plugins`) or a recording replayed, and watched.  The websocket
+``/ws/run`` holds one :class:`Session`: ``{"cmd": "start", path, backend, robot, settings, seed}``
+opens a :class:`RunSession` (the run ``hila repl`` builds, :func:`hila_lang.session.runner.prepare`),
+``{"cmd": "open", path}`` a :class:`ReplaySession` (a ``.hilarec``: its program's text comes too);
+both under :class:`hila_lang.session.repl.Repl`, both answer :data:`COMMANDS`: the REPL's commands
+in a worker thread, one at a time, ``stop``, ``answer`` (a person's line to the world: a board's
+button), ``view`` (turn the 3-D view), ``scrub``; what a session cannot do it says.  After each
+step the page gets the state, the trace line, the world's board, the left eye's image, the 3-D
+view (:mod:`hila_lang.session.view3d`), ``failed`` (the state that failed, its line and message,
+until the next step, back or reload) and ``outcome`` (at the end: who won, the world's words)."""
 
 from __future__ import annotations
 
@@ -27,9 +29,10 @@ from starlette.responses import JSONResponse, Response
 from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
-from ..core.errors import HilaError, InputError
+from ..core.errors import HilaError, InputError, internal_error_message
+from ..core.fileio import png_bytes, read_text
 from ..plugins.studio import StudioView
-from .page import JSONSocket, Page, read_json, studio_env, studio_of
+from .page import JSONSocket, Page, plugins, read_json, studio_env, studio_of
 
 
 def analyse(path: Path, text: str, folder: Path | None = None) -> dict:
@@ -89,19 +92,18 @@ def fsm_graph(fsm) -> dict:
 
 
 def _png(rgb) -> str:
-    from ..core.fileio import png_bytes
-
     return base64.b64encode(png_bytes(rgb)).decode()
 
 
 class Session:
     """What the Run page steps under the REPL, one command at a time: ``interp`` is its engine,
-    ``length`` a recording's steps (None: a run); the base class answers as a recording does."""
+    ``length``/``program`` a recording's steps/text (None: a run); the base class answers as a recording does."""
 
     length: int | None = None
+    program: str | None = None
 
     def __init__(self, emit) -> None:
-        self.emit, self.repl, self.interp, self._lock = emit, None, None, threading.Lock()
+        self.emit, self.repl, self.interp, self.failed, self._lock = emit, None, None, None, threading.Lock()
 
     def command(self, line: str) -> None:
         """Run one REPL command in a worker thread (one at a time: a second waits its turn)."""
@@ -109,8 +111,11 @@ class Session:
             with self._lock:
                 try:
                     self.repl.onecmd(line)
-                except Exception as exc:  # noqa: BLE001 - reported on the page, the session goes on
-                    self.emit({"type": "out", "text": f"error: {exc}\n"})
+                except Exception as exc:  # noqa: BLE001 - a bug: said on the page, lit as failed; the session goes on
+                    text, at = internal_error_message(exc), self.interp.current
+                    self.emit({"type": "out", "text": text + "\n"})
+                    where = self.interp.fsm.states[at].line if at in self.interp.fsm.states else None
+                    self.failed = dict(state=at, line=where or None, message=text.splitlines()[0])
                 self.emit(self.snapshot())
         threading.Thread(target=work, daemon=True).start()
 
@@ -134,7 +139,7 @@ class Session:
         """The state for the page: where the engine is, its steps, its last path, and :meth:`details`."""
         it, path = self.interp, self.interp.last_path
         return dict(type="state", current=None if it.done else it.current, done=it.done, steps=it.trace.total,
-                    path=None if path is None else path.tolist(), **self.details())
+                    path=None if path is None else path.tolist(), failed=self.failed, **self.details())
 
     def details(self) -> dict:
         raise NotImplementedError
@@ -161,7 +166,7 @@ class RunSession(Session):
                                   stdout=self.stdout)
         self.interp = prepare(program, self.options, backend, env=studio_env(folder))
         view = registry.world(self.interp.checked.world).studio
-        self._board = view.load("board") if view is not None and view.board else None
+        self._board, self._outcome = (view.load(a) if view and getattr(view, a) else None for a in ("board", "outcome"))
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
         self.interp.observers.append(self._observe)
         self.last_eye = self.robot = None  # base64 PNGs: the left eye's last image, the 3-D view
@@ -169,6 +174,8 @@ class RunSession(Session):
         self._view()
 
     def _observe(self, entry) -> None:
+        if entry.error is not None:  # a failed step: lit on the page, its message at the top
+            self.failed = dict(state=entry.state, line=entry.line or None, step=entry.step, message=entry.error)
         if entry.kind == "run":
             eyes = self.interp.backend.eyes
             try:
@@ -198,8 +205,9 @@ class RunSession(Session):
 
     def details(self) -> dict:
         board = None if self._board is None else self._board(self.interp.world)
+        outcome = self._outcome(self.interp.world) if self._outcome is not None and self.interp.done else None
         return dict(waiting=self.stdin.waiting, board=None if board is None else board.to_json(), eye=self.last_eye,
-                    robot=self.robot, arm=self.options.robot.name,  # the arm that runs
+                    outcome=outcome, robot=self.robot, arm=self.options.robot.name,  # the arm that runs
                     breakpoints=list(self.repl.breakpoints) if self.repl else [])
 
     def answer(self, text: str) -> None:
@@ -214,6 +222,7 @@ class RunSession(Session):
     def resume(self, line: str) -> None:
         if "*" in self.repl.breakpoints:
             self.repl.breakpoints.remove("*")
+        self.failed = None  # stepped on, back or reloaded: a new failure says itself
         self.command(line)
 
     def close(self) -> None:
@@ -238,7 +247,7 @@ class ReplaySession(Session):
         self.record = read_record(file)
         self.interp = ReplayEngine(self.record)
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=Output(emit))
-        self.length = len(self.record.get("steps", []))
+        self.length, self.program = len(self.record.get("steps", [])), self.record["program"].get("text")
 
     def scrub(self, n: int) -> None:
         n = max(0, min(int(n), self.length))
@@ -252,8 +261,8 @@ class ReplaySession(Session):
         n, steps, images = self.interp.trace.total, self.record.get("steps", []), self.record.get("images", {})
         eye = next((base64.b64encode(images[s["eye"]]).decode() for s in reversed(steps[:n]) if s.get("eye") in images),
                    None)  # the last eye image recorded up to step n
-        return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[],
-                    entry=str(steps[n - 1]["text"]) if n else "")
+        return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[], outcome=None,
+                    entry=f"{steps[n - 1]['state']}: {steps[n - 1]['text']}" if n else "")
 
 
 #: the page's messages to an open session: what each asks of it
@@ -295,7 +304,8 @@ class RunSocket(JSONSocket):
             path = studio_of(websocket).path(str(doc.get("path", "")))
             opening = (lambda: self._start(path, doc)) if cmd == "start" else (lambda: ReplaySession(path, self.emit))
             self.session = await run_in_threadpool(opening)
-            self.emit(dict(type="fsm", graph=fsm_graph(self.session.interp.fsm), length=self.session.length))
+            self.emit(dict(type="fsm", graph=fsm_graph(self.session.interp.fsm), length=self.session.length,
+                           program=self.session.program))
             self.emit(self.session.snapshot())
         elif cmd not in COMMANDS:
             raise InputError(f"unknown command {cmd!r}; expected start, open or {', '.join(COMMANDS)}")
@@ -306,8 +316,6 @@ class RunSocket(JSONSocket):
 
     def _start(self, path: Path, doc: dict) -> RunSession:
         """A run of ``path`` with the given settings its world declares (not another program's)."""
-        from ..core.fileio import read_text
-
         given = doc.get("settings") or {}
         if not isinstance(given, dict):
             raise InputError(f"expected the settings as a JSON object, got {given!r}")
@@ -329,14 +337,6 @@ class RunSocket(JSONSocket):
         await self._close()
 
 
-async def _robots(request: Request) -> Response:
-    from ..plugins import registry
-    from ..robot.spec import DEFAULT_ROBOT
-
-    robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first
-    return JSONResponse([dict(name=r.name, doc=r.doc) for r in robots])
-
-
 async def _check(request: Request) -> Response:
     doc = await read_json(request)
     path = studio_of(request).path(str(doc.get("path") or "untitled.hila"))
@@ -345,6 +345,6 @@ async def _check(request: Request) -> Response:
 
 PAGE = Page("run", "3 Run & watch", "run.js", routes=[
     Route("/api/check", _check, methods=["POST"]),
-    Route("/api/robots", _robots),
+    Route("/api/plugins", lambda request: JSONResponse(plugins())),  # a plain function: run in a thread
     WebSocketRoute("/ws/run", RunSocket),
 ])

@@ -3,11 +3,15 @@ import { $, api, post, socket, fitH, polyline, fill, refreshFiles, askingToOverw
 
 export const html = `
   <p class="help">Write or open a program; problems show as you type. <b>Start</b> loads it on a back end,
-  then <b>Step</b> or <b>Run</b>. Click a state in the graph to set a breakpoint. <span id="world-hint" data-testid="world-hint"></span></p>
+  then <b>Step</b> or <b>Run</b>. Click a state in the graph to set a breakpoint. <span id="world-hint" data-testid="world-hint"></span>
+  <br><span class="muted">Worlds a program may name (<code>world NAME</code>): <span id="world-list" data-testid="world-list"></span></span></p>
   <div class="toolbar">
     <label>Program <select id="program" data-testid="program-select"></select></label>
     <button id="program-save" data-testid="program-save">Save</button>
-    <label>back end <select id="backend" data-testid="backend"><option value="dry">dry (fast)</option><option value="pybullet">PyBullet</option></select></label>
+    <button id="program-save-as" data-testid="program-save-as">Save As…</button>
+    <span id="program-dirty" data-testid="program-dirty" class="dirty-mark" hidden>● unsaved changes</span>
+    <span id="program-save-status" data-testid="program-save-status" class="muted"></span>
+    <label>back end <select id="backend" data-testid="backend"></select></label>
     <label>robot <select id="robot-choice" data-testid="robot-choice"></select></label>
     <span id="world-settings"></span>
     <span class="sep"></span>
@@ -43,30 +47,43 @@ export const html = `
   </div>`;
 
 // the page's state: the state machine (graph) and its layout, the breakpoints the page set, the
-// session's last snapshot (state), what the program's world offers (offered: setting -> {value: label})
-export const state = { breaks: new Set(), offered: {} };
+// session's last snapshot (state), what the program's world offers (offered: setting -> {value: label}),
+// the program the editor holds (open: its file, or null for a new one; saved: its text as last
+// read or written; files: the folder's files), the last check's problems and the program started last (running)
+export const state = { breaks: new Set(), offered: {}, open: null, saved: "", files: [], problems: [], running: null };
 const R = state;
 
 const ws = socket("/ws/run", onMessage);
 const send = (doc) => ws.send(doc);
 function traceAdd(text) { const t = $("trace"); t.textContent += text; t.scrollTop = t.scrollHeight; }
+// the line at the top of the run: what happened, lit by its kind ("failed", "done" or "")
+function status(text, kind) { const el = $("run-status"); el.textContent = text; el.className = "status " + kind; }
 
 function onMessage(msg) {
   if (msg.type === "fsm") { R.graph = msg.graph; $("trace").textContent = ""; drawFSM(null);
-    const s = $("scrub"); s.disabled = msg.length == null; s.max = msg.length || 0; s.value = 0; }
+    const s = $("scrub"); s.disabled = msg.length == null; s.max = msg.length || 0; s.value = 0;
+    if (msg.program != null && msg.program !== $("program-editor").value &&   // a recording: its program, unnamed
+        (!dirty() || confirm("Show the recording's program in the editor? Its unsaved changes would be lost."))) {
+      $("program-editor").value = msg.program; opened(null, msg.program); check(); } }
   else if (msg.type === "out") traceAdd(msg.text);
-  else if (msg.type === "error") { traceAdd("error: " + msg.text + "\n"); $("run-status").textContent = "error: " + msg.text; }
+  else if (msg.type === "error") { traceAdd("error: " + msg.text + "\n"); status("error: " + msg.text, "failed"); }
   else if (msg.type === "state" || msg.type === "step") {
     R.state = msg;
     drawFSM(msg.current);
-    $("run-status").textContent = msg.done ? `finished after ${msg.steps} steps` :
-      (msg.waiting ? "your turn: choose on the board" : `at ${msg.current} (step ${msg.steps})`);
+    const f = msg.failed;
+    if (f) status(`failed in ${f.state}${f.line ? ` (line ${f.line})` : ""}: ${f.message}`, "failed");
+    else if (msg.done) status(msg.outcome ? `finished: ${msg.outcome} (after ${msg.steps} steps)` : `finished after ${msg.steps} steps`,
+      "done");
+    else status(msg.waiting ? "your turn: choose on the board" : `at ${msg.current} (step ${msg.steps})`, "");
     $("run-status").dataset.done = msg.done ? "1" : "0";
+    showProblems();
     drawBoard(msg.board, msg.waiting);
     if (msg.eye) { $("eye").src = "data:image/png;base64," + msg.eye; $("eye").hidden = false; }
     drawTop(msg.path);
     if (msg.robot) { $("robot").src = "data:image/png;base64," + msg.robot; $("robot-box").hidden = false; }
-    if (msg.length != null) $("scrub-at").textContent = `step ${msg.steps} of ${msg.length}` + (msg.entry ? ": " + msg.entry : "");
+    if (msg.length != null)   // the step just replayed, and the state lit in the graph: the next one
+      $("scrub-at").textContent = `after step ${msg.steps} of ${msg.length}` + (msg.entry ? ": " + msg.entry.trim() : "") +
+        (msg.done ? " (the end)" : ` · next: ${msg.current}`);
   }
 }
 
@@ -91,9 +108,10 @@ function drawFSM(current) {
   for (const [a, b] of R.graph.edges) { const p = pos[a], q = pos[b]; if (!p || !q) continue;
     const mx = (p[0] + q[0]) / 2 + (q[1] <= p[1] ? 70 : 0);
     s += `<path class="edge" d="M${p[0]},${p[1] + 9} Q${mx},${(p[1] + q[1]) / 2} ${q[0]},${q[1] - 9}"/>`; }
+  const failed = R.state && R.state.failed ? R.state.failed.state : null;
   for (const n of R.graph.nodes) { const [x, y] = pos[n.name], cur = n.name === current;
     const label = n.name.length > 26 ? "…" + n.name.slice(-25) : n.name;
-    s += `<g class="node${cur ? " current" : ""}${R.breaks.has(n.name) ? " brk" : ""}" data-state="${n.name}"${cur ? ' data-testid="fsm-current"' : ""}>` +
+    s += `<g class="node${cur ? " current" : ""}${n.name === failed ? " failed" : ""}${R.breaks.has(n.name) ? " brk" : ""}" data-state="${n.name}"${cur ? ' data-testid="fsm-current"' : ""}>` +
       `<rect x="${x - 62}" y="${y - 9}" width="124" height="18" rx="4"/><text x="${x}" y="${y + 4}" text-anchor="middle">${label}</text><title>${n.name} (${n.kind}, line ${n.line})</title></g>`; }
   svg.innerHTML = s;
   svg.querySelectorAll(".node").forEach((g) => g.addEventListener("click", () => {
@@ -109,7 +127,8 @@ function drawBoard(board, waiting) {
   if (!board) return;
   el.style.gridTemplateColumns = `repeat(${board.columns}, 48px)`;
   board.cells.forEach((cell, i) => { const b = document.createElement("button"); b.textContent = cell.label;
-    b.dataset.testid = "cell-" + (i + 1); b.title = "cell " + (i + 1);
+    b.dataset.testid = "cell-" + (i + 1); b.title = "cell " + (i + 1) + (cell.note ? ": " + cell.note : "");
+    if (cell.note) { b.classList.add("note"); b.dataset.note = cell.note; }
     b.disabled = !waiting || cell.answer === null;
     b.onclick = () => { send({ cmd: "answer", text: cell.answer }); el.classList.remove("waiting"); };
     el.appendChild(b); });
@@ -141,37 +160,100 @@ let checkTimer = null;
 async function check() {
   const r = await post("/api/check", { path: $("program").value || "untitled.hila", text: $("program-editor").value });
   offer(r.offered, r.hint);
-  const ul = $("problems"); ul.innerHTML = "";
-  if (!r.problems.length) { const li = document.createElement("li"); li.className = "ok"; li.textContent = "no problems"; ul.appendChild(li); }
-  for (const p of r.problems) { const li = document.createElement("li"); li.className = p.severity;
-    li.textContent = `${p.line + 1}:${p.character + 1}: ${p.severity}: ${p.message}`; ul.appendChild(li); }
+  R.problems = r.problems; showProblems();
+}
+// the editor's problems: the check's, and the state a run failed in, at its program line (a click
+// puts the editor's cursor on the line)
+function showProblems() {
+  const f = R.state && R.state.failed && R.running === $("program").value ? R.state.failed : null;  // this program's run
+  const ul = $("problems"), items = R.problems.map((p) =>
+    [p.severity, `${p.line + 1}:${p.character + 1}: ${p.severity}: ${p.message}`, p.line]);
+  if (f) items.unshift(["error run-failed", `${f.line || "?"}: run failed in ${f.state}: ${f.message}`,
+    f.line ? f.line - 1 : null]);
+  ul.innerHTML = "";
+  if (!items.length) items.push(["ok", "no problems", null]);
+  for (const [cls, text, line] of items) { const li = document.createElement("li"); li.className = cls; li.textContent = text;
+    if (cls.includes("run-failed")) li.dataset.testid = "run-problem";
+    if (line != null) li.addEventListener("click", () => showLine(line));
+    ul.appendChild(li); }
+}
+function showLine(line) {   // select line (0-based) in the editor
+  const ed = $("program-editor"), lines = ed.value.split("\n"), at = lines.slice(0, line).join("\n").length + (line ? 1 : 0);
+  ed.focus(); ed.setSelectionRange(at, at + (lines[line] || "").length);
+}
+
+// ---------------------------------------------------------------- nothing lost: unsaved changes, Save, Save As
+// The tab and the toolbar say when the editor holds unsaved changes (and leaving the page, or
+// opening another program, asks); Save writes the file it opened, Save As asks a name and asks
+// again before it replaces another file (the server refuses with 409 until told overwrite).
+const dirty = () => $("program-editor").value !== R.saved;
+function markDirty() {
+  const d = dirty(), tab = document.querySelector('[data-testid="tab-run"]');
+  $("program-dirty").hidden = !d;
+  if (tab) tab.classList.toggle("dirty", d);
+  document.title = (d ? "● " : "") + "hila studio";
+}
+function opened(name, text) { R.open = name || null; R.saved = text; $("program").value = name || ""; markDirty(); }
+
+// write the editor's text to `name`; `overwrite`: replace an existing file (the person said so, or
+// it is the file the editor opened); else a refusal because the file exists (409) asks first
+async function saveTo(name, overwrite) {
+  const text = $("program-editor").value, put = (o) => api("/api/file?path=" + encodeURIComponent(name) +
+    (o ? "&overwrite=1" : ""), { method: "PUT", body: text });
+  try { await (overwrite ? put(true) : askingToOverwrite(put)); }
+  catch (e) { $("program-save-status").textContent = e.message.startsWith("not saved") ? e.message : "not saved: " + e.message; return false; }
+  await refreshFiles(); opened(name, text);
+  $("program-save-status").textContent = "saved " + name;
+  return true;
+}
+async function saveAs() {
+  let name = prompt("save the program as (a name in the studio's folder, e.g. mine.hila)", R.open || "mine.hila");
+  if (!name || !(name = name.trim())) { $("program-save-status").textContent = "not saved: no name given"; return false; }
+  if (!name.endsWith(".hila")) name += ".hila";
+  const exists = name !== R.open && R.files.includes(name);
+  if (exists && !confirm(`${name} exists. Replace it with the editor's program?`)) {
+    $("program-save-status").textContent = `not saved: ${name} exists`; return false; }
+  return saveTo(name, exists || name === R.open);
 }
 
 export async function mount() {
   $("program").addEventListener("change", async () => {
-    const p = $("program").value; if (!p) return;
-    $("program-editor").value = await api("/api/file?path=" + encodeURIComponent(p)); check();
+    const p = $("program").value;
+    if (dirty() && !confirm(`The editor has unsaved changes${R.open ? " to " + R.open : ""}. Discard them?`)) {
+      $("program").value = R.open || ""; return; }
+    if (!p) { opened(null, $("program-editor").value === R.saved ? "" : $("program-editor").value); return; }
+    const text = await api("/api/file?path=" + encodeURIComponent(p));
+    $("program-editor").value = text; opened(p, text); check();
   });
-  $("program-editor").addEventListener("input", () => { clearTimeout(checkTimer); checkTimer = setTimeout(check, 250); });
-  $("program-save").addEventListener("click", async () => {
-    const opened = $("program").value, p = opened || prompt("save as (e.g. mine.hila)"); if (!p) return;
-    await askingToOverwrite((o) => api("/api/file?path=" + encodeURIComponent(p) + (o || opened ? "&overwrite=1" : ""),
-      { method: "PUT", body: $("program-editor").value }));  // the file it opened is replaced; another name asks
-    await refreshFiles(); $("program").value = p;
-  });
-  $("btn-start").addEventListener("click", () => { R.breaks.clear();
+  $("program-editor").addEventListener("input", () => { markDirty(); clearTimeout(checkTimer); checkTimer = setTimeout(check, 250); });
+  $("program-save").addEventListener("click", () => (R.open ? saveTo(R.open, true) : saveAs()));
+  $("program-save-as").addEventListener("click", saveAs);
+  window.addEventListener("beforeunload", (e) => { if (dirty()) { e.preventDefault(); e.returnValue = "unsaved changes"; } });
+  $("btn-start").addEventListener("click", async () => {   // a run reads the file: unsaved changes are offered a save first
+    if (dirty() && confirm(`Start runs ${R.open || "a saved program"}, without the editor's unsaved changes. Save them first?`)
+        && !(await (R.open ? saveTo(R.open, true) : saveAs()))) return;
+    R.breaks.clear(); R.running = $("program").value;
     send({ cmd: "start", path: $("program").value, backend: $("backend").value, robot: $("robot-choice").value,
       settings: worldSettings() }); });
   for (const c of ["step", "run", "back", "reload", "stop"]) $("btn-" + c).addEventListener("click", () => send({ cmd: c }));
   $("recording").addEventListener("change", () => { if ($("recording").value) send({ cmd: "open", path: $("recording").value }); });
   $("azimuth").addEventListener("change", () => send({ cmd: "view", azimuth: +$("azimuth").value }));
   $("scrub").addEventListener("input", () => send({ cmd: "scrub", n: +$("scrub").value }));
-  const robots = await api("/api/robots");   // the robots a run may move (--robot), the default first
-  fill($("robot-choice"), robots.map((r) => [r.name, r.name]));
-  [...$("robot-choice").options].forEach((o, i) => { o.title = robots[i].doc; });
+  // the registry's plug-ins: back ends (--backend), robots a run may move (--robot; the default
+  // first) and the worlds a program may name, each with its one-line doc
+  const reg = await api("/api/plugins");
+  for (const [id, list] of [["backend", reg.backends], ["robot-choice", reg.robots]]) {
+    fill($(id), list.map((r) => [r.name, r.name]));
+    [...$(id).options].forEach((o, i) => { o.title = list[i].doc; });
+  }
+  $("world-list").innerHTML = "";
+  reg.worlds.forEach((w, i) => { const c = document.createElement("code"); c.textContent = w.name; c.title = w.doc;
+    $("world-list").append(i ? ", " : "", c); });
 }
 
 export async function files(list) {
+  R.files = list;
   fill($("program"), list.filter((f) => f.endsWith(".hila")).map((f) => [f, f]), '<option value="">choose…</option>');
+  $("program").value = R.open || "";
   fill($("recording"), list.filter((f) => f.endsWith(".hilarec")).map((f) => [f, f]), '<option value="">choose…</option>');
 }

@@ -75,7 +75,7 @@ WORLD = WorldInfo(
     drawing_surface=True,
     studio=StudioView(
         scene="hila_lang.worlds.tictactoe.studio:scene", scene_label="tic-tac-toe (robot's eye)",
-        board="hila_lang.worlds.tictactoe.studio:board",
+        board="hila_lang.worlds.tictactoe.studio:board", outcome="hila_lang.worlds.tictactoe.studio:outcome",
         settings={"opponent": {"human": "you (click a cell)", "minimax": "minimax", "random": "random"}},
         hint="In tic-tac-toe you play the crosses: click a cell when asked."),
     tracking=True,  # the robot follows the sheet through its eyes while it draws (:mod:`.tracking`)

@@ -6,8 +6,12 @@
   :func:`.reading.plane_to_image_homography`), every cell corner as a point an ICP snaps to, and
   the pen lifted between strokes no higher than the arm's highest park above the paper
   (:data:`.world.PARK_HEIGHT`);
-- :func:`board`: the game's board, a cell a button, a free cell answered by its number (what the
-  human opponent types, :class:`.opponents.HumanOpponent`).
+- :func:`board`: the game's board, a cell a button: what the paper holds (the referee's record,
+  and a mark the robot drew out of turn, noted as not counted), a cell the robot's last look read
+  otherwise noted with what it read (the report's ``vision`` misreads, and cells it could not
+  tell); a free cell answered by its number (what the human opponent types,
+  :class:`.opponents.HumanOpponent`);
+- :func:`outcome`: who won, in the words ``hila exec`` ends the game with (the report's ``result``).
 """
 
 from __future__ import annotations
@@ -45,6 +49,25 @@ def scene() -> DrawingScene:
 
 
 def board(world) -> Board:
-    """The board the referee keeps: marks as labels, free cells answered by their number."""
-    marks = [str(m) for m in world.board]
-    return Board(3, tuple(marks), tuple(None if m else str(i + 1) for i, m in enumerate(marks)))
+    """What the paper holds as labels (:meth:`.referee.Referee.paper_marks`), free cells of the
+    record answered by their number, and a note on a cell the record does not count or the robot's
+    latest scored look read otherwise (its misreads and unclear cells, as the report lists them)."""
+    referee, record = world.referee, [str(m) for m in world.board]
+    paper = [str(m) for m in referee.paper_marks()]
+    notes: list[str | None] = [None if p == r else "drawn out of turn: the game does not count it"
+                               for p, r in zip(paper, record)]
+    last = referee.looks[-1]["look"] if referee.looks else None
+    for m in referee.misreads:
+        if m["look"] == last:
+            notes[m["cell"] - 1] = f"the robot read {m['seen'] or 'nothing'} here at look {last}"
+    for u in getattr(referee, "unclear", ()):  # cells the robot said it could not tell (not guessed)
+        if u["look"] == last:
+            notes[u["cell"] - 1] = f"the robot could not tell this ink at look {last}"
+    return Board(3, tuple(paper), tuple(None if m else str(i + 1) for i, m in enumerate(record)), tuple(notes))
+
+
+def outcome(world) -> str:
+    """The finished program's game in words: who won, a draw, or why it is unfinished."""
+    from .world import RESULT_WORDS
+
+    return RESULT_WORDS[world.result()] + world._why_unfinished(world.result())

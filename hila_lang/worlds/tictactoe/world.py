@@ -372,8 +372,7 @@ class TicTacToeWorld:
             self.fsm = fsm
         self._score()
         result = self.result()
-        text = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw",
-                None: "unfinished"}[result]
+        text = RESULT_WORDS[result]
         report = build_report(self, trace)
         rs = [m["r"] for m in self.marks if m["r"] is not None]
         vision = report["vision"]
@@ -386,6 +385,10 @@ class TicTacToeWorld:
             report["out"] = str(folder)
             self._print(f"outputs written to {folder}")
         return report
+
+
+#: the game's result (:meth:`TicTacToeWorld.result`) in words: the last line of a run, the studio's outcome
+RESULT_WORDS = {ROBOT: "the robot wins", OPPONENT: "the opponent wins", "draw": "a draw", None: "unfinished"}
 
 
 def make_world(options, settings) -> TicTacToeWorld:
