@@ -16,6 +16,11 @@ simulator and renderer --
   through the lens) in that scene.
 
 ``floor = start-up + steps x step + images x image``; ``ratio = wall / floor`` (goal <= 1.5).
+The three unit costs are sampled before the single games, between them and after them (a
+start-up process, 5 x 1000 bare steps and 7 eye images each time, in the counted game's scene
+kept open), and their medians used: on a shared machine the load moves within minutes, and unit
+costs timed at one moment put the same code's ratio anywhere between 0.96 and 1.73 (main, load
+10-14, two runs five minutes apart).
 
 Part 1 times ``hila exec programs/game.hila`` as a fresh process (start-up, loading the iCub,
 the whole game, the output folder), reading the child's peak resident memory.  Targets: under
@@ -80,50 +85,58 @@ interp.backend.close()
 """
 
 
-def startup_s(out: Path, repeat: int = 3) -> float:
-    """Median wall time (s) of a fresh process that imports hila, prepares the game and exits."""
-    walls = []
-    for k in range(repeat):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-c", STARTUP, str(PROGRAM), str(out / f"startup{k}")], cwd=ROOT, check=True,
-                       capture_output=True)
-        walls.append(time.perf_counter() - t0)
-    return float(sorted(walls)[len(walls) // 2])
+def startup_s(out: Path, k: int) -> float:
+    """Wall time (s) of a fresh process that imports hila, prepares the game and exits."""
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", STARTUP, str(PROGRAM), str(out / f"startup{k}")], cwd=ROOT, check=True,
+                   capture_output=True)
+    return time.perf_counter() - t0
 
 
-def counted_game(seed: int, out: Path) -> dict:
-    """One in-process game (``hila exec``'s seed and opponent): its simulator steps and eye images,
-    then the cost of one bare step and of one eye image in its scene (medians), before closing."""
+def counted_game(seed: int, out: Path):
+    """One in-process game (``hila exec``'s seed and opponent), left open for :class:`Probe`:
+    the interpreter and its counts (simulator steps, eye images, IK, loop and render times)."""
     from hila_lang.plugins.options import RunOptions
-    from hila_lang.session.runner import finish, prepare
+    from hila_lang.session.runner import prepare
 
     options = RunOptions(seed=seed, out=out, settings={"opponent": "minimax"}, stdin=io.StringIO(), stdout=io.StringIO())
     interp = prepare(PROGRAM, options, "pybullet")
-    be = interp.backend
     t0 = time.perf_counter()
     interp.run()
     in_game = time.perf_counter() - t0
-    pb, c = be.sim.pb, be.sim.client
-    step = []
-    for _ in range(5):  # 5 x 1000 bare steps (a busy machine slows them as it slows a game), the arm held
-        a = time.perf_counter()
-        for _ in range(1000):
-            pb.stepSimulation(physicsClientId=c)
-        step.append((time.perf_counter() - a) / 1000)
-    stats = dict(be.stats)
-    image = []
-    for k in range(7):
-        a = time.perf_counter()
-        be.eyes.camera_image(("left", "right")[k % 2])
-        image.append(time.perf_counter() - a)
-    renders = be.stats["renders"]
-    a = time.perf_counter()
-    finish(interp)  # the output folder: its pictures are eye images too (eye.png) or top views
-    outputs = time.perf_counter() - a
-    return {"steps": stats["steps"], "images": stats["renders"] + be.stats["renders"] - renders,
-            "outputs_s": outputs, "step_s": float(np.median(step)),
-            "image_s": float(np.median(image)), "in_game_s": in_game, "ik_solves": stats["ik_solves"],
-            "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"], "render_s": stats["render_seconds"]}
+    stats = interp.backend.stats
+    return interp, {"steps": stats["steps"], "images": stats["renders"], "in_game_s": in_game,
+                    "ik_solves": stats["ik_solves"], "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"],
+                    "render_s": stats["render_seconds"]}
+
+
+class Probe:
+    """The floor's unit costs, sampled again and again in the counted game's scene: a start-up
+    process, a bare ``stepSimulation`` (5 x 1000, the arm held) and an eye image (7, the eyes
+    in turn); :meth:`costs` gives the medians of every sample."""
+
+    def __init__(self, interp, out: Path) -> None:
+        self.backend, self.out = interp.backend, out
+        self.start, self.step, self.image = [], [], []
+
+    def sample(self) -> None:
+        be = self.backend
+        self.start.append(startup_s(self.out, len(self.start)))
+        pb, c = be.sim.pb, be.sim.client
+        for _ in range(5):  # a busy machine slows them as it slows a game
+            a = time.perf_counter()
+            for _ in range(1000):
+                pb.stepSimulation(physicsClientId=c)
+            self.step.append((time.perf_counter() - a) / 1000)
+        renders = be.stats["renders"]
+        for k in range(7):
+            a = time.perf_counter()
+            be.eyes.camera_image(("left", "right")[k % 2])
+            self.image.append(time.perf_counter() - a)
+        be.stats["renders"] = renders  # the probe's images are not the game's
+
+    def costs(self) -> tuple[float, float, float]:
+        return float(np.median(self.start)), float(np.median(self.step)), float(np.median(self.image))
 
 
 def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
@@ -156,14 +169,11 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         print(f"load average {os.getloadavg()[0]:.2f} at start ({os.cpu_count()} cores, shared)", flush=True)
-        start = startup_s(tmp)
-        counts = counted_game(0, tmp / "counted")
-        floor = start + counts["steps"] * counts["step_s"] + counts["images"] * counts["image_s"]
-        print(f"floor: start-up {start:.2f} s + {counts['steps']} steps x {counts['step_s'] * 1e3:.3f} ms "
-              f"+ {counts['images']} eye images x {counts['image_s'] * 1e3:.1f} ms = {floor:.2f} s; "
-              f"the in-process game spent {counts['in_game_s']:.2f} s: stepping loop {counts['step_loop_s']:.2f} s, "
-              f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s; "
-              f"writing the outputs {counts['outputs_s']:.2f} s", flush=True)
+        from hila_lang.session.runner import finish
+
+        interp, counts = counted_game(0, tmp / "counted")
+        probe = Probe(interp, tmp)
+        probe.sample()
         walls, r_all = [], []
         peak = 0.0
         for seed in range(args.games):
@@ -175,6 +185,21 @@ def main(argv: list[str] | None = None) -> int:
                   f"tracking median {report['tracking_error_mm']['median']:.3f} mm "
                   f"max {report['tracking_error_mm']['max']:.3f} mm, "
                   f"R min {min(m['r'] for m in report['marks']):.4f}", flush=True)
+            probe.sample()
+        renders = interp.backend.stats["renders"]
+        a = time.perf_counter()
+        finish(interp)  # the output folder: its pictures are eye images too (eye.png) or top views
+        counts["outputs_s"] = time.perf_counter() - a
+        counts["images"] += interp.backend.stats["renders"] - renders
+        start, step, image = probe.costs()
+        counts.update(step_s=step, image_s=image)
+        floor = start + counts["steps"] * step + counts["images"] * image
+        print(f"floor: start-up {start:.2f} s + {counts['steps']} steps x {step * 1e3:.3f} ms "
+              f"+ {counts['images']} eye images x {image * 1e3:.1f} ms = {floor:.2f} s (medians of "
+              f"{len(probe.start)} samples, before, between and after the games); the in-process game spent "
+              f"{counts['in_game_s']:.2f} s: stepping loop {counts['step_loop_s']:.2f} s, "
+              f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s; "
+              f"writing the outputs {counts['outputs_s']:.2f} s", flush=True)
         print(f"peak RSS of a game process: {peak:.0f} MB", flush=True)
         growth = float("nan")
         failed = 0

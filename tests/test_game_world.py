@@ -261,7 +261,7 @@ def test_exec_help_names_every_setting(capsys):
         assert name in text, name
 
 
-@pytest.mark.parametrize("backend", ["dry", "pybullet"])
+@pytest.mark.parametrize("backend", ["dry", pytest.param("pybullet", marks=pytest.mark.slow)])
 def test_back_restores_the_game_so_the_same_steps_play_again(tmp_path, backend):
     """The REPL's ``back`` over a robot move and an opponent move: the referee's record and scores,
     the robot's memory and the opponent's generator go back too, so stepping again gives the same

@@ -67,6 +67,7 @@ def test_the_recording_holds_the_run(game):
     assert doc["steps"][0]["state"] == record["steps"][0]["state"]
 
 
+@pytest.mark.slow
 def test_replay_steps_back_where_icps_and_plots_without_a_simulator(game, tmp_path):
     png = tmp_path / "p.png"
     script = "\n".join(["break main/mark/draw", "run", "where", "icps", "step", "path --plot " + str(png),

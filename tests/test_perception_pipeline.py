@@ -69,6 +69,7 @@ def test_calibration_reprojection_error_and_intrinsics(learned, recording):
         assert abs(cal.dist[0] - truth["dist"][0]) < 0.01
 
 
+@pytest.mark.slow
 def test_triangulated_path_against_ground_truth(learned, recording):
     template, perception = learned
     truth = np.array(load_yaml(recording / "truth.yaml")["path"])

@@ -122,6 +122,28 @@ def test_top_view_sees_the_grid_and_the_ink(robot, drawn):
     assert np.all(uv[:, 0] > 120) and np.all(uv[:, 1] < 120)
 
 
+def test_top_view_with_the_arm_aside_sees_the_ink_under_the_hand_and_puts_the_arm_back(robot, drawn):
+    """A report's picture of the board (``arm_aside``): the hand held low over the drawn circle
+    hides it from the top camera; aside, the circle is seen, and the arm is back where it was."""
+    planned, _, _, _ = drawn
+    centre = planned.mean(axis=0)
+    robot.move(np.array([robot.hand_position() + LIFT, centre + LIFT]))
+    q, tip = robot.arm.joint_positions(), robot.hand_position()
+    state = robot.sim.pb.getJointStates(robot.body.id, robot.body.arm_joints, physicsClientId=robot.sim.client)
+
+    def blue(image):
+        uv = np.round(image.project(planned)).astype(int)
+        rgb = image.rgb[uv[:, 1], uv[:, 0]].astype(int)
+        return np.mean(rgb[:, 2] - rgb[:, 0] > 40)
+
+    hidden, aside = blue(robot.overview.top_view_image(240)), blue(robot.overview.top_view_image(240, arm_aside=True))
+    assert hidden < 0.5 and aside > 0.8
+    assert np.array_equal(robot.arm.joint_positions(), q) and np.array_equal(robot.hand_position(), tip)
+    after = robot.sim.pb.getJointStates(robot.body.id, robot.body.arm_joints, physicsClientId=robot.sim.client)
+    assert [s[:2] for s in after] == [s[:2] for s in state]  # angles and velocities
+    park(robot)
+
+
 def test_unreachable_target_raises_and_the_arm_stays(robot):
     start = robot.hand_position()
     far = np.array([0.90, -0.10, 0.60])  # beyond the arm's kinematic reach bound: refused before any IK

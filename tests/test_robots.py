@@ -331,6 +331,7 @@ def test_the_studio_run_page_runs_and_shows_the_chosen_robot():
     assert views["panda"] and views[None] and views["panda"] != views[None]
 
 
+@pytest.mark.slow
 def test_a_demonstration_is_learned_through_the_rig(tmp_path):
     """``hila learn --from-sim --robot panda``: the demonstration recorded through the rig's
     cameras where they stand, learned by perception as for the iCub (a short recording, as

@@ -194,8 +194,9 @@ class Tracking(Protocol):
 class Overview(Protocol):
     """A camera outside the robot, for reports only (never for the robot's decisions)."""
 
-    def top_view_image(self, size_px: int = 480) -> "CameraImage":
-        """A square image straight down on the drawing surface."""
+    def top_view_image(self, size_px: int = 480, *, arm_aside: bool = False) -> "CameraImage":
+        """A square image straight down on the drawing surface; ``arm_aside``: with the robot's
+        arm moved out of the picture for it (and put back after)."""
         ...
 
 

@@ -162,6 +162,8 @@ class Arm:
         self.ready_posture = self.rest_posture
         self.reach = spec.reach()
         self.tip_link = spec.tip_link()
+        #: the limits :meth:`control_step` checks every step (the URDF's with the tolerance)
+        self._checked = (self.chain.lower - LIMIT_CHECK_TOLERANCE, self.chain.upper + LIMIT_CHECK_TOLERANCE)
 
     def ready_at(self, point: np.ndarray) -> bool:
         """Find the ready posture: the pen vertical at ``point`` (3,); False when out of reach
@@ -252,8 +254,8 @@ class Arm:
             if ahead > 0:
                 time.sleep(ahead)
         q = self.joint_positions()
-        lower, upper = self.chain.lower - LIMIT_CHECK_TOLERANCE, self.chain.upper + LIMIT_CHECK_TOLERANCE
-        if np.any(q < lower) or np.any(q > upper):
+        lower, upper = self._checked
+        if (q < lower).any() or (q > upper).any():
             bad = int(np.argmax(np.maximum(lower - q, q - upper)))
             raise HilaRuntimeError(
                 f"joint {self.chain.names[bad]} left its limits during a move "

@@ -27,6 +27,7 @@ Frames: world frame, metres, z up (hila's table, :mod:`.workspace`); the robot f
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -132,7 +133,7 @@ class PyBulletBackend:
             self.body = Body(self.sim, robot)
             self._build_table(self.surface.z - PAPER_THICKNESS)
             self.ink = Paper(self.sim, self.surface)
-            self.overview = TopView(self.ink, self._render)
+            self.overview = TopView(self.ink, self._render, self._arm_aside)
             # with a window the motion is paced: real time, or --speed N times it
             self.arm = Arm(self.body, self.surface.z, self.stats, realtime=float(speed) if gui else 0.0)
             centre = self.surface.to_world(0.0, 0.0)
@@ -170,6 +171,21 @@ class PyBulletBackend:
         window = Window(self.sim, self.surface, robot_points(self.surface, self.robot))  # framed as when the window opened
         self.arm.observer = window.executed_point
         return window
+
+    @contextmanager
+    def _arm_aside(self):
+        """The arm at its rest posture (by the robot's side, out of the paper's view) for a
+        picture from outside the robot; the simulator's state (joint angles and velocities) is
+        put back after, so the run goes on as if nothing happened."""
+        pb, c = self.sim.pb, self.sim.client
+        saved = pb.saveState(physicsClientId=c)
+        try:
+            for index, value in zip(self.body.arm_joints, self.arm.rest_posture):
+                pb.resetJointState(self.body.id, index, float(value), 0.0, physicsClientId=c)
+            yield
+        finally:
+            pb.restoreState(stateId=saved, physicsClientId=c)
+            pb.removeState(saved, physicsClientId=c)
 
     def _render(self, camera, *, shadow: bool = False) -> np.ndarray:
         """An image of ``camera`` in the scene, counted in :attr:`stats`."""

@@ -30,23 +30,20 @@ from ..core.rotation import from_rpy, pose
 ORIENTATION_WEIGHT = 0.1
 
 
-def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix (3, 3) of ``angle`` radians about the unit ``axis`` (3,), Rodrigues' formula.
+def _skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices (..., 3, 3) of vectors (..., 3): ``_skew(a) @ b == a x b``."""
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return out
 
-    The forward kinematics' inner loop only: it runs for every joint of every IK iteration, where
-    a scipy ``Rotation`` costs ten times more.  Everything else rotates through
-    :mod:`hila_lang.core.rotation`; ``tests/test_robot_ik.py`` holds the two equal.
-    """
-    x, y, z = axis
-    c, s = math.cos(angle), math.sin(angle)
-    t = 1.0 - c
-    return np.array(
-        [
-            [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-            [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-            [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
-        ]
-    )
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of vectors (..., 3), the same arithmetic (equal results) without its axis
+    handling: a third to a half of its time on the IK's small arrays (20-25 vs 50-65 us, load 10)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -124,6 +121,23 @@ class KinematicChain:
     def dof(self) -> int:
         return len(self.names)
 
+    def __post_init__(self) -> None:
+        # Rodrigues: joint i turned by q is origins[i] @ (I + sin q K + (1 - cos q) K^2), K the
+        # cross-product matrix of its axis; its three constant parts are kept, so a posture's
+        # frames are one vectorised sum and a 3x3 product per joint (the Jacobian in half the
+        # time of building each joint's 4x4 rotation: 209 vs 390 us at load 8)
+        rot = self.origins[:, :3, :3]
+        k = _skew(self.axes)
+        consts = {"_fixed": rot, "_sin": rot @ k, "_cos": rot @ k @ k, "_offset": self.origins[:, :3, 3],
+                  "_origin_axes": np.einsum("nij,nj->ni", rot, self.axes) if self.dof else np.zeros((0, 3))}
+        for name, value in consts.items():
+            object.__setattr__(self, name, value)
+
+    def _turned(self, qs: np.ndarray) -> np.ndarray:
+        """Each joint's fixed rotation times its turn, (..., n, 3, 3), for angles ``qs`` (..., n)."""
+        s, c = np.sin(qs)[..., None, None], np.cos(qs)[..., None, None]
+        return self._fixed + s * self._sin + (1.0 - c) * self._cos
+
     def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Forward kinematics.
 
@@ -140,17 +154,18 @@ class KinematicChain:
         joint_axes : ndarray, shape (n, 3)
             Each joint's unit axis, world frame.
         """
-        frame = np.eye(4)
-        positions = np.empty((self.dof, 3))
-        world_axes = np.empty((self.dof, 3))
+        turned = self._turned(np.asarray(q, dtype=float).reshape(self.dof))
+        before = np.empty((self.dof + 1, 3, 3))  # the rotation up to each joint's origin
+        before[0] = np.eye(3)
         for i in range(self.dof):
-            frame = frame @ self.origins[i]
-            positions[i] = frame[:3, 3]
-            world_axes[i] = frame[:3, :3] @ self.axes[i]
-            rot = np.eye(4)
-            rot[:3, :3] = _axis_rotation(self.axes[i], q[i])
-            frame = frame @ rot
-        return frame @ self.tip, positions, world_axes
+            before[i + 1] = before[i] @ turned[i]
+        positions = np.cumsum(np.einsum("nij,nj->ni", before[:-1], self._offset), axis=0)
+        world_axes = np.einsum("nij,nj->ni", before[:-1], self._origin_axes)
+        last = positions[-1] if self.dof else np.zeros(3)
+        world_T_tip = np.eye(4)
+        world_T_tip[:3, :3] = before[-1] @ self.tip[:3, :3]
+        world_T_tip[:3, 3] = before[-1] @ self.tip[:3, 3] + last
+        return world_T_tip, positions, world_axes
 
     def tip_position(self, q: np.ndarray) -> np.ndarray:
         """Tip position (3,), world frame, metres."""
@@ -161,18 +176,13 @@ class KinematicChain:
         at once (one matrix product per joint over all of them; a trajectory's check samples
         thousands)."""
         qs = np.asarray(qs, dtype=float).reshape(-1, self.dof)
-        frames = np.broadcast_to(np.eye(4), (len(qs), 4, 4)).copy()
+        turned = self._turned(qs)
+        rot = np.broadcast_to(np.eye(3), (len(qs), 3, 3))
+        point = np.zeros((len(qs), 3))
         for i in range(self.dof):
-            frames = frames @ self.origins[i]
-            x, y, z = self.axes[i]
-            c, s = np.cos(qs[:, i]), np.sin(qs[:, i])
-            t = 1.0 - c
-            rot = np.empty((len(qs), 3, 3))  # Rodrigues, as _axis_rotation
-            rot[:, 0, 0], rot[:, 0, 1], rot[:, 0, 2] = c + x * x * t, x * y * t - z * s, x * z * t + y * s
-            rot[:, 1, 0], rot[:, 1, 1], rot[:, 1, 2] = y * x * t + z * s, c + y * y * t, y * z * t - x * s
-            rot[:, 2, 0], rot[:, 2, 1], rot[:, 2, 2] = z * x * t - y * s, z * y * t + x * s, c + z * z * t
-            frames[:, :3, :3] = frames[:, :3, :3] @ rot
-        return (frames @ self.tip)[:, :3, 3]
+            point = point + rot @ self._offset[i]
+            rot = rot @ turned[:, i]
+        return point + rot @ self.tip[:3, 3]
 
     def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Geometric Jacobian of the tip, shape (6, n): rows 0-2 linear, rows 3-5 angular.
@@ -180,7 +190,7 @@ class KinematicChain:
         Returns the Jacobian and the tip pose (4, 4).
         """
         pose, positions, world_axes = self.forward(q)
-        linear = np.cross(world_axes, pose[:3, 3] - positions).T
+        linear = _cross(world_axes, pose[:3, 3] - positions).T
         return np.vstack([linear, world_axes.T]), pose
 
 
@@ -258,7 +268,7 @@ def solve(
             tilt, e, jac = 0.0, pos_err, jac[:3]
         else:
             z = pose[:3, 2]
-            rot_err = np.cross(z, want)  # rotation that turns z towards want (|.| = sin angle)
+            rot_err = _cross(z, want)  # rotation that turns z towards want (|.| = sin angle)
             tilt = math.atan2(np.linalg.norm(rot_err), float(z @ want))
             # angular rows projected on the plane normal to z: spinning about the pen is free
             proj = np.eye(3) - np.outer(z, z)
@@ -314,7 +324,7 @@ def aim(
         z = pose[:3, 2]
         d = target - pose[:3, 3]
         d /= np.linalg.norm(d)
-        e = np.cross(z, d)
+        e = _cross(z, d)
         angle = math.atan2(np.linalg.norm(e), float(z @ d))
         if angle <= tolerance:
             break

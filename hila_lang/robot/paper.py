@@ -64,14 +64,20 @@ class Paper:
 
 
 class TopView:
-    """A pinhole camera straight above the paper's centre, for reports (never for the robot)."""
+    """A pinhole camera straight above the paper's centre, for reports (never for the robot).
 
-    def __init__(self, paper: Paper, render) -> None:
-        self.paper, self._render = paper, render
+    ``aside``: a context manager factory that moves the robot's arm out of the picture and puts
+    it back after (:meth:`top_view_image`'s ``arm_aside``); None when there is no arm to move.
+    """
 
-    def top_view_image(self, size_px: int = 480, *, height: float = 1.0) -> CameraImage:
+    def __init__(self, paper: Paper, render, aside=None) -> None:
+        self.paper, self._render, self._aside = paper, render, aside
+
+    def top_view_image(self, size_px: int = 480, *, height: float = 1.0, arm_aside: bool = False) -> CameraImage:
         """A square image ``height`` metres above the paper's centre looking straight down: image
-        up is the paper's far side, image right the robot's right.  The whole sheet is in view."""
+        up is the paper's far side, image right the robot's right.  The whole sheet is in view.
+        ``arm_aside``: taken with the arm at its rest posture, by the robot's side (a report's
+        picture of the board: a game ends with the hand over it), and put back after."""
         if isinstance(size_px, bool) or not isinstance(size_px, (int, np.integer)) or not 16 <= size_px <= 4096:
             raise InputError(f"size_px must be an integer in 16..4096, got {size_px!r}")
         surface = self.paper.surface
@@ -83,4 +89,7 @@ class TopView:
         f = size_px * height / extent
         K = np.array([[f, 0.0, (size_px - 1) / 2], [0.0, f, (size_px - 1) / 2], [0.0, 0.0, 1.0]])
         camera = Camera(K, pose, size_px, size_px)
+        if arm_aside and self._aside is not None:
+            with self._aside():
+                return CameraImage(self._render(camera), K, pose, size_px, size_px)
         return CameraImage(self._render(camera), K, pose, size_px, size_px)

@@ -35,6 +35,7 @@ An image where no grid can be found raises :class:`~hila_lang.core.errors.InputE
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -116,10 +117,58 @@ def plane_to_image_homography(K: np.ndarray, world_T_camera: np.ndarray, z: floa
     return np.asarray(K, dtype=float) @ np.column_stack([R[:, 0], R[:, 1], R[:, 2] * z + t])
 
 
+def _planes(rgb: np.ndarray):
+    """The red, green and blue planes of an RGB image and its darkest and brightest channel per
+    pixel, uint8 (H, W) each (OpenCV's per-element operations: 3x numpy's on int16 copies)."""
+    import cv2
+
+    r, g, b = cv2.split(np.ascontiguousarray(rgb))
+    return r, g, b, cv2.min(cv2.min(r, g), b), cv2.max(cv2.max(r, g), b)
+
+
 def _channels(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(darkest channel, brightest channel, mean) per pixel of an RGB image, int16/float32."""
-    r, g, b = (rgb[:, :, k].astype(np.int16) for k in range(3))
-    return np.minimum(np.minimum(r, g), b), np.maximum(np.maximum(r, g), b), (r + g + b).astype(np.float32) / 3
+    r, g, b, lo, hi = _planes(rgb)
+    return lo.astype(np.int16), hi.astype(np.int16), _total(r, g, b).astype(np.float32) / 3
+
+
+def _total(r: np.ndarray, g: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The sum of three uint8 planes, uint16 (OpenCV's saturating adds never saturate here)."""
+    import cv2
+
+    return cv2.add(cv2.add(r, g, dtype=cv2.CV_16U), b, dtype=cv2.CV_16U)
+
+
+def _over(x: np.ndarray, t: float) -> np.ndarray:
+    """``x > t`` for an array of integers: numpy compares them with a float in float64, this in
+    the array's own type, the same answer (an integer exceeds ``t`` when it exceeds ``floor(t)``)."""
+    return x > math.floor(t)
+
+
+def _under(x: np.ndarray, t: float) -> np.ndarray:
+    """``x < t`` for an array of integers, in its own type (see :func:`_over`)."""
+    return x < math.ceil(t)
+
+
+def median_level(values: np.ndarray, divisor: int = 1) -> float:
+    """``np.median(values / divisor)`` of small non-negative integers (N,), bit for bit as numpy
+    gives it (the middle value, or the mean of the middle two, each divided first), found by
+    counting instead of sorting: a view's paper brightness over 100,000 pixels in a few tenths of
+    a millisecond (sorting took 4 ms; the tracker takes one at every glance)."""
+    counts = np.cumsum(np.bincount(np.asarray(values).ravel()))
+    n = int(counts[-1])
+    upper = int(np.searchsorted(counts, n // 2, side="right"))  # the value at sorted index n // 2
+    if n % 2:
+        return upper / divisor
+    lower = int(np.searchsorted(counts, n // 2 - 1, side="right"))
+    return (lower / divisor + upper / divisor) / 2
+
+
+def sheet_level(top: np.ndarray, sheet: np.ndarray) -> float:
+    """The paper's brightness in a rectified view: the median over ``sheet``'s pixels (bool
+    (h, w)) of their mean channel, ``np.median(top[sheet].mean(axis=1))`` exactly."""
+    r, g, b, _, _ = _planes(top)  # the channels' sum in 16 bits: 3x numpy's sum(axis=2)
+    return median_level(_total(r, g, b)[sheet], 3)
 
 
 def _paper_mask(rgb: np.ndarray, level: float | None = None) -> np.ndarray:
@@ -129,12 +178,15 @@ def _paper_mask(rgb: np.ndarray, level: float | None = None) -> np.ndarray:
     neutral things in view (their 95th percentile): in good light, darkest channel above 150 and
     spread below 40 (of 255), as measured on the game's sheet; both scale with the light.
     """
-    lo, hi, _ = _channels(rgb)
+    import cv2
+
+    _, _, _, lo, hi = _planes(rgb)
+    spread = cv2.subtract(hi, lo)
     if level is None:
-        neutral = (hi - lo) < np.maximum(25, hi // 5)
-        level = float(np.percentile(hi[neutral], 95)) if neutral.any() else 255.0
+        neutral = spread < np.maximum(25, hi // 5)
+        level = float(np.percentile(hi[neutral].astype(np.int16), 95)) if neutral.any() else 255.0
     level = max(float(level), 20.0)
-    return (lo > 0.62 * level) & ((hi - lo) < 0.16 * level + 2)
+    return _over(lo, 0.62 * level) & _under(spread, 0.16 * level + 2)
 
 
 def _ink_masks(rgb: np.ndarray, paper_level: float, resolution: float) -> tuple[np.ndarray, np.ndarray]:
@@ -148,15 +200,15 @@ def _ink_masks(rgb: np.ndarray, paper_level: float, resolution: float) -> tuple[
     """
     import cv2
 
-    lo, hi, gray = _channels(rgb)
+    r, g, b, lo, hi = _planes(rgb)
+    gray = _total(r, g, b).astype(np.float32) / 3
     k = max(3, int(round(0.009 / resolution)) | 1)
     blackhat = cv2.morphologyEx(gray, cv2.MORPH_BLACKHAT, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     stroke = blackhat > 0.25 * paper_level
-    sat = hi - lo
-    f = rgb.astype(np.int16)
-    green = f[:, :, 1] - np.maximum(f[:, :, 0], f[:, :, 2])
-    not_marker = green < max(12.0, 0.06 * paper_level)
-    return stroke & (sat < 0.22 * paper_level) & not_marker, (stroke | (sat > 0.3 * paper_level)) & not_marker
+    sat = cv2.subtract(hi, lo)
+    green = cv2.subtract(g, cv2.max(r, b), dtype=cv2.CV_16S)
+    not_marker = _under(green, max(12.0, 0.06 * paper_level))
+    return stroke & _under(sat, 0.22 * paper_level) & not_marker, (stroke | _over(sat, 0.3 * paper_level)) & not_marker
 
 
 def own_body_mask(image, body, shape=None) -> np.ndarray:
@@ -229,7 +281,7 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     H = plane_to_image_homography(K, T, surface_z) @ top_to_plane
     top = cv2.warpPerspective(rgb, H, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
-    level = float(np.median(rgb[labels == best].max(axis=1)))
+    level = median_level(_planes(rgb)[4][ys, xs])  # np.median(rgb[labels == best].max(axis=1)), by counting
     own = np.zeros((h, w), bool)
     if body:
         own = cv2.warpPerspective(own_body_mask(image, body).astype(np.uint8), H, (w, h),

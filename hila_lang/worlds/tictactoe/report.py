@@ -243,11 +243,12 @@ def paper_view(world) -> np.ndarray:
 
 def top_view(world) -> np.ndarray:
     """The board from above (RGB) with planned and executed paths: a rendered camera view
-    with the PyBullet back end (the arm may hide part of it), else :func:`paper_view`."""
+    with the PyBullet back end (the arm moved aside for it: the game ends with the hand over the
+    board), else :func:`paper_view`."""
     overview = None if world.backend is None else world.backend.overview
     if overview is None:
         return paper_view(world)
-    image = overview.top_view_image()
+    image = overview.top_view_image(arm_aside=True)
     return _overlay(np.ascontiguousarray(image.rgb).copy(), world, image.project)
 
 

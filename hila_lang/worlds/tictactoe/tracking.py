@@ -117,10 +117,10 @@ class SheetTracker:
         board.turn=10``): with the mask 98 of 125 glances saw the grid, and the robot was blind
         for a second at a time while drawing in cell 4; without it all 114 saw it, 0.52 mm median
         and 0.89 mm largest corner error."""
-        from .reading import _ink_masks, rectify
+        from .reading import _ink_masks, rectify, sheet_level
 
         top, origin, sheet, _ = rectify(image, self.z, RESOLUTION)
-        level = float(np.median(top[sheet].mean(axis=1))) if sheet.any() else 240.0
+        level = sheet_level(top, sheet) if sheet.any() else 240.0
         grid_ink, _ = _ink_masks(top, level, RESOLUTION)
         ys, xs = np.nonzero(grid_ink)
         return np.column_stack([origin[0] + xs * RESOLUTION, origin[1] - ys * RESOLUTION])
