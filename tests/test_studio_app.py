@@ -47,11 +47,25 @@ def test_first_line_is_the_url_with_a_fresh_token(studio):
     assert f"hila_studio_{studio.port}=" in r.getheader("set-cookie") and "HttpOnly" in r.getheader("set-cookie")
 
 
-def test_cookie_from_the_token_url_is_enough(studio):
+def test_cookie_from_the_token_url_is_enough_for_the_page_and_its_own_requests(studio):
+    """The cookie alone opens the page; for data it needs the page's own request
+    (Sec-Fetch-Site: same-origin) or the X-Hila-Token header (issue 32: another port's page
+    sends the cookie too, as Sec-Fetch-Site: same-site)."""
     status, _, r = request(studio, "GET", "/")
     cookie = r.getheader("set-cookie").split(";")[0]
-    status, text, _ = request(studio, "GET", "/api/files", token=None, headers={"Cookie": cookie})
+    status, text, _ = request(studio, "GET", "/", token=None, headers={"Cookie": cookie})
+    assert status == 200 and "/static/common.js" in text
+    for site in ("same-origin", "none"):
+        status, text, _ = request(studio, "GET", "/api/files", token=None,
+                                  headers={"Cookie": cookie, "Sec-Fetch-Site": site})
+        assert status == 200 and "prog.hila" in json.loads(text)["files"]
+    status, text, _ = request(studio, "GET", "/api/files", token=None,
+                              headers={"Cookie": "x=1", "X-Hila-Token": studio.token})
     assert status == 200 and "prog.hila" in json.loads(text)["files"]
+    for headers in ({"Cookie": cookie}, {"Cookie": cookie, "Sec-Fetch-Site": "same-site"},
+                    {"Cookie": cookie, "Sec-Fetch-Site": "cross-site"}):
+        status, text, _ = request(studio, "GET", "/api/raw?path=prog.hila", token=None, headers=headers)
+        assert status == 403 and "another page" in text and "main" not in text
 
 
 @pytest.mark.parametrize("token, why", [(None, "no token"), ("wrong", "wrong token")])
@@ -99,8 +113,8 @@ def test_websocket_needs_own_origin_and_token(studio):
     ("../outside.hila", "goes up a folder"),
     ("sub/../../x.hila", "goes up a folder"),
     ("/etc/passwd", "absolute path"),
-    ("link.hila", "symbolic link that leads outside"),
-    ("linkdir/secret.hila", "symbolic link that leads outside"),
+    ("link.hila", "symbolic link"),
+    ("linkdir/secret.hila", "symbolic link"),
 ])
 def test_paths_outside_the_folder_are_refused(studio, name, why):
     status, text, _ = request(studio, "GET", f"/api/file?path={name}")

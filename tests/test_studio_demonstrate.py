@@ -65,7 +65,9 @@ def test_save_is_hila_learn_and_moved_cuts_replace_the_segments(tmp_path):
     assert r.returncode == 0 and (tmp_path / "cli.yaml").read_text() == learned
     assert _run_shown(out["command"], tmp_path) == learned  # the command shown writes the same file
     proposed = out["segments"][1]["start"]
-    moved = demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7]))
+    with pytest.raises(InputError, match="swipe.yaml exists"):  # the overwrite contract: asked first
+        demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7]))
+    moved = demonstrate.save(tmp_path, dict(req, cuts=[proposed + 7], overwrite=True))
     assert moved["segments"][1]["start"] == proposed + 7
     saved = (tmp_path / "swipe.yaml").read_text()
     tpl = load_template(tmp_path / "swipe.yaml")

@@ -124,26 +124,29 @@ def learn(name: str, path, icps: dict, *, times=None, tags: Sequence[str] = (), 
 
 def learn_files(demo: str | Path, icps: str | Path | None, *, name: str, tags: Sequence[str] = (),
                 contact: Sequence[str] = (), k: int | None = None, method: str | None = None, seed: int = 0,
-                description: str | None = None, cuts: Sequence[int] | None = None) -> Template:
+                description: str | None = None, cuts: Sequence[int] | None = None,
+                named: tuple[str, str] | None = None) -> Template:
     """:func:`learn` of the demonstration CSV ``demo`` (its ``pen`` column too) with the ICPs of
     the YAML ``icps``.
 
     ``icps`` None: the demonstration's own ends are its ICPs (``start``, ``end``; recognition needs
-    only the path).  The description, unless given, names both files as given and how the path was
-    cut, as ``hila learn`` writes it.  A problem with the path names ``demo``."""
+    only the path).  The description, unless given, names both files as given (or as ``named``:
+    the names they are published under, when they are read from a staging place) and how the path
+    was cut, as ``hila learn`` writes it.  A problem with the path names ``demo``."""
     k, tags = default_tags(tags, k)
     recorded = read_demo(demo)
     points = recorded.path
+    shown_demo, shown_icps = named or (demo, icps)
     if icps is None:
         scene, given = {START: points[0].copy(), END: points[-1].copy()}, "its own ends as ICPs (start, end; no --icps)"
     else:
-        scene, given = load_icps(icps, points.shape[1]), f"ICPs from {icps}"
+        scene, given = load_icps(icps, points.shape[1]), f"ICPs from {shown_icps}"
     if description is None:
         how = ""
         if tags and cuts is not None:
             how = f" Cut by hand at samples {', '.join(str(int(c)) for c in cuts)} (--cuts; k = {k})."
         elif tags:
             how = f" {describe(method or ('contact' if recorded.pen is not None else DEFAULT_METHOD), k)}"
-        description = f"learned from {demo} ({len(points)} points) with {given}.{how}"
+        description = f"learned from {shown_demo} ({len(points)} points) with {given}.{how}"
     return learn(name, points, scene, times=recorded.times, tags=tags, contact=contact, k=k, method=method,
-                 seed=seed, description=description, source=str(demo), pen=recorded.pen, cuts=cuts)
+                 seed=seed, description=description, source=str(shown_demo), pen=recorded.pen, cuts=cuts)

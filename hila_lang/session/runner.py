@@ -27,10 +27,11 @@ from ..language.limits import DEFAULT_STEP_LIMIT
 
 
 def prepare(path, options: RunOptions, backend: str | None = None, *,
-            step_limit: int | None = DEFAULT_STEP_LIMIT) -> Interpreter:
+            step_limit: int | None = DEFAULT_STEP_LIMIT, env: Environment | None = None) -> Interpreter:
     """Program + world + back end -> a ready :class:`Interpreter` (at its start state);
-    ``step_limit`` bounds each run (:data:`~hila_lang.language.limits.DEFAULT_STEP_LIMIT`)."""
-    checked, fsm = Environment.default().load(path, settings=options.settings, backend=backend)
+    ``step_limit`` bounds each run (:data:`~hila_lang.language.limits.DEFAULT_STEP_LIMIT`);
+    ``env`` (default: the process's) finds its templates (the studio's keeps them in its folder)."""
+    checked, fsm = (env or Environment.default()).load(path, settings=options.settings, backend=backend)
     if options.robot is None:
         from ..robot.spec import resolve
 

@@ -6,8 +6,11 @@ Modules, one line each:
 
 - ``app``          the Starlette app assembled from the pages (failures answered by its exception handlers); ``serve``
 - ``page``         what every page shares: its declaration, the studio's folder, the door requests come in by
-- ``files``        the folder's files: listed, read, written (every write the studio makes), uploaded
-- ``security``     the token, the Host/Origin check (DNS rebinding), paths kept inside the folder (docs/design.md §6)
+- ``files``        the folder's files: listed, read, written (one transaction per action, per-name locks), uploaded
+- ``security``     the token, the Host/Origin check (DNS rebinding), files opened inside the folder without links (docs/design.md §6)
+- ``schema``       the door: the shape of every request body, query and socket message, and the studio's limits
+- ``worker``       heavy work in worker processes: a time budget, killed past it or by Ctrl-C
+- ``save``         a demonstration saved as a template: learned as ``hila learn`` does, written as one transaction
 - ``demonstrate``  page 1: scenes to draw on, pointer samples -> a timed path, saved as ``hila learn`` does
 - ``camera``       page 1's Camera scene: webcam frames (or an uploaded video) tracked as ``hila learn --sheet`` does
 - ``imitate``      page 2: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason

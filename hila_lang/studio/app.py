@@ -25,9 +25,12 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from ..core.errors import HilaError
-from . import demonstrate, files, imitate, run
+from . import demonstrate, files, imitate, run, worker
 from .page import Studio, problem
 from .security import MAX_UPLOAD, Guard, cookie_name
+
+#: seconds Ctrl-C waits for requests under way before it cancels them (and kills the workers)
+SHUTDOWN_S = 0.1
 
 #: the pages, in tab order; a new page is its module here, its script in static/ and its test
 PAGES = (demonstrate.PAGE, imitate.PAGE, run.PAGE)
@@ -39,6 +42,8 @@ def static_dir() -> Path:
 
 async def answer_problem(request: Request, exc: Exception) -> Response:
     status, text = problem(exc)
+    if isinstance(exc, files.Exists):  # the overwrite contract: 409, the page asks the person
+        return JSONResponse({"error": text, "exists": True}, status_code=409)
     return JSONResponse({"error": text}, status_code=status)
 
 
@@ -75,6 +80,23 @@ def make_app(folder: Path, token: str, port: int):
     return Guard(app, token, port)
 
 
+def _server_class():
+    import threading
+
+    import uvicorn
+
+    class Server(uvicorn.Server):
+        """uvicorn's server whose Ctrl-C (SIGTERM) first kills the workers (from a thread: the
+        handler may have interrupted the main thread inside :mod:`.worker`'s lock), so requests
+        under way are answered at once and the shutdown does not wait for their work."""
+
+        def handle_exit(self, sig, frame) -> None:
+            threading.Thread(target=worker.stop, args=(True,), daemon=True).start()
+            super().handle_exit(sig, frame)
+
+    return Server
+
+
 def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str | None = None) -> int:
     """Bind 127.0.0.1:``port`` (0: a free one), print the URL line, serve until Ctrl-C.
 
@@ -88,8 +110,12 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
 
     from .security import new_token
 
+    _Server = _server_class()
     token = token or new_token()
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    # SO_REUSEADDR: a restart on the same --port right after requests binds at once (without it the
+    # connections' TIME_WAIT held the port ~60 s); two listeners on one port are still refused
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind(("127.0.0.1", port))
     except OSError as exc:
@@ -108,8 +134,14 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
         import webbrowser
 
         webbrowser.open(url)
+    # timeout_graceful_shutdown: Ctrl-C (or SIGTERM) waits at most this long for requests under
+    # way (their heavy work is in workers, killed then), so the studio stops within a second
     config = uvicorn.Config(make_app(folder, token, port), log_level="warning", lifespan="off",
-                            ws_max_size=MAX_UPLOAD)
-    server = uvicorn.Server(config)
-    server.run(sockets=[sock])
+                            ws_max_size=MAX_UPLOAD, timeout_graceful_shutdown=SHUTDOWN_S)
+    server = _Server(config)
+    worker.warm()
+    try:
+        server.run(sockets=[sock])
+    finally:
+        worker.stop(final=True)
     return 0

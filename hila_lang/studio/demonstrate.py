@@ -30,7 +30,7 @@ scene's (:mod:`.camera`: a pen on the printed sheet before the webcam).
 
 from __future__ import annotations
 
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 from starlette.concurrency import run_in_threadpool
@@ -40,9 +40,11 @@ from starlette.routing import Route
 
 from ..core.errors import InputError
 from ..osila.demofile import lift  # the 45-degree lift rule, shared with the seeded pointer model
-from . import camera, files
+from . import camera, files, schema, worker
+from .save import _names, learned, recorded_pen, save  # noqa: F401 - save: called by the tests as the page saves
 from .page import Page, read_json, studio_of, template_json
-from .security import inside
+from .schema import query
+from .security import inside, opened
 
 #: metres per pixel of a blank sheet or an uploaded picture: 0.25 mm, so an 840-pixel-wide
 #: canvas is an A4 sheet's width (0.21 m)
@@ -105,7 +107,8 @@ def scene(name: str, folder: Path) -> dict:
     if name.startswith("upload:"):
         from ..core.images import read_picture
 
-        h, w = read_picture(inside(folder, name[len("upload:"):]), "uploaded image").shape[:2]
+        with opened(folder, name[len("upload:"):], "uploaded image") as picture:
+            h, w = read_picture(picture, "uploaded image").shape[:2]
         f = min(1.0, SHOWN_MAX[0] / w, SHOWN_MAX[1] / h)  # scaled to fit; the plane stays the picture's own
         H = np.diag([f, f, 1.0]) @ _sheet_H(h)
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=max(1, round(w * f)),
@@ -131,6 +134,7 @@ def demonstration_path(samples: list, z: float | None,
     fewer than 2 left is an InputError.
     """
     from ..evaluation.lasa import RATE_HZ, resample_in_time
+    from .schema import MAX_SECONDS
 
     if not isinstance(samples, list):
         raise InputError("expected the demonstration as a list of pointer samples")
@@ -151,19 +155,12 @@ def demonstration_path(samples: list, z: float | None,
     arr = np.array([r[:3] for r in kept])
     down = np.array([r[3] for r in kept])
     t = (arr[:, 0] - arr[0, 0]) / 1000.0
+    if t[-1] > MAX_SECONDS:  # resampled at 20 Hz, a longer span would be a path of any length
+        raise InputError(f"the demonstration lasts {t[-1]:.0f} s; the studio takes at most {MAX_SECONDS:.0f} s "
+                         "(its time stamps are milliseconds)")
     pts = arr[:, 1:] if z is None else lift(arr[:, 1:], down, float(z), float(lift_max))
     both = resample_in_time(t, np.column_stack([pts, down.astype(float)]), RATE_HZ)
     return both[:, :-1], np.arange(len(both)) / RATE_HZ, both[:, -1] > 0.5
-
-
-def _pen(doc: dict, n: int) -> np.ndarray | None:
-    """The request's recorded pen (``pen``: T booleans), or None."""
-    pen = doc.get("pen")
-    if pen is None:
-        return None
-    if not isinstance(pen, list) or len(pen) != n or not all(isinstance(v, (bool, int)) for v in pen):
-        raise InputError(f"expected 'pen' as {n} booleans (the pen down at each point), got {str(pen)[:60]}")
-    return np.asarray(pen, bool)
 
 
 def proposal(path, times, k: int, method: str, seed: int = 0, pen=None) -> dict:
@@ -177,56 +174,6 @@ def proposal(path, times, k: int, method: str, seed: int = 0, pen=None) -> dict:
     return dict(cuts=[int(a) for a, _ in ranges[1:]], speed=[float(v) for v in speed(path, times)])
 
 
-def save(folder: Path, req: dict) -> dict:
-    """Write ``NAME.demo.csv`` (with the pen, when recorded) and ``NAME.icps.yaml``, learn them as
-    ``hila learn`` does and write ``NAME.yaml`` in ``folder``; returns ``{template, demo, icps,
-    command, segments}``: ``command`` is the ``hila learn`` line that writes the same template
-    byte for byte -- with ``--cuts A,B`` when the person moved the method's cuts.
-
-    ``req``: ``name``, ``path`` (T, D), ``times`` (T,), optional ``pen`` (T,: drawn with a pointer or
-    tracked by the Camera scene), ``icps`` {name: point}, ``tags`` (list), ``contact`` (list),
-    ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
-    """
-    from ..hierarchy.learn import learn_files
-    from ..language.transformer import usable_as_tag
-    from ..osila.demofile import demo_csv, icps_text
-    from ..osila.template import template_text
-
-    name = str(req.get("name", "")).strip()
-    if not usable_as_tag(name):
-        raise InputError(f"template name {name!r}: a program imports it by name, so use a letter or '_' and "
-                         "then letters, digits or '_'")
-    path = np.asarray(req.get("path"), float)
-    times = np.asarray(req.get("times"), float)
-    if path.ndim != 2 or path.shape[1] not in (2, 3) or len(times) != len(path):
-        raise InputError(f"expected a path (T, 2 or 3) with T times, got {path.shape} and {times.shape}")
-    pen = _pen(req, len(path))
-    icps = req.get("icps") or {}
-    if not icps:
-        raise InputError("place at least one ICP (click on the scene) before saving")
-    tags = [str(t) for t in req.get("tags") or []]
-    contact = [str(t) for t in req.get("contact") or []]
-    method, seed = str(req.get("method", "contact" if pen is not None else "speed")), int(req.get("seed", 0))
-    target = inside(folder, f"{name}.yaml")
-    demo, icps_file = files.write(folder, {f"{name}.demo.csv": demo_csv(path, times, pen),
-                                           f"{name}.icps.yaml": icps_text(icps)})
-    k = max(len(tags), 1)
-    common = dict(name=name, tags=tags, contact=contact, k=k, seed=seed)
-    template = learn_files(str(demo), str(icps_file), method=method, **common)
-    cuts = None if req.get("cuts") is None or not tags else [int(c) for c in req["cuts"]]
-    if cuts == [s.start for s in template.segments[1:]]:
-        cuts = None  # the method's own cuts: the command says the method
-    if cuts is not None:
-        template = learn_files(str(demo), str(icps_file), cuts=cuts, **common)
-    argv = [str(demo), "--icps", str(icps_file), "-k", str(k)] + \
-        (["--cuts", ",".join(map(str, cuts))] if cuts is not None else ["--method", method]) + \
-        ["--seed", str(seed), "-o", str(target)] + (["--tags", ",".join(tags)] if tags else []) + \
-        (["--contact", ",".join(contact)] if contact else [])
-    files.write(folder, {target.name: template_text(template)})
-    return dict(template=target.name, demo=demo.name, icps=icps_file.name, command="hila learn " + " ".join(argv),
-                segments=[dict(tag=s.tag, start=s.start, stop=s.stop, contact=s.contact) for s in template.segments])
-
-
 def open_source(folder: Path, kind: str, name: str) -> dict:
     """An existing demonstration to edit: ``template`` (a YAML in the folder), ``csv`` (a
     demonstration CSV in the folder, ICPs from ``NAME.icps.yaml`` beside it when there is one)
@@ -234,14 +181,22 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
     if kind == "template":
         from ..osila.template import load_template
 
-        return template_json(load_template(inside(folder, name)))
+        with opened(folder, name, "template") as file:
+            return template_json(load_template(file))
     if kind == "csv":
         from ..osila.demofile import load_icps, read_demo
 
         file = inside(folder, name)
-        path, times, pen = read_demo(file)
-        side = file.with_name(file.name.replace(".demo.csv", "").replace(".csv", "") + ".icps.yaml")
-        icps = load_icps(side, path.shape[1]) if side.exists() else {}
+        with opened(folder, name, "demonstration CSV") as csv:
+            path, times, pen = read_demo(csv)
+        side = str(PurePosixPath(name).with_name(file.name.replace(".demo.csv", "").replace(".csv", "") + ".icps.yaml"))
+        try:  # the sidecar opened as the CSV was: inside the folder, no link followed (issue 32)
+            with opened(folder, side, "scene ICP file") as sidecar:
+                icps = load_icps(sidecar, path.shape[1])
+        except InputError as exc:
+            if not exc.message.startswith("no scene ICP file"):
+                raise
+            icps = {}
         return dict(name=file.stem.replace(".demo", ""), path=path.tolist(),
                     times=None if times is None else times.tolist(), icps=icps, segments=[],
                     pen=None if pen is None else pen.tolist(),
@@ -265,10 +220,12 @@ def demonstration(doc: dict) -> dict:
     recorded, as ``hila learn`` does)."""
     if "samples" in doc:
         path, times, pen = demonstration_path(doc["samples"], doc.get("z"), doc.get("lift"))
+    elif "path" not in doc:
+        raise InputError("expected the demonstration as samples (pointer samples) or a path")
     else:
         path = np.asarray(doc["path"], float)
         times = np.asarray(doc["times"] if doc.get("times") is not None else np.arange(len(path)) * 0.05)
-        pen = _pen(doc, len(path))
+        pen = recorded_pen(doc, len(path))
     method = doc.get("method") or ("contact" if pen is not None else "speed")
     out = dict(path=path.tolist(), times=times.tolist(), pen=None if pen is None else pen.tolist(), method=method)
     out.update(proposal(path, times, int(doc.get("k", 3)), method, doc.get("seed", 0), pen))
@@ -283,28 +240,31 @@ async def _scenes(request: Request) -> Response:
 
 
 async def _scene(request: Request) -> Response:
-    name = request.query_params.get("name", "blank")
+    name = query(request, schema.SCENE_QUERY).get("name", "blank")
     return JSONResponse(await run_in_threadpool(scene, name, studio_of(request).folder))
 
 
 async def _scene_image(request: Request) -> Response:
-    data = await run_in_threadpool(scene_image, request.query_params.get("name", ""))
+    data = await run_in_threadpool(scene_image, query(request, schema.SCENE_QUERY).get("name", ""))
     return Response(data, media_type="image/png")
 
 
 async def _demonstration(request: Request) -> Response:
-    return JSONResponse(await run_in_threadpool(demonstration, await read_json(request)))
+    return JSONResponse(await worker.run(demonstration, await read_json(request)))
 
 
 async def _save(request: Request) -> Response:
-    doc = await read_json(request)
-    return JSONResponse(await run_in_threadpool(save, studio_of(request).folder, doc))
+    doc, folder = await read_json(request), studio_of(request).folder
+    overwrite = bool(doc.get("overwrite"))
+    files.refuse_existing(folder, _names(doc), overwrite)  # 409 before the work
+    texts, answer = await worker.run(learned, folder, doc)  # the learning off the event loop, in its budget
+    await run_in_threadpool(lambda: files.write(folder, texts, overwrite=overwrite))
+    return JSONResponse(answer)
 
 
 async def _open(request: Request) -> Response:
-    q = request.query_params
-    return JSONResponse(await run_in_threadpool(open_source, studio_of(request).folder, q.get("kind", ""),
-                                                q.get("name", "")))
+    q = query(request, schema.OPEN_QUERY)
+    return JSONResponse(await run_in_threadpool(open_source, studio_of(request).folder, q["kind"], q["name"]))
 
 
 async def _lasa(request: Request) -> Response:

@@ -19,14 +19,15 @@ import time
 from pathlib import Path
 
 import numpy as np
-from starlette.concurrency import run_in_threadpool
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError
+from . import schema, worker
 from .page import JSONSocket, Page, read_json, studio_of, template_json
+from .schema import query
 
 #: the controls drawn beside OSILA (names of hila_lang.evaluation.controls)
 CONTROLS = ("tps", "similarity", "dmp-aligned")
@@ -167,7 +168,7 @@ def load(folder: Path, name: str):
 
 
 async def _template(request: Request) -> Response:
-    return JSONResponse(template_json(studio_of(request).template(request.query_params.get("path", ""))))
+    return JSONResponse(template_json(studio_of(request).template(query(request, schema.TEMPLATE_QUERY)["path"])))
 
 
 async def _export(request: Request) -> Response:
@@ -176,7 +177,7 @@ async def _export(request: Request) -> Response:
     doc = await read_json(request)
     name = str(doc.get("template", ""))
     t = studio_of(request).template(name)
-    result = await run_in_threadpool(imitate, t, doc)
+    result = await worker.run(imitate, t, doc)
     if "error" in result:
         raise InputError(result["error"])
     return JSONResponse({"csv": demo_csv(result["path"], t.times), "hila": snippet(t, doc, Path(name).stem)})
@@ -185,7 +186,7 @@ async def _export(request: Request) -> Response:
 async def _explain(request: Request) -> Response:
     doc = await read_json(request)
     t = studio_of(request).template(str(doc.get("template", "")))
-    return JSONResponse({"lines": await run_in_threadpool(explain, t, doc)})
+    return JSONResponse({"lines": await worker.run(explain, t, doc)})
 
 
 class ImitateSocket(JSONSocket):
@@ -193,7 +194,7 @@ class ImitateSocket(JSONSocket):
 
     async def on_message(self, websocket: WebSocket, doc: dict) -> None:
         template = studio_of(websocket).template(str(doc.get("template", "")))
-        out = await run_in_threadpool(imitate, template, doc)
+        out = await worker.run(imitate, template, doc)
         await websocket.send_text(json.dumps(dict(out, seq=doc.get("seq"))))
 
     async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:

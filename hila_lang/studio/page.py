@@ -7,16 +7,16 @@
 - :func:`plugins`: the back ends, robots and worlds the registry's plug-ins declare, for the
   pages' menus (an installed plug-in is there as it is for ``hila exec``).
 - :func:`read_json` / :func:`read_body`: the one door a request's body comes in by (bounded by
-  :data:`.security.MAX_UPLOAD`; where a schema of every request belongs).
+  :data:`.security.MAX_UPLOAD`, checked by its route's shape, :data:`.schema.BODIES`).
 - :func:`problem`: what a failed request says (hila's message and hint; an OSError as the file
   and why; ``refused`` for a path or size the studio does not take).
-- :class:`JSONSocket`: a websocket of JSON objects, one answer per message; a bad message or a
-  failed one is answered with the reason and the socket goes on.
+- :class:`JSONSocket`: a websocket of JSON objects, one answer per message, each checked by its
+  socket's shape (:data:`.schema.SOCKETS`); a bad message (a binary frame too) or a failed one
+  is answered with the reason and the socket goes on.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
@@ -26,7 +26,7 @@ from starlette.requests import Request
 from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError, internal_error_message
-from .security import MAX_UPLOAD, inside
+from .security import MAX_UPLOAD, inside, opened
 
 
 @dataclass(frozen=True)
@@ -55,12 +55,22 @@ class Studio:
         """The template file ``name``, read again only when it changed."""
         from ..osila.template import load_template
 
-        path = self.path(name)
-        mtime = path.stat().st_mtime
-        cached = self._templates.get(name)
-        if cached is None or cached[0] != mtime:
-            self._templates[name] = (mtime, load_template(path))
+        with opened(self.folder, name, "template") as path:  # opened once, no link followed
+            mtime = path.stat().st_mtime_ns
+            cached = self._templates.get(name)
+            if cached is None or cached[0] != mtime:
+                self._templates[name] = (mtime, load_template(path))
         return self._templates[name][1]
+
+
+def studio_env(folder: Path | None):
+    """The language environment of the programs the studio checks and runs: their imports only
+    inside ``folder`` and the installed templates (:func:`.security.folder_templates`); None
+    (hila's own) without a folder."""
+    from ..language.environment import Environment
+    from .security import folder_templates
+
+    return None if folder is None else Environment(templates=folder_templates(folder))
 
 
 def studio_of(conn: Request | WebSocket) -> Studio:
@@ -82,19 +92,19 @@ async def read_body(request: Request, limit: int = MAX_UPLOAD) -> bytes:
 
 
 def json_object(text: str | bytes) -> dict:
-    """A JSON object from a request or a websocket message; anything else is an InputError."""
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"expected a JSON body: {exc}") from None
-    if not isinstance(doc, dict):
-        raise InputError("expected a JSON object")
-    return doc
+    """A JSON object from a request or a websocket message, its nesting bounded
+    (:func:`.schema.parse_json`); anything else is an InputError."""
+    from .schema import parse_json
+
+    return parse_json(text)
 
 
 async def read_json(request: Request) -> dict:
-    """The request's body as a JSON object (:func:`read_body`, :func:`json_object`)."""
-    return json_object(await read_body(request))
+    """The request's body as a JSON object (:func:`read_body`, :func:`json_object`), checked by
+    its route's shape (:data:`.schema.BODIES`; a bad field: 400 naming it)."""
+    from .schema import BODIES, check
+
+    return check(BODIES[request.url.path], json_object(await read_body(request)))
 
 
 def problem(exc: BaseException) -> tuple[int, str]:
@@ -117,10 +127,19 @@ class JSONSocket(WebSocketEndpoint):
 
     encoding = "text"
 
-    async def on_receive(self, websocket: WebSocket, data: str) -> None:
+    async def decode(self, websocket: WebSocket, message) -> str | None:
+        """A text frame's text; a binary frame is None (refused by :meth:`on_receive`)."""
+        return message.get("text")
+
+    async def on_receive(self, websocket: WebSocket, data: str | None) -> None:
+        from .schema import SOCKETS, check
+
         doc: dict = {}
         try:
+            if data is None:
+                raise InputError("refused: a binary frame; the studio's sockets take JSON text")
             doc = json_object(data)
+            doc = check(SOCKETS[websocket.url.path], doc)  # the socket's shape (issue 32)
             await self.on_message(websocket, doc)
         except Exception as exc:  # noqa: BLE001 - said on the page (a bug as such), the socket goes on
             await self.on_error(websocket, doc, problem(exc)[1])

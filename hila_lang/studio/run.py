@@ -32,16 +32,16 @@ from starlette.websockets import WebSocket
 from ..core.errors import HilaError, InputError, internal_error_message
 from ..core.fileio import png_bytes, read_text
 from ..plugins.studio import StudioView
-from .page import JSONSocket, Page, plugins, read_json, studio_of
+from .page import JSONSocket, Page, plugins, read_json, studio_env, studio_of
 
 
-def analyse(path: Path, text: str) -> dict:
+def analyse(path: Path, text: str, folder: Path | None = None) -> dict:
     """The program ``text`` (as if at ``path``) for the page: ``problems`` as ``hila lsp`` locates
     them (0-based ``line``, ``character``, ...), the ``settings`` its world declares, and what the
     world's studio view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
     from ..lsp.analysis import Document
 
-    doc = Document(str(path))
+    doc = Document(str(path), env=studio_env(folder))  # imports only inside the studio's folder (issue 32)
     problems = [dict(line=p.line, character=p.character, end_line=p.end_line, end_character=p.end_character,
                      message=p.message, severity=p.severity) for p in doc.analyse(text)]
     world = doc.world()
@@ -152,7 +152,7 @@ class RunSession(Session):
     """A program run on a back end, stepped by the page's buttons."""
 
     def __init__(self, program: Path, emit, *, backend: str | None = None, settings: dict | None = None,
-                 seed: int = 0, robot: str | None = None) -> None:
+                 seed: int = 0, robot: str | None = None, folder: Path | None = None) -> None:
         from ..plugins import registry
         from ..plugins.options import RunOptions
         from ..session.repl import Repl
@@ -164,7 +164,7 @@ class RunSession(Session):
         settings = dict(settings or {}, **({"robot": robot} if robot else {}))  # --robot NAME: the arm that runs
         self.options = RunOptions(seed=seed, out=Path(self._out.name), settings=settings, stdin=self.stdin,
                                   stdout=self.stdout)
-        self.interp = prepare(program, self.options, backend)
+        self.interp = prepare(program, self.options, backend, env=studio_env(folder))
         view = registry.world(self.interp.checked.world).studio
         self._board, self._outcome = (view.load(a) if view and getattr(view, a) else None for a in ("board", "outcome"))
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
@@ -287,7 +287,7 @@ class RunSocket(JSONSocket):
     async def on_connect(self, websocket: WebSocket) -> None:
         await websocket.accept()
         loop = asyncio.get_running_loop()
-        self.session: Session | None = None
+        self.session, self.folder = None, studio_of(websocket).folder  # Session | None; the studio's folder
         self.outbox: asyncio.Queue = asyncio.Queue()
         self.emit = lambda msg: loop.call_soon_threadsafe(self.outbox.put_nowait, msg)
 
@@ -319,9 +319,9 @@ class RunSocket(JSONSocket):
         given = doc.get("settings") or {}
         if not isinstance(given, dict):
             raise InputError(f"expected the settings as a JSON object, got {given!r}")
-        known = analyse(path, read_text(path, "program"))["settings"]
+        known = analyse(path, read_text(path, "program"), self.folder)["settings"]
         settings = {str(k): str(v) for k, v in given.items() if k in known and v}
-        return RunSession(path, self.emit, backend=doc.get("backend") or None, settings=settings,
+        return RunSession(path, self.emit, backend=doc.get("backend") or None, settings=settings, folder=self.folder,
                           seed=int(doc.get("seed", 0)), robot=str(doc.get("robot") or "") or None)
 
     async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:
@@ -340,7 +340,7 @@ class RunSocket(JSONSocket):
 async def _check(request: Request) -> Response:
     doc = await read_json(request)
     path = studio_of(request).path(str(doc.get("path") or "untitled.hila"))
-    return JSONResponse(await run_in_threadpool(analyse, path, str(doc.get("text", ""))))
+    return JSONResponse(await run_in_threadpool(analyse, path, str(doc.get("text", "")), studio_of(request).folder))
 
 
 PAGE = Page("run", "3 Run & watch", "run.js", routes=[

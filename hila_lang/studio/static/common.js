@@ -8,8 +8,18 @@
 
 export const $ = (id) => document.getElementById(id);
 
+// this start's token, from the URL 'hila studio' printed (kept for the tab's reloads): sent as
+// X-Hila-Token with every request, so the server knows the request comes from this page and not
+// from another page on 127.0.0.1 that only has the cookie (docs/studio.md, security)
+const TOKEN = new URLSearchParams(location.search).get("token") || sessionStorage.getItem("hilaToken") || "";
+if (TOKEN) sessionStorage.setItem("hilaToken", TOKEN);
+
+// fetch `path` as the page: the token header added, the answer's JSON (or text) returned; a
+// failed answer throws an Error whose message is the server's reason and whose `status` and
+// `exists` (a 409: the file exists, ask before overwriting) say more
 export async function api(path, opts = {}) {
-  const r = await fetch(path, Object.assign({ credentials: "same-origin" }, opts));
+  const headers = Object.assign({}, opts.headers || {}, TOKEN ? { "X-Hila-Token": TOKEN } : {});
+  const r = await fetch(path, Object.assign({ credentials: "same-origin" }, opts, { headers }));
   const type = r.headers.get("content-type") || "";
   const body = type.includes("json") ? await r.json() : await r.text();
   if (!r.ok) throw Object.assign(new Error(body.error || body), { status: r.status, exists: !!body.exists });

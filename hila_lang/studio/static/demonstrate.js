@@ -1,5 +1,5 @@
 // hila studio, page 1: Demonstrate -- draw a demonstration on a scene, place its ICPs, cut and save it.
-import { $, api, post, applyH, inv3, fitH, handle, fill, refreshFiles } from "/static/common.js";
+import { $, api, post, applyH, inv3, fitH, handle, fill, refreshFiles, askingToOverwrite } from "/static/common.js";
 import { html as cameraHtml, state as cameraState, mountCamera, showCamera } from "/static/camera.js";
 
 export const html = `
@@ -231,8 +231,9 @@ async function save() {
   const tg = tags();
   if (D.cuts.length !== Math.max(tg.length - 1, 0)) await propose(null);
   try {
-    const r = await post("/api/save", { name: $("template-name").value.trim(), path: D.path, times: D.times, pen: D.pen,
-      icps: D.icps, tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts });
+    const r = await askingToOverwrite((overwrite) => post("/api/save", { name: $("template-name").value.trim(), path: D.path,
+      times: D.times, pen: D.pen, icps: D.icps, tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts,
+      overwrite }));
     say(`saved ${r.template} (${r.segments.map((s) => s.tag + " " + s.start + "-" + s.stop).join(", ")}) = ${r.command}`);
     D.saved = r; refreshFiles();
   } catch (err) { say("error: " + err.message); }
@@ -240,7 +241,7 @@ async function save() {
 
 async function upload(e) {
   const f = e.target.files[0]; if (!f) return;
-  try { await api("/api/upload?path=" + encodeURIComponent(f.name), { method: "POST", body: f });
+  try { await askingToOverwrite((o) => api("/api/upload?path=" + encodeURIComponent(f.name) + (o ? "&overwrite=1" : ""), { method: "POST", body: f }));
     await refreshFiles(); $("scene").value = "upload:" + f.name; await loadScene("upload:" + f.name);
   } catch (err) { say("error: " + err.message); }
 }
