@@ -61,7 +61,7 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
     method, seed = str(req.get("method", "contact" if pen is not None else "speed")), int(req.get("seed", 0))
     target, demo, icps_file = (inside(folder, n) for n in (target_name, demo_name, icps_name))
     k = max(len(tags), 1)
-    cuts = None if req.get("cuts") is None or not tags else [int(c) for c in req["cuts"]]
+    cuts = [int(c) for c in req["cuts"]] if req.get("cuts") and tags else None  # none given: the method's
     if cuts is not None and len(cuts) != len(tags) - 1:
         raise InputError(f"cuts: expected {len(tags) - 1} cuts for {len(tags)} tags, got {len(cuts)}")
     texts = {demo_name: demo_csv(path, times, pen), icps_name: icps_text(icps)}

@@ -185,6 +185,7 @@ async function useTrack(m) {
 }
 async function propose(keep) {
   if (!D.path) return;
+  if (!D.pen && $("seg-method").value === "contact") $("seg-method").value = "speed";   // no pen recorded
   try {
     const r = await post("/api/demonstration", { path: D.path, times: D.times, pen: D.pen, k: tags().length || 1, method: $("seg-method").value });
     D.speed = r.speed; D.proposed = r.cuts; D.cuts = keep || r.cuts;
