@@ -218,7 +218,7 @@ def test_record_a_pen_on_the_camera_scene_save_it_and_play_the_game(camera_page,
     # a busy machine makes the browser skip camera frames; across such a gap the path is a chord
     # of the loop (the browser's doing, not the tracker's), so the 95th percentile is taken over
     # the samples with frames at most 0.1 s apart around them -- six in ten of them at least (two
-    # browsers and a game on two cores skipped up to a fifth of the frames here; that all of the
+    # browser tests at once on two cores made the browser skip more than one in ten; that all of the
     # loop was recorded is checked below, point by point)
     frames = np.array(cam["track"]["frame_times"])
     t = np.array(cam["track"]["times"])[draw["start"]:draw["stop"]]
