@@ -18,11 +18,15 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
 import textwrap
 
 from . import __version__
+from .core import threads
 from .core.errors import EXIT_BAD_INPUT, EXIT_INTERNAL, HilaError, printable
+from .core.interrupts import exit_code, handle_termination
 
 #: sub-command name -> module under hila_lang.commands, in the order ``--help`` lists them
 COMMANDS = {
@@ -100,14 +104,13 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "_run", None) is None:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    from .core import threads
-    from .core.interrupts import exit_code, handle_termination
 
     if threads.problem():  # HILA_THREADS is read when hila is imported; a bad value is bad input
         print(f"hila: error: {threads.problem()}", file=sys.stderr)
         return EXIT_BAD_INPUT
     handle_termination()  # SIGTERM and SIGHUP stop a run as Ctrl-C does (exit 143, 129)
     if args.command in WARMING:  # the first run after an install fills numba's cache meanwhile
+        # lazy: only this branch needs it
         from .core.jit import warm_in_background
 
         warm_in_background("hila_lang.osila.warm")
@@ -129,9 +132,11 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return exit_code(stop)
     except Exception as exc:  # noqa: BLE001 - a bug: say so, say where, exit 3
+        # lazy: only this branch needs it
         from .core.errors import internal_error_message
 
         if getattr(args, "debug", False):
+            # lazy: only this branch needs it
             import traceback
 
             traceback.print_exc(file=sys.stderr)
@@ -143,9 +148,6 @@ def _quiet_exit_on_ctrl_c(code: int) -> None:
     """From here on the work is done and its outputs written: a Ctrl-C while Python exits (joblib's
     pool joining its threads) ends the process at once with ``code``, not with a traceback
     ('Exception ignored in threading._shutdown ... KeyboardInterrupt')."""
-    import os
-    import signal
-
     def now(signum, frame):
         for stream in (sys.stdout, sys.stderr):
             try:
@@ -159,8 +161,6 @@ def _quiet_exit_on_ctrl_c(code: int) -> None:
 
 
 def entry() -> None:  # pragma: no cover - thin wrapper for python -m
-    from .core.interrupts import exit_code, handle_termination
-
     handle_termination()  # from the start: a SIGTERM while the commands load ends quietly too
     try:
         code = main()

@@ -45,6 +45,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .core.errors import InputError
+from .core.jit import compiled
 from .core.validation import check_finite, check_int
 
 
@@ -79,6 +80,7 @@ def resample(path: Any, n: int) -> np.ndarray:
         as a cached (n, T) matrix (the same numbers to rounding, without building a spline per
         call — ``hila eval`` resamples thousands of paths of a few dozen lengths).
     """
+    # lazy: loads scipy, which importing this module does not
     from scipy.interpolate import CubicSpline
 
     arr = _as_path(path, "path")
@@ -114,6 +116,7 @@ def resample_in_time(t: np.ndarray, pos: np.ndarray, rate: float) -> np.ndarray:
 def _resampling_matrix(T: int, n: int) -> np.ndarray:
     """The (n, T) matrix of :func:`resample`: the spline is linear in the points, so its columns
     are the splines through the unit vectors (built once per pair of lengths, then a product)."""
+    # lazy: loads scipy, which importing this module does not
     from scipy.interpolate import CubicSpline
 
     out = CubicSpline(np.linspace(0.0, 1.0, T), np.eye(T), axis=0)(np.linspace(0.0, 1.0, n))
@@ -184,6 +187,7 @@ def endpoint_error(a: Any, b: Any) -> float:
 
 
 def _costs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    # lazy: loads scipy, which importing this module does not
     from scipy.spatial.distance import cdist
 
     return np.ascontiguousarray(cdist(a, b))
@@ -247,8 +251,6 @@ def _programme(kernel, combine: str, a: Any, b: Any) -> float:
 
 
 def _run(kernel, combine: str, c: np.ndarray) -> float:
-    from .core.jit import compiled
-
     fast = compiled(kernel, np.zeros((2, 3)))
     return float(fast(c)) if fast is not None else _diagonals(c, combine)
 

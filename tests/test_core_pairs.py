@@ -5,6 +5,8 @@ import numpy as np
 import pytest
 
 from hila_lang.core.errors import InputError
+from hila_lang.hierarchy import step as step_module
+from hila_lang.hierarchy import step as step_module
 from hila_lang.hierarchy.step import bind, hila_step
 from hila_lang.osila import Pairs
 from hila_lang.osila.template import Segment, Template
@@ -40,7 +42,7 @@ def test_the_step_gives_osila_the_pairs_arrays_unchanged(monkeypatch):
         seen.update(src=src, dst=dst, pin=options.get("pin"))
         return real(path, src, dst, **options)
 
-    monkeypatch.setattr(osila, "imitate_detailed", spy)
+    monkeypatch.setattr(step_module, "imitate_detailed", spy)  # where the step reads it
     step = hila_step(_sub(), {"a": [0.0, 0.0], "b": [2.0, 2.0]}, hand=[0.01, -0.02])
     assert seen["src"] is step.icps.src and seen["dst"] is step.icps.dst  # one shape, not rebuilt
     assert np.array_equal(seen["pin"][0], [0.01, -0.02])

@@ -164,7 +164,7 @@ def test_a_misread_is_reported_and_the_game_goes_on_from_what_the_robot_saw(tmp_
     """Eyes that never see crosses: the robot looks again with every view it has, then plays on
     what it saw -- it thinks the opponent has not moved -- until the game cannot go on; every
     misread is in the report."""
-    from hila_lang.worlds.tictactoe import reading
+    from hila_lang.worlds.tictactoe import player, reading
 
     real = reading.read_board
 
@@ -174,6 +174,7 @@ def test_a_misread_is_reported_and_the_game_goes_on_from_what_the_robot_saw(tmp_
         return seen
 
     monkeypatch.setattr(reading, "read_board", no_crosses)
+    monkeypatch.setattr(player, "read_board", no_crosses)  # where the robot's player reads it
     interp = start(tmp_path, 2, opponent="random", first="opponent")
     world = interp.world
     try:

@@ -71,7 +71,7 @@ def test_the_window_is_framed_before_the_robot_loads_and_the_simulation_steps(mo
         def executed_point(self, point):
             pass
 
-    monkeypatch.setattr(window, "Window", StandIn)
+    monkeypatch.setattr(backend, "Window", StandIn)  # where the back end reads it
     robot = backend.PyBulletBackend(gui=True, speed=4.0)
     try:
         names = [n for n, _ in recorder.calls]

@@ -292,3 +292,34 @@ def test_no_front_end_or_world_imports_a_command():
                    if _under(a, "studio", "worlds") and _under(b, "commands"))
     assert wrong == []
     assert any(_under(b, "hierarchy") for b in GRAPH["hila_lang.studio.save"])  # the reader saw its arrows (the save learns)
+
+
+def test_every_import_inside_a_function_says_why_it_is_lazy():
+    """Imports at the top (issue 31): one made inside a function stays there only with its reason, a
+    ``# lazy: ...`` comment above its group (a package ``import M`` would otherwise load, an optional
+    extra, a branch that alone needs it)."""
+    missing = []
+    for name, path in MODULES.items():
+        text = path.read_text()
+        lines = text.splitlines()
+        tree = ast.parse(text)
+        parent = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+        for node in ast.walk(tree):
+            if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                continue
+            up = parent.get(node)
+            while up is not None and not isinstance(up, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                up = parent.get(up)
+            if up is None or "# lazy" in lines[node.lineno - 1]:
+                continue
+            above = node.lineno - 2
+            while above >= 0 and (not lines[above].strip() or _an_import_line(tree, above + 1)):
+                above -= 1
+            if not lines[above].strip().startswith("# lazy:"):
+                missing.append(f"{name}:{node.lineno}")
+    assert missing == [], "function-level imports without a '# lazy:' reason: " + ", ".join(missing)
+
+
+def _an_import_line(tree: ast.Module, lineno: int) -> bool:
+    return any(isinstance(n, (ast.Import, ast.ImportFrom)) and n.lineno <= lineno <= n.end_lineno
+               for n in ast.walk(tree))

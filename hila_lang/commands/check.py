@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import sys
 
+from ..core.errors import HilaError
+from ..language.environment import Environment
+from ..session.runopts import add_setting_arguments, settings_of
+
 HELP = "check .hila programs: syntax, names, ICP bindings, reachability (exit 2 on error)"
 DESCRIPTION = (
     "Parse, check and compile each program without running it: syntax, names, ICP bindings and "
@@ -16,17 +20,11 @@ DESCRIPTION = (
 
 
 def add_arguments(parser) -> None:
-    from ..session.runopts import add_setting_arguments
-
     parser.add_argument("programs", nargs="+", metavar="PROGRAM", help=".hila files")
     add_setting_arguments(parser)
 
 
 def run(args) -> int:
-    from ..core.errors import HilaError
-    from ..language.environment import Environment
-    from ..session.runopts import settings_of
-
     settings = settings_of(args)
     status = 0
     env = Environment.default()

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..core.argtypes import output_path
+from ..language.ast import dump
+from ..language.environment import Environment
 HELP = "compile a .hila program to its state machine (text, dot, json) or dump its AST"
 DESCRIPTION = (
     "Compile a program to its explicit finite state machine. --format ast stops after parsing "
@@ -18,9 +22,6 @@ def add_arguments(parser) -> None:
 
 def render(path: str, fmt: str) -> str:
     """The requested stage of ``path`` as text."""
-    from ..language.ast import dump
-    from ..language.environment import Environment
-
     env = Environment.default()
     if fmt == "ast":  # stops after parsing
         program = env.load(path, stop="ast")
@@ -30,10 +31,9 @@ def render(path: str, fmt: str) -> str:
 
 
 def run(args) -> int:
-    import sys
-
     text = render(args.program, args.format)
     if args.output:
+        # lazy: only this branch needs it
         from ..core.fileio import atomic_write_text
 
         atomic_write_text(args.output, text)

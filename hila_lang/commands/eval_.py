@@ -7,7 +7,11 @@ import sys
 import warnings
 from pathlib import Path
 
-from ..core.argtypes import TRIALS_PER_SETUP_MAX, number, output_path, seed, whole
+from ..core.argtypes import number, output_path, seed, TRIALS_PER_SETUP_MAX, whole
+from ..core.errors import InputError
+from ..core.fileio import OutputFolder
+from ..core.interrupts import cause, joblib_workers_ignoring_sigint
+from ..core.resources import clamp_jobs
 
 HELP = "evaluate OSILA against controls, baselines and its own ablation on the same constraints"
 DESCRIPTION = """\
@@ -63,6 +67,7 @@ def _jobs(text: str) -> int:
 
 
 def _methods(text: str) -> tuple[str, ...]:
+    # lazy: loads numpy, which importing this module does not
     from ..evaluation.grid import METHODS
 
     names = tuple(m.strip() for m in text.split(",") if m.strip())
@@ -113,7 +118,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _data(args: argparse.Namespace, out: Path):
     """(trials, source text, protocol, pair mask, threshold) for the chosen data set."""
-    from ..core.errors import InputError
+    # lazy: loads numpy, which importing this module does not
     from ..evaluation import dataset as ds
     from ..evaluation.protocols import pair_mask
 
@@ -122,6 +127,7 @@ def _data(args: argparse.Namespace, out: Path):
     if args.shapes is not None and args.dataset != "lasa":
         raise InputError("--shapes applies to --dataset lasa")
     if args.dataset == "lasa":
+        # lazy: loads numpy, which importing this module does not
         from ..evaluation import lasa
 
         if args.protocol not in (None, "positions", "fractions"):
@@ -152,7 +158,7 @@ def _data(args: argparse.Namespace, out: Path):
 
 
 def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
-    from ..core.errors import InputError
+    # lazy: loads numpy, which importing this module does not
     from ..evaluation.controls import dmp_available
 
     methods = args.methods
@@ -170,15 +176,10 @@ def _chosen_methods(args: argparse.Namespace, protocol: str) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..core.fileio import OutputFolder
-    from ..core.interrupts import cause, joblib_workers_ignoring_sigint
-
-    from ..core.resources import clamp_jobs
-
     args.jobs = clamp_jobs(args.jobs)  # never more workers than cores (issue 20), with a note
     if args.jobs != 1 and args.dask is None:  # first, before numpy starts its threads
         joblib_workers_ignoring_sigint(args.jobs)  # Ctrl-C: exit 130, no worker tracebacks, no hang
-    from ..core.errors import InputError
+    # lazy: loads numpy, which importing this module does not
     from ..evaluation.protocols import segments_for
     from ..evaluation.report import write_report
     from ..evaluation.run import check_scheduler, run_grid

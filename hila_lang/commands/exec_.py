@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..core.argtypes import output_path
+from ..core.fileio import AtomicFile
 from ..session.runopts import add_run_arguments, run_options
 
 HELP = "run a .hila program (dry kinematic back end or the PyBullet iCub)"
@@ -28,9 +31,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    import sys
-
-    from ..core.fileio import AtomicFile
+    # lazy: loads numpy, which importing this module does not
     from ..session.recording import start_recording
     from ..session.runner import finishing, prepare
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import fnmatch
+
+from ..core.errors import HilaRuntimeError
 from ..session.runopts import add_run_arguments, run_options
 
 HELP = "run a program and explain each run state: ICP pairs, fallbacks, rounds of plan adjustment and why"
@@ -21,9 +24,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    import fnmatch
-
-    from ..core.errors import HilaRuntimeError
+    # lazy: loads numpy, which importing this module does not
     from ..session.runner import finish, prepare
 
     options = run_options(args)
@@ -42,6 +43,7 @@ def run(args) -> int:
         for entry in interp.trace:
             if entry.step_result is not None and wanted(entry.state):
                 template = interp.runs.template(interp.fsm.states[entry.state])
+                # lazy: loads numpy, which importing this module does not
                 from ..hierarchy.explain import explain_step
 
                 print("\n".join(explain_step(template, entry.step_result,

@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
-from ..core.argtypes import output_path
 import argparse
+import difflib
+import sys
+
+from ..core.argtypes import output_path
+from ..core.errors import InputError
+from ..core.fileio import atomic_write_text, ensure_writable, load_yaml
+from ..plugins.options import check_osila_options
 
 HELP = "imitate a template in a new scene (OSILA) and write the path as CSV"
 DESCRIPTION = """\
@@ -40,10 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_task(path, dim: int) -> dict:
     """Read and check a task YAML (format in ``hila imitate --help``)."""
-    import difflib
-
-    from ..core.errors import InputError
-    from ..core.fileio import load_yaml
+    # lazy: loads numpy, which importing this module does not
     from ..osila import OPTIONS, PER_STEP
 
     doc = load_yaml(path, "task", unique_keys=True)
@@ -78,13 +81,9 @@ def load_task(path, dim: int) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    import difflib
-    import sys
-
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
-    from ..core.errors import InputError
-    from ..core.fileio import atomic_write_text, ensure_writable
     from ..hierarchy.generate import generate
     from ..osila.demofile import demo_csv
     from ..osila.template import END, START, load_template
@@ -121,7 +120,6 @@ def run(args: argparse.Namespace) -> int:
         options["smoothing"] = check_positive(args.smoothing, "--smoothing", allow_zero=True)
     if args.timing is not None:
         options["timing"] = check_positive(args.timing, "--timing", allow_zero=True)
-    from ..plugins.options import check_osila_options
 
     options = check_osila_options(options, lambda name: f"option {name!r} (task {args.task} or --{name})")
     try:

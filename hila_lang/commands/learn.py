@@ -11,8 +11,13 @@ from any CSV.
 
 from __future__ import annotations
 
-from ..core.argtypes import number, output_path, seed, whole
 import argparse
+
+from ..core.argtypes import number, output_path, seed, whole
+from ..core.errors import InputError
+from ..core.fileio import atomic_write_text, ensure_writable
+from ..plugins import registry
+from ..recognition import require
 
 HELP = "learn a template from one demonstration (CSV path + ICPs), segmented and tagged"
 DESCRIPTION = """\
@@ -134,7 +139,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _split(text: str | None, option: str = "--tags") -> list[str]:
     """Comma-separated tags, each one a name a program can write (``run TEMPLATE.TAG(...)``)."""
-    from ..core.errors import InputError
+    # lazy: loads lark, which importing this module does not
     from ..language.transformer import usable_as_tag
 
     if not text:
@@ -155,8 +160,6 @@ def _split(text: str | None, option: str = "--tags") -> list[str]:
 
 def _source(args: argparse.Namespace) -> str:
     """Which demonstration source the arguments name; exactly one is allowed."""
-    from ..core.errors import InputError
-
     if getattr(args, "sheet", False):
         others = [name for name, on in (("--from-sim", args.from_sim), ("--frames", args.frames is not None),
                                         ("--left/--right", args.left is not None or args.right is not None),
@@ -189,6 +192,7 @@ def _source(args: argparse.Namespace) -> str:
         raise InputError("--keep-recording goes with --from-sim")
     if source != "--from-sim" and (args.robot is not None or args.robot_settings):
         raise InputError("--robot and --set robot.KEY go with --from-sim (the robot whose eyes watch)")
+    # lazy: loads numpy, which importing this module does not
     from ..robot.spec import robot_pairs
 
     robot_pairs(args.robot_settings, "hila learn")
@@ -198,7 +202,7 @@ def _source(args: argparse.Namespace) -> str:
 def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
     """Track the pen in the video ``args.demo`` (:mod:`hila_lang.perception.pen`), write
     OUT.demo.csv (t,x,y,z,pen at 20 Hz) and OUT.icps.yaml beside ``out``; returns their paths."""
-    from ..core.fileio import atomic_write_text, ensure_writable
+    # lazy: loads numpy, which importing this module does not
     from ..osila.demofile import demo_csv, load_icps, write_icps
     from ..evaluation.lasa import RATE_HZ
     from ..perception.pen import as_demonstration, track_video
@@ -223,14 +227,15 @@ def _from_sheet(args: argparse.Namespace, out) -> tuple[str, str]:
 
 def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], contact: list[str], name: str):
     """The template learned through the eye cameras (imports OpenCV and PyBullet)."""
+    # lazy: loads numpy, which importing this module does not
     from ..perception.learn import template_from_frames
-    from ..plugins import registry
 
     info = registry.world(args.world)
     if source == "--from-sim":
         learn_from_sim = info.capability("recorder", "demonstration to record", "--from-sim")
         extra = {}
         if args.robot is not None:  # a recorder that takes the robot (a world's own may not): hila_lang.robot.spec
+            # lazy: loads numpy, which importing this module does not
             from ..robot.spec import resolve, robot_pairs
 
             extra["robot"] = resolve(args.robot, robot_pairs(args.robot_settings, "hila learn"))
@@ -252,8 +257,6 @@ def _perceived(args: argparse.Namespace, source: str, k: int, tags: list[str], c
 
 def _library(args: argparse.Namespace):
     """(templates by name, searchable parts) of --library, or None; refuses --report without it."""
-    from ..core.errors import InputError
-
     if args.library is None:
         for option, on in (("--report", args.report), ("--stream", args.stream)):
             if on:
@@ -262,7 +265,7 @@ def _library(args: argparse.Namespace):
     if args.k is not None:
         raise InputError("-k does not go with --library: the parts are what the library recognises",
                          hint="--tags names the new parts, one tag each")
-    from ..recognition import require
+    # lazy: loads numpy, which importing this module does not
     from ..recognition.library import load_library
 
     require()
@@ -272,6 +275,7 @@ def _library(args: argparse.Namespace):
 
 def _streamed(template, entries):
     """Online recognition of ``template``'s path fed point by point; prints each event; the final parts."""
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
     from ..recognition.online import OnlineRecogniser
@@ -297,6 +301,7 @@ def _streamed(template, entries):
 
 def _recognised(template, library, tags: list[str], contact: list[str], report, stream: bool = False):
     """``template`` cut into the library's known parts and new parts; prints them, writes the report."""
+    # lazy: loads numpy, which importing this module does not
     from ..recognition.search import recognise
     from ..recognition.written import recognised_template, write_report
 
@@ -322,8 +327,6 @@ def _recognised(template, library, tags: list[str], contact: list[str], report, 
 def _cuts(text: str | None) -> list[int] | None:
     """``--cuts A,B,...`` as sample indices (checked against k and the path by
     :func:`hila_lang.hierarchy.learn.check_cuts`)."""
-    from ..core.errors import InputError
-
     if text is None:
         return None
     try:
@@ -337,8 +340,7 @@ def _point(p) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..core.errors import InputError
-    from ..core.fileio import ensure_writable
+    # lazy: loads numpy, which importing this module does not
     from ..hierarchy.learn import default_tags, learn_files
     from ..osila.template import save_template
 

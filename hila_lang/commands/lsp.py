@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ..core.errors import InputError
+
 HELP = "a language server for .hila programs over stdio (diagnostics, hover, definition, completion)"
 DESCRIPTION = (
     "Speak the Language Server Protocol on stdin/stdout, for an editor to start: diagnostics as "
@@ -19,9 +21,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..core.errors import InputError
-
     try:
+        # lazy: loads pygls, which importing this module does not
         from ..lsp.server import serve
     except ModuleNotFoundError as exc:
         if exc.name and exc.name.split(".")[0] in ("pygls", "lsprotocol"):

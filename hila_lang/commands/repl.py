@@ -18,6 +18,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    # lazy: loads numpy, which importing this module does not
     from ..session.repl import Repl
     from ..session.runner import finish, prepare
 

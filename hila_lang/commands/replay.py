@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import sys
+
+from ..core.errors import InputError
+
 HELP = "step through a recording of 'hila exec --record' (no simulator), or re-run it with --verify"
 DESCRIPTION = (
     "Open a recording in the REPL's commands without a simulator: step [n], run/continue, break "
@@ -20,13 +24,12 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    import sys
-
-    from ..core.errors import InputError
+    # lazy: loads numpy, which importing this module does not
     from ..session.recording import read_record
 
     record = read_record(args.recording)
     if args.verify:
+        # lazy: loads numpy, which importing this module does not
         from ..session.replay import verify
 
         if not args.tolerance >= 0:
@@ -34,6 +37,7 @@ def run(args) -> int:
         ok, lines = verify(record, tolerance=args.tolerance)
         print("\n".join(lines), file=sys.stdout)
         return 0 if ok else 1
+    # lazy: loads numpy, which importing this module does not
     from ..session.repl import Repl
     from ..session.replay import ReplayEngine
 

@@ -8,8 +8,14 @@ arm at 240 Hz, a joint trajectory controller on ``--controller`` and a joint sta
 from __future__ import annotations
 
 import argparse
+import difflib
+import re
 
 from ..core.argtypes import number
+from ..core.errors import InputError
+from ..core.interrupts import exit_code
+from ..plugins import registry
+from ..ros import TOPIC
 
 HELP = "a simulated arm behind ROS 2 topics (trajectory controller + /joint_states) for --backend ros"
 DESCRIPTION = """\
@@ -30,8 +36,6 @@ pip install 'hila-lang[ros]' (docs/real-robot.md)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..plugins import registry
-
     parser.add_argument("--robot", default=None, metavar="NAME|PATH",
                         help="the robot: a name (" + ", ".join(registry.names("robot")) + "; default icub), a spec "
                              "file (.yaml) or a URDF (.urdf), as hila exec --robot takes it (docs/robots.md)")
@@ -55,13 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import difflib
-    import re
-
-    from ..core.errors import InputError
-    from ..core.interrupts import exit_code
+    # lazy: loads numpy, which importing this module does not
     from ..robot.spec import resolve, robot_pairs
-    from ..ros import TOPIC
     from ..ros.simarm import SimulatedArm
 
     for flag, topic in (("--controller", args.controller), ("--states", args.states)):

@@ -5,6 +5,12 @@ See :mod:`hila_lang.perception.sheet` for the layout and docs/camera.md for the 
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from ..core.argtypes import number, output_path
+from ..core.errors import InputError
+from ..core.fileio import atomic_write_bytes
+
 HELP = "write the printable sheet (ArUco markers at the corners) for demonstrating with a pen before a camera"
 DESCRIPTION = """\
 Write the sheet to print for a camera demonstration (docs/camera.md): A4 or Letter, portrait,
@@ -22,8 +28,6 @@ Example: hila sheet --out sheet.pdf --paper letter --grid"""
 
 
 def add_arguments(parser) -> None:
-    from ..core.argtypes import number, output_path
-
     parser.add_argument("--out", required=True, type=output_path, metavar="FILE.pdf|FILE.png",
                         help="the file to write (.pdf or .png)")
     parser.add_argument("--paper", choices=("a4", "letter"), default="a4", help="paper size (default a4)")
@@ -33,10 +37,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
-
-    from ..core.errors import InputError
-    from ..core.fileio import atomic_write_bytes
+    # lazy: loads numpy, which importing this module does not
     from ..perception.sheet import SheetLayout, pdf_bytes, png_bytes
 
     suffix = Path(args.out).suffix.lower()

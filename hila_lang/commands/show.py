@@ -10,7 +10,15 @@ answers through and ``hila check`` checks by (:mod:`hila_lang.plugins.names`).
 
 from __future__ import annotations
 
+import os
 import textwrap
+from pathlib import Path
+
+from ..core.errors import did_you_mean, InputError
+from ..core.fileio import check_regular
+from ..core.resources import template_search_path
+from ..plugins import registry
+from ..plugins.settings import show_value
 
 HELP = "show a template (tags, ICPs, a picture of its path) or a world (points, questions, events, settings)"
 DESCRIPTION = """\
@@ -40,8 +48,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..core.errors import InputError
-
     if args.name == "world":
         if args.plot:
             raise InputError("--plot draws a template; a world has no path to draw")
@@ -63,12 +69,7 @@ def run(args) -> int:
 
 def find_template(name: str):
     """``(path, Template)`` for a name as ``import NAME`` finds it, or a ``.yaml`` path."""
-    import os
-    from pathlib import Path
-
-    from ..core.errors import InputError, did_you_mean
-    from ..core.fileio import check_regular
-    from ..core.resources import template_search_path
+    # lazy: loads numpy, which importing this module does not
     from ..osila.template import load_template
 
     given = Path(name)
@@ -86,8 +87,6 @@ def find_template(name: str):
 
 
 def _relative(path) -> str:
-    from pathlib import Path
-
     try:
         return str(Path(path).resolve().relative_to(Path.cwd()))
     except ValueError:
@@ -127,6 +126,7 @@ def template_text(template, path=None) -> str:
         lines.append(f"  {_letter(k)} {name:<{width}}  {_point(p)}")
     if t.segments:
         lines.append("  every sub-template adds 'start' and 'end': its first and last points")
+    # lazy: loads numpy, which importing this module does not
     from ..session.plot import PAPER_VIEW
 
     lines.append("")
@@ -144,6 +144,7 @@ def template_text(template, path=None) -> str:
 def small_drawing(template):
     """Indices of the template's pen-down (contact) samples when they span less than a third of
     its whole path (a mark beside a far hand's start: worth a second, fitted picture), else None."""
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
     idx = [np.arange(s.start, s.stop) for s in template.segments if s.contact]
@@ -164,6 +165,7 @@ def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS, 
     number of the tag it belongs to, the first point of every tag after the first a ``|`` (a cut),
     each ICP its letter, the start ``*``; later marks draw over earlier ones in that order.
     ``only`` (indices of the path): fitted to those points (what falls outside is left out)."""
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
     from ..session.plot import paper_view
@@ -208,6 +210,7 @@ def picture(template, columns: int = PICTURE_COLUMNS, rows: int = PICTURE_ROWS, 
 
 def plot_template(template, file):
     """The template's path, cuts and ICPs as a PNG (top and side views)."""
+    # lazy: loads numpy, which importing this module does not
     from ..session.plot import plot_path
 
     marks = [(s.start, s.tag) for s in template.segments]
@@ -219,8 +222,6 @@ def plot_template(template, file):
 
 
 def worlds_text() -> str:
-    from ..plugins import registry
-
     lines = ["worlds (world NAME in a program; 'hila show world NAME' for one):"]
     infos = registry.declarations("world")
     width = max(len(i.name) for i in infos)
@@ -241,9 +242,6 @@ def _rows(entries, width: int) -> list[str]:
 
 def world_text(name: str) -> str:
     """The text ``hila show world NAME`` prints: from the world's declared table."""
-    from ..plugins import registry
-    from ..plugins.settings import show_value
-
     info = registry.world(name)
     lines = [f"world {info.name}: {info.doc}",
              f"default back end: {info.default_backend}; drawing surface (paper, for 2-D templates): "

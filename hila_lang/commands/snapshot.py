@@ -9,8 +9,11 @@ board takes ``board_top.png`` (the board, cell 1 top-left).
 
 from __future__ import annotations
 
-from ..core.argtypes import output_path, seed
 import argparse
+
+from ..core.argtypes import output_path, seed
+from ..core.errors import InputError
+from ..core.fileio import OutputFolder, write_png
 
 HELP = "render the simulated iCub drawing: an eye-camera PNG and a top-down board PNG"
 
@@ -27,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def circle_path(scene, cell: int, radius: float, n: int = 120):
     """A closed circle (n + 1, 3) in ``cell`` on the paper, starting on the cell's right side."""
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
     from ..worlds.tictactoe.board import cell_center
@@ -39,11 +43,10 @@ def circle_path(scene, cell: int, radius: float, n: int = 120):
 
 def run(args: argparse.Namespace) -> int:
 
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
-    from ..core.errors import InputError
     from ..worlds.tictactoe.marks import cross_strokes
-    from ..core.fileio import OutputFolder, write_png
     from ..robot.backend import PyBulletBackend
     from ..worlds.tictactoe.board import Grid, cell_center
 

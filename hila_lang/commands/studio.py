@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from ..core.errors import InputError
 
 HELP = "a local browser app: draw a demonstration, see OSILA's warp live, run and watch a program"
 DESCRIPTION = """\
@@ -35,20 +38,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from ..core.errors import InputError
-
     folder = Path(args.folder)
     if not folder.is_dir():
         raise InputError(f"expected FOLDER to be a folder, got {args.folder!r}"
                          + (" (it does not exist)" if not folder.exists() else ""))
     try:
+        # lazy: loads starlette, which importing this module does not; loads uvicorn, which importing this module doe...
         import starlette  # noqa: F401
         import uvicorn  # noqa: F401
     except ImportError:
         raise InputError("hila studio needs Starlette and uvicorn",
                          hint="pip install 'hila-lang[studio]'") from None
+    # lazy: loads starlette, numpy, which importing this module does not
     from ..studio.app import serve
 
     return serve(folder, args.port, open_browser=args.open)

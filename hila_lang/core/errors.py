@@ -18,6 +18,9 @@ known.  Subclasses say which stage raised it and which exit status the CLI retur
 
 from __future__ import annotations
 
+import difflib
+import traceback
+
 EXIT_OK = 0
 EXIT_RUN_FAILED = 1
 EXIT_BAD_INPUT = 2
@@ -192,8 +195,6 @@ class UnknownNameError(HilaRuntimeError):
     """
 
     def __init__(self, kind: str, name: str, known=(), owner: str = "the world", **kwargs) -> None:
-        import difflib
-
         known = sorted(known)
         close = difflib.get_close_matches(name, known, n=1)
         hint = f"did you mean '{close[0]}'?" if close else (f"its {kind}s: {', '.join(known)}" if known else None)
@@ -204,8 +205,6 @@ class UnknownNameError(HilaRuntimeError):
 def did_you_mean(name: str, choices) -> str | None:
     """``"did you mean 'x'?"`` for the choice closest to ``name`` (difflib, cutoff 0.6), or None:
     the one "did you mean" of every message."""
-    import difflib
-
     close = difflib.get_close_matches(name, sorted(set(choices)), n=1, cutoff=0.6)
     return f"did you mean '{close[0]}'?" if close else None
 
@@ -215,8 +214,6 @@ def internal_error_message(exc: BaseException) -> str:
     where it was raised (the innermost frame) and whom to report it to -- hila's maintainers, or
     a plug-in's authors when the innermost frame of the package belongs to another distribution.
     """
-    import traceback
-
     frames = traceback.extract_tb(exc.__traceback__)
     where = ""
     module = ""
@@ -249,6 +246,7 @@ def _distribution(module: str) -> str | None:
     if top == "hila_lang":
         return "hila-lang"
     try:
+        # lazy: only this branch needs it
         from importlib.metadata import packages_distributions
 
         dists = packages_distributions().get(top)

@@ -4,9 +4,16 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
+import json
 import os
 import re
+import secrets
+import shutil
+import stat
+import stat as _stat
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -53,8 +60,6 @@ def special_kind(path: str | os.PathLike) -> str | None:
     """What ``path`` names when it is not a regular file or a folder (symlinks followed):
     ``"FIFO"``, ``"character device"``, ``"block device"``, ``"socket"``; else None (a regular
     file, a folder, or nothing yet)."""
-    import stat
-
     try:
         mode = os.stat(path).st_mode
     except OSError:
@@ -228,6 +233,7 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
 
 def png_bytes(image, *, bgr: bool = False) -> bytes:
     """An image (H, W, 3) or (H, W) uint8 encoded as PNG; RGB unless ``bgr``."""
+    # lazy: loads cv2, numpy, which importing this module does not; loads numpy, which importing this module does not
     import cv2
     import numpy as np
 
@@ -262,8 +268,6 @@ def _size(n: int) -> str:
 def check_regular(path: str | os.PathLike, what: str = "file") -> os.stat_result:
     """``os.stat(path)``, refusing what is not a regular file before anything opens it (a FIFO
     would block, ``/dev/zero`` never ends): :class:`InputError` naming ``what`` and the path."""
-    import stat as _stat
-
     path = Path(path)
     try:
         st = os.stat(path)
@@ -321,6 +325,7 @@ def read_text(path: str | os.PathLike, what: str = "file", limit: int | None = N
 
 def _unique_key_loader():
     """A ``yaml.SafeLoader`` subclass that refuses duplicate keys in a mapping (built lazily)."""
+    # lazy: loads yaml, which importing this module does not
     import yaml
 
     class UniqueKeyLoader(yaml.SafeLoader):
@@ -354,6 +359,7 @@ def _expanded_nodes(root) -> int:
     """How many nodes ``root`` (a composed YAML node) holds with every alias expanded, counted
     without expanding (each node once, iteratively); stops early past :data:`MAX_YAML_NODES`.
     A node that contains itself (a recursive alias) is a ``ValueError``."""
+    # lazy: loads yaml, which importing this module does not
     import yaml
 
     sizes: dict[int, int] = {}
@@ -396,6 +402,7 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
     (:data:`READ_LIMITS` for a template), the document at most :data:`MAX_YAML_NODES` nodes
     with its aliases expanded, and nested no deeper than Python's recursion allows.
     """
+    # lazy: loads yaml, which importing this module does not
     import yaml
 
     text = read_text(path, what, READ_LIMITS.get(what, YAML_LIMIT))
@@ -434,6 +441,7 @@ def load_yaml(path: str | os.PathLike, what: str = "YAML file", *, unique_keys: 
 
 def yaml_text(data: Any, header: str = "") -> str:
     """``data`` as block-style YAML after an optional ``# comment`` header."""
+    # lazy: loads yaml, which importing this module does not
     import yaml
 
     body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
@@ -465,6 +473,7 @@ def cache_folders(name: str) -> list[Path]:
     if why is None:
         folders.append(shared / name)
     else:
+        # lazy: only this branch needs it
         import sys
 
         print(f"note: not using the cache folder {shared}: {why}", file=sys.stderr)
@@ -474,8 +483,6 @@ def cache_folders(name: str) -> list[Path]:
 def _private_folder(folder: Path) -> str | None:
     """Make ``folder`` 0700 if it is missing; None if it is a folder this user owns with no
     access for others, else why not."""
-    import stat
-
     try:
         folder.mkdir(mode=0o700)
     except FileExistsError:
@@ -529,9 +536,6 @@ class OutputFolder:
     """
 
     def __init__(self, out, name: str, owned=()) -> None:
-        import secrets
-        import time
-
         if out is not None:
             folder = Path(out)
         else:
@@ -583,16 +587,11 @@ class OutputFolder:
 
     def discard(self) -> None:
         """Drop what this run staged; the folder keeps the previous run's files."""
-        import shutil
-
         shutil.rmtree(self._staging, ignore_errors=True)
 
     def close(self) -> list[str]:
         """Publish the files written (see the class docstring) and remove owned files this run
         did not write; returns the names written, sorted."""
-        import hashlib
-        import json
-
         names = self.names()
         staged = [n for n in names if (self._staging / n).exists()]
         manifest = {"run": self.run, "complete": False,
@@ -615,8 +614,6 @@ class OutputFolder:
 
 def _remove_stale_staging(folder: Path) -> None:
     """Remove the staging folders of runs whose process is gone (killed while writing)."""
-    import shutil
-
     for entry in folder.glob(f"{_STAGING}*"):
         try:
             pid = int(entry.name[len(_STAGING):].split("-")[0])

@@ -17,6 +17,7 @@ import struct
 import numpy as np
 
 from .errors import InputError
+from .fileio import read_bytes
 
 #: the most pixels a picture may have: a 48-megapixel phone photo fits (8000 x 6000);
 #: decoding it takes 3 bytes a pixel, 150 MB
@@ -100,6 +101,7 @@ def decode_image(data: bytes, what: str = "picture", max_pixels: int = MAX_PIXEL
     InputError
         Not a PNG or JPEG, a header that does not match the pixels, or more than ``max_pixels``.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     size = image_size(data)
@@ -119,8 +121,6 @@ def decode_image(data: bytes, what: str = "picture", max_pixels: int = MAX_PIXEL
 def read_picture(path, what: str = "picture", max_pixels: int = MAX_PIXELS) -> np.ndarray:
     """The BGR image in the file ``path`` (:func:`decode_image`), the file read within
     :func:`~hila_lang.core.fileio.read_bytes`'s limits; errors name the file."""
-    from .fileio import read_bytes
-
     try:
         return decode_image(read_bytes(path, what), what, max_pixels)
     except InputError as exc:

@@ -21,8 +21,10 @@ ignored SIGINT, or an embedding application's handler, is left alone).
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
+from multiprocessing import resource_tracker
 
 try:  # the C functions: the engine installs its handler twice per step, and the wrappers in
     # ``signal`` (enum conversions) cost more than a ``let`` step itself
@@ -160,13 +162,10 @@ def joblib_workers_ignoring_sigint(jobs: int) -> None:
     """
 
     def start() -> None:
-        import os
-
+        # lazy: loads numpy, joblib, which importing this module does not
         from joblib import Parallel, delayed
 
         Parallel(n_jobs=jobs)(delayed(os.getpid)() for _ in range(max(jobs, 2)))
-
-    from multiprocessing import resource_tracker
 
     # started first: starting it unblocks SIGINT (bpo-33613's SIG_UNBLOCK), which would drop a
     # Ctrl-C pressed meanwhile instead of keeping it pending

@@ -78,6 +78,7 @@ def enabled() -> bool:
 
 
 def _compile(func: Callable, warm: tuple[Any, ...], cache: bool) -> Callable:
+    # lazy: loads numba, scipy, numpy, which importing this module does not
     import numba
 
     kernel = numba.njit(cache=cache, nogil=True)(func)
@@ -115,6 +116,7 @@ def _build(func: Callable, warm: tuple[Any, ...]) -> Callable | None:
     if not enabled():
         return None
     try:
+        # lazy: loads numba, scipy, numpy, which importing this module does not
         import numba  # noqa: F401
     except ImportError:
         return None

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import sys
 from pathlib import Path
 
 #: what hila ships, by package name -> the checkout's folder
@@ -100,8 +101,6 @@ def clamp_jobs(jobs: int, stderr=None) -> int:
     would only share the same cores and each worker holds its own copy of the data (about
     200 MB in ``hila eval``).  A clamped value is said on ``stderr`` (issue 20: ``--jobs
     1000000`` was a ValueError from a library)."""
-    import sys
-
     cores = usable_cores()
     if jobs == -1 or jobs <= cores:
         return jobs

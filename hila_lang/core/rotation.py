@@ -12,10 +12,13 @@ equal to :func:`from_axis_angle`.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 
 def _R():
+    # lazy: loads scipy, which importing this module does not
     from scipy.spatial.transform import Rotation
 
     return Rotation
@@ -28,8 +31,6 @@ def from_rpy(rpy) -> np.ndarray:
 
 def to_rpy(matrix) -> tuple[float, float, float]:
     """Rotation matrix (3, 3) -> URDF (roll, pitch, yaw), radians (pitch in [-pi/2, pi/2])."""
-    import warnings
-
     with warnings.catch_warnings():  # gimbal lock: scipy warns and puts it all in one angle
         warnings.simplefilter("ignore", UserWarning)
         r, p, y = _R().from_matrix(np.asarray(matrix, dtype=float)).as_euler("xyz")

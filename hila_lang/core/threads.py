@@ -92,6 +92,7 @@ def limit(threads: int) -> None:
     """Limit the libraries loaded in this process to ``threads`` each, now (``threadpoolctl``,
     and OpenCV's own pool); a library loaded later reads the variables :func:`startup` set."""
     try:
+        # lazy: loads threadpoolctl, which importing this module does not
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover - a scikit-learn dependency
         pass

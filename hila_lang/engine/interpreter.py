@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import HilaError, HilaRuntimeError, InputError, Interrupted, StepLimitError
-from ..core.interrupts import guarded
+from ..core.interrupts import cause, exit_code, guarded
 from ..language.fsm import FSM, RunState, SetState, State
 from ..language.limits import DEFAULT_STEP_LIMIT, TRACE_KEEP
 from ..language.source import source_line
@@ -308,8 +308,6 @@ class Interpreter(History):
 
 def _stopped_by(stop: BaseException, when: str, **kwargs) -> Interrupted:
     """The :class:`Interrupted` of a run ``stop`` ended (Ctrl-C: exit 130; SIGTERM: 143, ...)."""
-    from ..core.interrupts import cause, exit_code
-
     exc = Interrupted(f"interrupted ({cause(stop)}) {when}", **kwargs)
     exc.exit_code = exit_code(stop)
     return exc

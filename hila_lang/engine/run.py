@@ -23,11 +23,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import HilaRuntimeError, UnreachableError
+from ..hierarchy.explain import explain_run, explain_step
+from ..hierarchy.step import bind, Constraint, hila_step
 from ..language import ast as A
 from ..language.fsm import RunState, State
-from .executors import Executor, executes
+from .executors import executes, Executor
 from .scene import src
-from .trace import TraceEntry, fmt_point, fmt_value, met_text
+from .trace import fmt_point, fmt_value, met_text, TraceEntry
+from .tracking import follow, streams
 
 START, END = "start", "end"
 
@@ -86,8 +89,6 @@ class RunExecutor(Executor):
     def bind(self, st) -> dict[str, np.ndarray]:
         """Task ICPs of a run state: name -> point (3,), in the template's ICP order (a 2-D
         template's as bound in the scene, before they are projected onto the drawing surface)."""
-        from ..hierarchy.step import bind
-
         t, binding, hand = self.template(st), self.scene_binding(st), self.ctx.scene.hand()
         if t.dim == 2 and self.surface() is not None:
             given = {START: hand, **binding}
@@ -97,8 +98,6 @@ class RunExecutor(Executor):
     def constraints(self, st) -> list:
         """A run state's ``via``/``avoid`` as named :class:`hila_lang.hierarchy.step.Constraint` s, now:
         a point group gives one per point; a radius must be a number > 0 (metres)."""
-        from ..hierarchy.step import Constraint
-
         scene, out = self.ctx.scene, []
         for c in st.constraints:
             where = f"{c.text()} at {c.pos.line}:{c.pos.column}" if c.pos.line else c.text()
@@ -114,10 +113,6 @@ class RunExecutor(Executor):
         return out
 
     def execute(self, st, n: int) -> TraceEntry:
-        from ..hierarchy.step import hila_step
-
-        from .tracking import follow, streams
-
         ctx, t = self.ctx, self.template(st)
         binding = self.scene_binding(st)
         step = hila_step(t, binding, ctx.scene.hand(), constraints=self.constraints(st),
@@ -131,6 +126,7 @@ class RunExecutor(Executor):
             else:
                 executed = ctx.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
         except UnreachableError as exc:  # told as the program's target, not a waypoint index
+            # lazy: only this branch needs it
             from ..robot.reach import name_the_target
 
             raise name_the_target(exc, icps, st.ref) from None
@@ -151,13 +147,9 @@ class RunExecutor(Executor):
 
     def explain(self, st, title: str) -> list[str]:
         """What OSILA will do in run state ``st`` (:func:`hila_lang.hierarchy.explain.explain_run`)."""
-        from ..hierarchy.explain import explain_run
-
         return explain_run(self.template(st), self.scene_binding(st), self.ctx.scene.hand(), self.constraints(st),
                            self.ctx.osila_options, surface=self.surface(), title=title)
 
     def explain_done(self, st, entry: TraceEntry, title: str) -> list[str]:
         """What OSILA did in a run ``entry`` of state ``st`` (:func:`hila_lang.hierarchy.explain.explain_step`)."""
-        from ..hierarchy.explain import explain_step
-
         return explain_step(self.template(st), entry.step_result, title=title)

@@ -46,8 +46,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import HilaRuntimeError
+from ..hierarchy.step import hila_step
 from ..language import ast as A
+from ..osila.fallback import fit_similarity
 from ..osila.motion import minimum_jerk
+from ..osila.robust import MIN_PAIRS, screen
 from .trace import fmt_point
 
 START = "start"
@@ -166,8 +169,6 @@ def motion(before: np.ndarray, after: np.ndarray):
     """The similarity (``x -> scale * R @ x + shift``) that takes points ``before`` (K, 3) to
     ``after`` (K, 3) in the least-squares sense, as a function of points (..., 3): one point gives
     a translation, collinear ones the minimal rotation (:func:`hila_lang.osila.fallback.fit_similarity`)."""
-    from ..osila.fallback import fit_similarity
-
     before, after = np.asarray(before, dtype=float), np.asarray(after, dtype=float)
     if len(before) == 1:
         shift = after[0] - before[0]
@@ -289,8 +290,6 @@ class _Follower:
         :data:`~hila_lang.osila.robust.MIN_PAIRS` or more, only those whose move agrees with the
         others' (OSILA's own screening of pairs, :func:`hila_lang.osila.robust.screen`, on the
         pairs plan -> now: a feature matched to a look-alike elsewhere moves unlike the sheet)."""
-        from ..osila.robust import MIN_PAIRS, screen
-
         now = {n: binding.get(n) if self.plan.get(n) is not None else None for n in self.names}
         both = [n for n in self.names if now[n] is not None]
         if len(both) >= MIN_PAIRS:
@@ -303,8 +302,6 @@ class _Follower:
         return now
 
     def replan(self, progress, now: dict, here: np.ndarray, k: int, stamp: float, moved: float, which: str) -> None:
-        from ..hierarchy.step import hila_step
-
         spec, names = self.spec, self.names
         kept = [n for n in names if self.plan.get(n) is not None and now.get(n) is not None]
         move = motion(np.array([self.plan[n] for n in kept]), np.array([now[n] for n in kept]))

@@ -45,6 +45,14 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..osila import OPTIONS
+from ..osila.candidates import ball_offsets
+from ..osila.noise import default_threshold
+from ..osila.pathwarp import choose_warp
+from ..osila.route import min_energy_route
+from ..osila.tps import fit_warp
+from .baselines import retime_once
+from .controls import _apply, similarity
 from .protocols import Constraints
 
 ABLATIONS = ("osila-noroute", "osila-noretime", "osila-noadjust", "osila-tps", "osila-similarity", "osila-nopath",
@@ -69,15 +77,6 @@ def variant(path: np.ndarray, c: Constraints, warp: str = "auto", options: dict[
     ``retime_all``: every pair on the template path carries its template point's own time, so all
     of them are re-timed (:func:`all_timed`).
     """
-    from ..osila import OPTIONS
-    from ..osila.candidates import ball_offsets
-    from ..osila.noise import default_threshold
-    from ..osila.pathwarp import choose_warp
-    from ..osila.route import min_energy_route
-    from ..osila.tps import fit_warp
-    from .baselines import retime_once
-    from .controls import _apply, similarity
-
     opts = {**OPTIONS, **(options or {})}
     T, D = path.shape
     moved = retime_once(path, c, opts["timing"], all_timed(path, c) if retime_all else None)
@@ -119,8 +118,6 @@ _last: list = []  # the last warp fitted: (re-timing, constraints, warp)
 
 def _warp_once(moved, c: Constraints):
     """OSILA's warp of a re-timed pair, fitted once for the ablation rows that share it."""
-    from ..osila.pathwarp import choose_warp
-
     if not (_last and _last[0] is moved and _last[1] is c):
         _last[:] = [moved, c, choose_warp(moved.src, c.dst, on=moved.path)]
     return _last[2]
@@ -129,6 +126,7 @@ def _warp_once(moved, c: Constraints):
 def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callable[[Constraints], np.ndarray]:
     """A function constraints -> path (T, D) for one of :data:`ABLATIONS`, prepared once per template."""
     if method == "osila-noretime":
+        # lazy: only this branch needs it
         from ..osila import imitate
 
         opts = {**options, **OPTION_ABLATIONS[method]}

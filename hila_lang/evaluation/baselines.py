@@ -38,12 +38,15 @@ protocols) OSILA re-times nothing, and ``X+retime`` is ``X``.
 
 from __future__ import annotations
 
+import warnings
 from functools import lru_cache
 from typing import Callable
 
 import numpy as np
 
 from ..core.errors import InputError
+from ..osila.pathwarp import offsets_matrix
+from ..osila.timing import retime, TIMING
 from .controls import _apply, anchors, similarity
 from .protocols import Constraints
 
@@ -65,6 +68,7 @@ def _edit(path: np.ndarray, c: Constraints, offset: Callable[[int, np.ndarray, n
 
 def promp_offset(T: int, idx: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """The mean of a default ProMP conditioned on ``offsets`` (A, D) at stamps ``idx``, shape (T, D)."""
+    # lazy: loads movement_primitives, which importing this module does not
     from movement_primitives.promp import ProMP
 
     D = offsets.shape[1]
@@ -90,8 +94,6 @@ def _laplacian_edit(T: int, idx: tuple[int, ...]) -> np.ndarray:
     warp solves the same system (:func:`hila_lang.osila.pathwarp.offsets_matrix`); the baseline is
     it undamped (μ = 0), as Nierhoff et al. edit.
     """
-    from ..osila.pathwarp import offsets_matrix
-
     return offsets_matrix(T, idx, 0.0)
 
 
@@ -117,8 +119,7 @@ def template_length_scale(path: np.ndarray) -> float:
 
 @lru_cache(maxsize=256)
 def _length_scale(shape: tuple[int, int], data: bytes) -> float:
-    import warnings
-
+    # lazy: loads sklearn, scipy, threadpoolctl, which importing this module does not
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, WhiteKernel
@@ -139,6 +140,7 @@ def _length_scale(shape: tuple[int, int], data: bytes) -> float:
 def _gp_matrix(T: int, idx: tuple[int, ...], length_scale: float) -> np.ndarray:
     """(T, A): the posterior mean of a zero-mean RBF GP (scikit-learn's kernel) interpolating values
     at stamps ``idx``, sampled at every stamp: k(u, U) k(U, U)⁻¹ (linear in the values; cached)."""
+    # lazy: loads sklearn, scipy, threadpoolctl, which importing this module does not
     from sklearn.gaussian_process.kernels import RBF
 
     u = np.linspace(0.0, 1.0, T)[:, None]
@@ -177,8 +179,6 @@ def retime_once(path: np.ndarray, c: Constraints, timing: float, times=None):
     """:func:`hila_lang.osila.timing.retime` of one pair (with the pairs' task times ``times``,
     default ``c.times``), computed once for the several methods that run on the same pair in a row
     (the grid passes every method the same objects)."""
-    from ..osila.timing import retime
-
     times = c.times if times is None else times
     if _last and _last[0] is path and _last[1] is c and _last[2] == timing and _last[3] == times:
         return _last[4]
@@ -189,8 +189,6 @@ def retime_once(path: np.ndarray, c: Constraints, timing: float, times=None):
 
 def retimed(path: np.ndarray, c: Constraints, timing: float | None = None) -> tuple[np.ndarray, Constraints]:
     """The template and constraints after OSILA's re-timing (spread ``timing``, default OSILA's)."""
-    from ..osila.timing import TIMING
-
     moved = retime_once(path, c, TIMING if timing is None else timing)
     if moved.path is path:
         return path, c
@@ -202,6 +200,7 @@ def generator(method: str, path: np.ndarray, options: dict | None = None) -> Cal
     ``options``: OSILA's, of which ``X+retime`` takes ``timing`` (``--timing``)."""
     base, _, retime_ = method.partition("+")
     if base == "promp":
+        # lazy: only this branch needs it
         from .controls import require_dmp
 
         require_dmp()  # movement_primitives

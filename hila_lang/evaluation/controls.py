@@ -53,7 +53,10 @@ from typing import Any, Callable
 import numpy as np
 
 from ..core.errors import InputError
+from ..metrics import resample
 from ..osila.adjust import ON_PATH
+from ..osila.fallback import fit_similarity
+from ..osila.tps import affine_rank
 from .protocols import Constraints
 
 CONTROLS = ("none", "similarity", "tps", "dmp", "dmp-aligned")
@@ -68,6 +71,7 @@ ANCHOR_TOLERANCE = ON_PATH
 def dmp_available() -> bool:
     """True when the optional ``movement_primitives`` package imports."""
     try:
+        # lazy: loads movement_primitives, scipy, which importing this module does not
         import movement_primitives.dmp  # noqa: F401
     except ImportError:
         return False
@@ -89,9 +93,6 @@ def require_dmp() -> None:
 
 def similarity(c: Constraints) -> tuple[float, np.ndarray, np.ndarray]:
     """Least-squares similarity of the constraint pairs: (scale, R (D, D), shift (D,)), x -> s R x + shift."""
-    from ..osila.fallback import fit_similarity
-    from ..osila.tps import affine_rank
-
     D = c.src.shape[1]
     rank = affine_rank(c.src)
     if len(c.src) == 1 or rank == 0:
@@ -144,6 +145,7 @@ def _spline_matrix(T: int, idx: tuple[int, ...]) -> np.ndarray:
     The spline is linear in the anchor points, so its columns are the splines through the unit
     vectors; a grid reuses the same anchor stamps for thousands of tasks.
     """
+    # lazy: loads scipy, which importing this module does not
     from scipy.interpolate import CubicSpline
 
     knots = np.array(idx, float) / (T - 1)
@@ -175,6 +177,7 @@ class DmpControl:
         self._unforced: dict[int, np.ndarray] = {}
 
     def _dmp(self, n_dims: int, steps: int):
+        # lazy: loads movement_primitives, scipy, which importing this module does not
         from movement_primitives.dmp import DMP
 
         # at least MIN_STEPS integration steps per piece: the transformation system's rate grows as
@@ -184,8 +187,6 @@ class DmpControl:
                    n_weights_per_dim=DMP_WEIGHTS)
 
     def _rollout(self, dmp, start: np.ndarray, goal: np.ndarray, length: int) -> np.ndarray:
-        from ..metrics import resample
-
         dmp.configure(start_y=start, goal_y=goal)
         _, y = dmp.open_loop()
         return y if len(y) == length else resample(y, length)
@@ -239,6 +240,7 @@ def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callabl
     ``options`` go to :func:`hila_lang.osila.imitate` (``osila`` only).
     """
     if method == "osila":
+        # lazy: only this branch needs it
         from ..osila import imitate
 
         return lambda c: imitate(path, c.src, c.dst, task_times=c.times, **options)
@@ -247,6 +249,7 @@ def generator(method: str, path: np.ndarray, options: dict[str, Any]) -> Callabl
     if method == "similarity":
         return lambda c: _apply(similarity(c), path)
     if method == "tps":
+        # lazy: only this branch needs it
         from ..osila import fit_warp
 
         return lambda c: fit_warp(c.src, c.dst)(path)

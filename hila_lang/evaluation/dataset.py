@@ -90,6 +90,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
+from ..osila.demofile import load_icps, read_demo_csv, write_demo_csv, write_icps
 from ..osila.motion import minimum_jerk
 
 #: image size of the stand-in, pixels (the iCub cameras, paper §III.C)
@@ -329,8 +330,6 @@ def save_dataset(trials: list[Trial], folder: str | os.PathLike) -> Path:
 
     Paths get a ``t`` column at :data:`RATE_HZ` (the stand-in's camera rate).
     """
-    from ..osila.demofile import write_demo_csv, write_icps
-
     folder = Path(folder)
     for t in trials:
         write_demo_csv(folder / t.setup / f"{t.name}.csv", t.path, np.arange(len(t.path)) / RATE_HZ)
@@ -345,8 +344,6 @@ def read_trial(path: Path, setup: str) -> Trial:
     Both files use the formats of ``hila learn`` (:mod:`hila_lang.osila.demofile`), so
     a trial folder doubles as input to ``hila learn DEMO.csv --icps DEMO.icps.yaml``.
     """
-    from ..osila.demofile import load_icps, read_demo_csv
-
     icp_path = path.with_name(path.stem + ".icps.yaml")
     if not icp_path.is_file():
         raise InputError(f"trial has no ICP file (expected {icp_path.name} beside it)", file=str(path))

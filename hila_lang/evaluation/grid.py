@@ -33,13 +33,16 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import HilaError
-from .dataset import Trial
-from .protocols import Constraints, constraints
-
+from ..core.jit import batch
+from ..hierarchy.generate import generate
+from ..metrics import names, scores
+from ..osila.template import END, START, Template
 from . import ablation, baselines, controls
 from .ablation import ABLATIONS
 from .baselines import BASELINES
 from .controls import CONTROLS
+from .dataset import Trial
+from .protocols import Constraints, constraints
 
 SEGMENTS = (1, 2, 3, 4)
 METHODS = ("osila", *CONTROLS, *BASELINES, *ABLATIONS, "hila")
@@ -57,15 +60,11 @@ def generator(method: str, path: np.ndarray, options: dict[str, Any]):
 def metric_names(dim: int) -> tuple[str, ...]:
     """Names of the scores, in the order of :func:`score`'s values, for D = ``dim`` (the registry,
     :data:`hila_lang.metrics.METRICS`)."""
-    from ..metrics import names
-
     return names(dim)
 
 
 def score(generated: np.ndarray, target: np.ndarray) -> np.ndarray:
     """Every metric of :func:`metric_names` for a generated path against the human one."""
-    from ..metrics import scores
-
     return scores(generated, target)
 
 
@@ -94,9 +93,6 @@ class RowResult:
 
 def _hila_generator(template: Trial, options: dict[str, Any]):
     """Constraints -> stitched path of the equal-N sub-templates, via the hierarchical generator."""
-    from ..hierarchy.generate import generate
-    from ..osila.template import END, START, Template
-
     def run(c: Constraints) -> np.ndarray:
         scene = {label: d for label, d, at in zip(c.labels, c.dst, c.at) if at is None}
         icps = {label: s for label, s, at in zip(c.labels, c.src, c.at) if at is None}
@@ -192,9 +188,8 @@ def evaluate_rows(trials, rows, segments=SEGMENTS, methods=("osila",), options=N
     small, and on a loaded machine BLAS threads spinning for each other made a 50 × 50 solve take
     24 ms instead of microseconds (the parallel backends run one row per process anyway).
     """
+    # lazy: loads threadpoolctl, which importing this module does not
     from threadpoolctl import threadpool_limits
-
-    from ..core.jit import batch
 
     with batch(), threadpool_limits(1):
         return [evaluate_row(trials, i, segments, methods, options, protocol, None if mask is None else mask[i])

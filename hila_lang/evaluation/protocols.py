@@ -43,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import InputError
+from ..osila.segmentation import equal_segments
 from .dataset import Trial
 
 PROTOCOLS = ("held-out", "paper", "positions", "fractions")
@@ -105,8 +106,6 @@ def arc_index(path: np.ndarray, k: int, n: int) -> int:
 
 def boundaries(length: int, n: int) -> list[int]:
     """Indices of the N − 1 inner boundaries of an equal-N split of ``length`` points."""
-    from ..osila.segmentation import equal_segments
-
     return [start for start, _ in equal_segments(length, n)[1:]]
 
 

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from ..core.fileio import atomic_write_text, write_png
+from ..metrics import metric, metric as info_of
 from . import paper, stats, tables
 from .run import GridResult
 
@@ -83,8 +84,6 @@ def timings_dict(result: GridResult) -> dict[str, Any]:
 def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict[str, Any]:
     """The ``results.json`` document (module docstring); NaN becomes null.  Nothing in it depends on
     the clock or the backend: the same data, seed and options give the same bytes."""
-    from ..metrics import metric
-
     summary = stats.summary_rows(result)
     for row in summary:
         del row["ms_per_path"]  # timings.json
@@ -123,6 +122,7 @@ def results_dict(result: GridResult, info: dict[str, Any] | None = None) -> dict
 
 
 def _colour(values01: np.ndarray) -> np.ndarray:
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     v = np.clip(np.nan_to_num(values01, nan=0.0), 0.0, 1.0)
@@ -133,9 +133,8 @@ def _colour(values01: np.ndarray) -> np.ndarray:
 
 def heatmap(result: GridResult, method: str, metric: str) -> np.ndarray:
     """A BGR image: one panel per N, set-up grid lines and names, a colour bar."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ..metrics import metric as info_of
 
     data, info = result.metric(method, metric), info_of(metric)
     if info.kind == "correlation":
@@ -191,6 +190,7 @@ def write_report(result: GridResult, text: str, out: Path, info: dict[str, Any] 
                atomic_write_text(out / "results.json", json.dumps(results_dict(result, info), indent=1) + "\n"),
                atomic_write_text(out / "timings.json", json.dumps(timings_dict(result), indent=1) + "\n")]
     if "osila" in result.methods and result.mask.all():
+        # lazy: only this branch needs it
         from ..metrics import metric as info_of
 
         for metric in (name for name in result.metrics if info_of(name).paper):

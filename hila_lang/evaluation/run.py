@@ -139,6 +139,7 @@ def _run_local(trials, chunks, args):
 
 
 def _run_joblib(trials, chunks, args, jobs):
+    # lazy: loads joblib, which importing this module does not
     from joblib import Parallel, delayed
 
     try:
@@ -162,6 +163,7 @@ def check_scheduler(address: str) -> None:
     closed port costs the whole :data:`CONNECT_TIMEOUT`.
     """
     try:
+        # lazy: loads distributed, dask, yaml, which importing this module does not
         from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:
         raise InputError("--dask needs the optional package 'distributed', which is not installed",
@@ -183,6 +185,7 @@ def check_scheduler(address: str) -> None:
 
 def _connect(address: str):
     check_scheduler(address)
+    # lazy: loads distributed, dask, yaml, which importing this module does not
     from distributed import Client
 
     try:
@@ -192,6 +195,7 @@ def _connect(address: str):
 
 
 def _run_dask(trials, chunks, args, address):
+    # lazy: loads distributed, dask, yaml, which importing this module does not
     from distributed import as_completed
 
     client = _connect(address)
@@ -239,6 +243,7 @@ def run_grid(
     GridResult
     """
     if any(m in methods for m in ("dmp", "dmp-aligned", "promp", "promp+retime")):
+        # lazy: only this branch needs it
         from .controls import require_dmp
 
         require_dmp()

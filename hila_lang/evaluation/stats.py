@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..metrics import metric as metric_info
+from .baselines import BASELINES
 from .protocols import leaks_time
 from .run import GridResult
 
@@ -122,6 +123,7 @@ def holm(p: np.ndarray) -> np.ndarray:
 
 def compare(osila: np.ndarray, other: np.ndarray, better: str, seed: int = SEED) -> dict[str, Any]:
     """Shape-level comparison of two (n_units,) arrays (module docstring), without ``p_holm``."""
+    # lazy: loads scipy, which importing this module does not
     from scipy.stats import wilcoxon
 
     ok = np.isfinite(osila) & np.isfinite(other)
@@ -147,8 +149,6 @@ def compare(osila: np.ndarray, other: np.ndarray, better: str, seed: int = SEED)
 def confirmatory(result: GridResult) -> list[tuple[str, int, str]]:
     """The confirmatory family declared in advance (module docstring): (method, N, metric) for
     each baseline run, N >= 2 (or every N where the protocol has only N = 1), the headline metric."""
-    from .baselines import BASELINES
-
     ns = [n for n in result.segments if n >= 2] or list(result.segments)
     if CONFIRMATORY_METRIC not in result.metrics:
         return []

@@ -28,11 +28,12 @@ from typing import Any
 
 import numpy as np
 
-from . import paper
-from . import stats
+from ..metrics import metric, metric as info_of
+from . import paper, stats
 from .ablation import ABLATIONS
 from .baselines import BASELINES
 from .controls import CONTROLS
+from .protocols import leaks_time
 from .run import GridResult
 
 #: (key, N, comparison, threshold, label)
@@ -197,8 +198,6 @@ def format_claims(result: GridResult, method: str = "osila") -> str:
 
 def _fmt(x: float, name: str) -> str:
     """A score as the tables print it: a correlation with 3 decimals, a distance with 4 digits."""
-    from ..metrics import metric
-
     if not np.isfinite(x):
         return "n/a"
     if metric(name).kind == "correlation":
@@ -232,9 +231,6 @@ def format_metric_table(result: GridResult, metric: str) -> str:
     ``*`` marks the best mean of a column among OSILA, the controls and the baselines; a cell
     whose N gives timing away (:func:`.protocols.leaks_time`) for a metric that is not time-free
     is ``leaks``."""
-    from ..metrics import metric as info_of
-    from .protocols import leaks_time
-
     info = info_of(metric)
     rows = {(r["method"], r["n"]): r[metric] for r in stats.summary_rows(result)}
     same = stats.duplicates(result)
@@ -270,9 +266,6 @@ def format_metric_table(result: GridResult, metric: str) -> str:
 def format_summary(result: GridResult) -> str:
     """Per method and N: the mean of every distance (the correlations stay in results.json); time;
     failures."""
-    from ..metrics import metric as info_of
-    from .protocols import leaks_time
-
     names = [n for n in result.metrics if info_of(n).kind == "distance"]
 
     def cell(row: dict[str, Any], name: str) -> str:
@@ -346,8 +339,6 @@ def _p(p: float) -> str:
 
 def headline(result: GridResult) -> str:
     """The headline: one table per headline metric (:data:`hila_lang.metrics.METRICS`), every method."""
-    from ..metrics import metric as info_of
-
     names = [n for n in result.metrics if info_of(n).headline]
     names.sort(key=lambda n: not info_of(n).time_free)  # the time-free scores first
     return "\n\n".join(format_metric_table(result, n) for n in names)

@@ -16,6 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.errors import ConstraintError
+from ..osila.noise import NOISE_MULTIPLE
+from ..osila.tps import affine_rank
+from ..recognition.written import library_parts
+from .step import bind, hila_step, name_constraints, surface_points, three_d, violations
+
 
 def _fmt(p) -> str:
     return "(" + ", ".join(f"{(0.0 if abs(v) < 5e-4 else v):.3f}" for v in np.asarray(p, float)) + ")"
@@ -23,8 +29,6 @@ def _fmt(p) -> str:
 
 def warp_reason(warp, dim: int) -> str:
     """Why OSILA's map is what it is (``warp.kind``), from the pairs it kept."""
-    from ..osila.tps import affine_rank
-
     kept = len(warp.src)
     if warp.kind == "tps":
         return f"a thin plate spline through {kept} pairs (ICPs and any constraint pairs)"
@@ -68,8 +72,6 @@ def pairs_line(pairs, names: list[str]) -> str:
 
 def _threshold_origin(options: dict) -> str:
     """Where OSILA's threshold came from: the setting, or its default rule (:mod:`.osila.noise`)."""
-    from ..osila.noise import NOISE_MULTIPLE
-
     if options.get("threshold") is not None:
         return "(as set: osila.threshold)"
     return f"(default: {NOISE_MULTIPLE:g} sigma of the mapped path's position noise)"
@@ -82,9 +84,6 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
     on, as :func:`hila_lang.hierarchy.step.hila_step` runs it (deterministic: the same as the run it
     explains).  A step whose constraints cannot be met is explained up to its last round, then
     OSILA's error."""
-    from ..core.errors import ConstraintError
-    from .step import bind, hila_step, name_constraints, surface_points, three_d, violations
-
     options = dict(options or {})
     forced = [c for c in constraints if c.radius is None]
     obstacles = [c for c in constraints if c.radius is not None]
@@ -103,7 +102,6 @@ def explain_run(template, binding, hand=None, constraints=(), options=None, *, s
     else:
         icps = bind(template, binding, hand)
     lines = [f"{title}: {template.name}" if title else template.name]
-    from ..recognition.written import library_parts  # issue 26: which library parts this run used
 
     lines += [f"  library part: {part}" for part in library_parts(template)]
     lines.append(f"  ICP pairs (template -> task), {len(icps)}:")

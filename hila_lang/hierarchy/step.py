@@ -15,8 +15,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..core.errors import InputError
+from ..core.errors import ConstraintError, InputError
 from ..core.validation import check_points
+from ..osila import imitate_detailed, obstacle_spheres
 from ..osila.pairs import Pairs
 from ..osila.template import END, START, Template
 
@@ -213,8 +214,6 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
     -------
     Step
     """
-    from ..core.errors import ConstraintError
-
     named_forced = [c for c in constraints if c.radius is None]
     named_obstacles = [c for c in constraints if c.radius is not None]
     flat = template.dim == 2 and three_d(task_icps, hand)
@@ -239,9 +238,6 @@ def hila_step(template: Template, task_icps: Mapping[str, Any], hand: Any = None
 def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: Any, obstacles: Any,
           options: dict) -> Step:
     """Bind, then OSILA with the bound start and end pinned (the plain step of :func:`hila_step`)."""
-    from ..core.errors import ConstraintError
-    from ..osila import imitate_detailed
-
     icps, notes = check_coincident(template, bind(template, task_icps, hand), task_icps, options.get("threshold"))
     options = dict(options)
     if icps.pins():
@@ -295,6 +291,7 @@ def on_surface(template: Template, task_icps: Mapping[str, Any], hand: Any, surf
     flat_forced = None if forced is None else np.array([local(f) for f in np.asarray(forced, float).reshape(-1, 3)])
     flat_obstacles = None
     if obstacles is not None:
+        # lazy: only this branch needs it
         from ..osila import obstacle_spheres  # the one reader of obstacle specs (3-D here)
 
         spheres = obstacle_spheres(obstacles, 3)
@@ -348,9 +345,6 @@ def explain_blocked(exc, template: Template, icps: Pairs, obstacles: Any, option
     """``exc`` (OSILA's ConstraintError) with what can help when an obstacle covers an ICP the
     path passes through (its start, a touched object): no threshold or number of rounds gets
     the route out, the obstacle or the binding has to change."""
-    from ..core.errors import ConstraintError
-    from ..osila import obstacle_spheres
-
     if obstacles is None or not len(icps):
         return exc
     spheres = obstacle_spheres(obstacles, template.dim)

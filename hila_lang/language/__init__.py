@@ -31,6 +31,8 @@ One line each:
 - ``limits``       every limit of the language and its engine, with the measurement behind it
 """
 
+from .environment import Environment
+
 
 
 def load_program(path, text: str | None = None, *, settings: dict[str, str] | None = None,
@@ -41,6 +43,4 @@ def load_program(path, text: str | None = None, *, settings: dict[str, str] | No
     ``settings`` and ``backend``: what it will run with (see :func:`.checker.check`).  A
     relative path that does not exist is looked up along the search path
     (:func:`hila_lang.core.resources.find_program`: ``HILA_PATH``, then the programs hila ships)."""
-    from .environment import Environment
-
     return Environment.default().load(path, text, settings=settings, backend=backend)

@@ -12,6 +12,7 @@ way passes walk the tree (:func:`children` lists a node's parts generically).
 from __future__ import annotations
 
 import functools
+import re
 from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Union
 
@@ -545,8 +546,6 @@ def expr_text(e, prec: int = 0) -> str:
 
 def source_text(e) -> str:
     """An expression as the user wrote it: :func:`expr_text` with variables by name, not by slot."""
-    import re
-
     return re.sub(r"\{[^{}]*:([^{}]*)\}", r"\1", expr_text(e))
 
 

@@ -43,6 +43,7 @@ def _states_of(s) -> int:
 
 def _body(node, nesting: bool = True) -> _Body:
     """``nesting=False`` skips measuring its own nesting (main's was measured by the parser)."""
+    # lazy: loads lark, which importing this module does not
     from .transformer import deepest
 
     sites, states = [], 0

@@ -27,12 +27,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import ast as A
-from ..core.errors import CheckError, HilaError, did_you_mean
+from ..core.errors import CheckError, did_you_mean, HilaError
 from ..plugins import registry
+from . import ast as A
+from .calls import check_calls
+from .fsm import TRACK_THRESHOLD
+from .limits import MAX_NESTING
 from .loader import TemplateLoader
 from .source import source_line
-from .fsm import TRACK_THRESHOLD
 from .worldcheck import WorldCheck
 
 START, END = "start", "end"
@@ -355,6 +357,7 @@ class _Checker(A.Visitor):
         demonstration went.  (The shipped circle's retract comes within 0.18 of its extent of
         ``hand``; a person's drawn retract that heads elsewhere, 0.58-2.1, and bound to the
         park it ran below the paper in 3 of 60 dry games.)"""
+        # lazy: loads numpy, which importing this module does not
         import numpy as np
 
         if b.icp in (START, END) or isinstance(b.value, A.NoneLit):
@@ -469,7 +472,7 @@ class _Checker(A.Visitor):
     def point_depth(self, pt: A.PointDecl) -> None:
         """A ``point`` defined through other points nests as deep as they do, all of it added up
         when the run evaluates it: keep that within the nesting limit (no recursion here)."""
-        from .limits import MAX_NESTING
+        # lazy: loads lark, which importing this module does not
         from .transformer import deepest
 
         found = deepest([pt.value])
@@ -491,8 +494,6 @@ class _Checker(A.Visitor):
     def recursion(self, main: A.MainDef) -> None:
         """No task calls itself, the inlined program stays within bounds (:mod:`.calls`), and a
         warning for each task main never calls."""
-        from .calls import check_calls
-
         for name in check_calls(self.tasks, main, self.error):
             t = self.tasks[name]
             self.warnings.append(Diagnostic(

@@ -29,10 +29,16 @@ Stages, each callable on its own, and :meth:`Environment.compile` stops after an
 
 from __future__ import annotations
 
+import gc
 import threading
 
+from ..core.resources import find_program
+from ..plugins import registry
 from . import ast as A
+from .checker import check
+from .compiler import compile_program
 from .loader import TemplateLoader
+from .source import read_source
 
 #: where :meth:`Environment.compile` may stop: after parsing, after checking, or with the FSM
 STAGES = ("ast", "check", "fsm")
@@ -42,8 +48,6 @@ def _without_gc(work):
     """``work()`` with Python's cyclic garbage collector paused: the front end builds millions
     of small acyclic objects for a large program, and every collection pass walks all of them
     (a 5 MB program: parsing took twice as long, and grew faster than the program)."""
-    import gc
-
     was = gc.isenabled()
     gc.disable()
     try:
@@ -60,8 +64,6 @@ class Environment:
     _lock = threading.Lock()
 
     def __init__(self, *, templates: TemplateLoader | None = None, search_path=None) -> None:
-        from ..plugins import registry
-
         self.templates = templates if templates is not None else TemplateLoader(search_path)
         self.registry = registry
 
@@ -77,12 +79,14 @@ class Environment:
     @property
     def lark(self):
         """The lark parser (one per process; it returns AST nodes)."""
+        # lazy: loads lark, which importing this module does not
         from .transformer import grammar
 
         return grammar()
 
     @property
     def keywords(self) -> tuple[str, ...]:
+        # lazy: loads lark, which importing this module does not
         from .transformer import keywords
 
         return keywords()
@@ -92,20 +96,19 @@ class Environment:
         """``(path, text)`` of a program named as people type it (found along the search path:
         :func:`hila_lang.core.resources.find_program`); OS failures are InputError, bad UTF-8 a
         located syntax error."""
-        from ..core.resources import find_program
-        from .source import read_source
-
         path = find_program(path)
         return str(path), read_source(path)
 
     def parse(self, text: str, file: str = "<program>") -> A.Program:
         """Text -> AST (:func:`hila_lang.language.transformer.parse_program`)."""
+        # lazy: loads lark, which importing this module does not
         from .transformer import parse_program
 
         return parse_program(text, file)
 
     def parse_expr(self, text: str):
         """One expression, as :func:`hila_lang.language.ast.expr_text` writes it -> the expression."""
+        # lazy: loads lark, which importing this module does not
         from .transformer import parse_expr
 
         return parse_expr(text)
@@ -114,8 +117,6 @@ class Environment:
               backend: str | None = None):
         """AST -> :class:`~hila_lang.language.checker.CheckedProgram`, imports read through
         :attr:`templates` (see :func:`hila_lang.language.checker.check`)."""
-        from .checker import check
-
         return check(program, self.templates, settings=settings, backend=backend)
 
     def compile(self, source, file: str = "<program>", *, stop: str = "fsm",
@@ -133,7 +134,6 @@ class Environment:
             checked = self.check(program, settings=settings, backend=backend)
             if stop == "check":
                 return checked
-            from .compiler import compile_program
 
             return checked, compile_program(checked)
 

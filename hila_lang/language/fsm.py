@@ -34,7 +34,7 @@ import json
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from .ast import expr_text
+from .ast import Constraint, expr_text, Pos
 
 END_STATE = "end"
 
@@ -47,6 +47,7 @@ def _exprs_to_dict(pairs) -> dict:
 
 
 def _exprs_from_dict(d) -> tuple:
+    # lazy: loads lark, which importing this module does not
     from .transformer import parse_expr
 
     return tuple((k, parse_expr(v)) for k, v in (d or {}).items())
@@ -124,7 +125,7 @@ def _constraint_to_dict(c) -> dict:
 
 
 def _constraint_from_dict(d: dict):
-    from .ast import Constraint, Pos
+    # lazy: loads lark, which importing this module does not
     from .transformer import parse_expr
 
     radius = d.get("radius")
@@ -180,6 +181,7 @@ class Tracking:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Tracking":
+        # lazy: loads lark, which importing this module does not
         from .transformer import parse_expr
 
         return cls(tuple(parse_expr(n) for n in d["names"]), float(d["every"]), float(d["threshold"]),
@@ -286,6 +288,7 @@ class WaitState(State):
 
     @classmethod
     def _fields_from_dict(cls, d: dict) -> dict:
+        # lazy: loads lark, which importing this module does not
         from .transformer import parse_expr
 
         return {"event": d["event"], "args": tuple(parse_expr(a) for a in d.get("args") or ()),
@@ -318,6 +321,7 @@ class BranchState(State):
 
     @classmethod
     def _fields_from_dict(cls, d: dict) -> dict:
+        # lazy: loads lark, which importing this module does not
         from .transformer import parse_expr
 
         return {"guard": parse_expr(d["guard"]), "then": d.get("then"), "orelse": d.get("orelse")}
@@ -362,6 +366,7 @@ class FSM:
     @classmethod
     def from_dict(cls, d: dict) -> "FSM":
         """The machine :meth:`to_dict` wrote (``hila_fsm: 1``)."""
+        # lazy: loads lark, which importing this module does not
         from .transformer import parse_expr
 
         if d.get("hila_fsm") != 1:

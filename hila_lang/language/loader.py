@@ -14,6 +14,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..core.resources import template_search_path
+
 
 class TemplateLoader:
     """Finds and loads templates; ``search_path`` (folders) replaces the default search path."""
@@ -26,7 +28,6 @@ class TemplateLoader:
         """Where ``import NAME`` looks for ``NAME.yaml``, in order, for a program at ``program_file``."""
         if self.search_path is not None:
             return list(self.search_path)
-        from ..core.resources import template_search_path
 
         return template_search_path(program_file)
 
@@ -48,6 +49,7 @@ class TemplateLoader:
     def load(self, path):
         """The :class:`~hila_lang.osila.template.Template` in ``path`` (cached while the file is unchanged;
         its loading errors are :func:`hila_lang.osila.template.load_template`'s)."""
+        # lazy: loads numpy, which importing this module does not
         from ..osila.template import load_template
 
         key = str(path)

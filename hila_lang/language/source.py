@@ -175,6 +175,7 @@ def syntax_error(exc, text: str, file: str, lark) -> HilaSyntaxError:
     what was expected, the innermost block left open, a common slip named when recognised.
     ``lark`` is the parser that raised it (its terminals name what was expected, and the slips
     are matched against its states)."""
+    # lazy: loads lark, which importing this module does not
     from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
 
     line = getattr(exc, "line", None)

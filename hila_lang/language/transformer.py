@@ -8,13 +8,15 @@ import functools
 import re
 from dataclasses import replace
 
-from lark import Token, Transformer, Tree, v_args
-from lark.exceptions import VisitError
+import lark as lark_module
+from lark import Lark, Token, Transformer, Tree, v_args
+from lark.exceptions import UnexpectedInput, VisitError
 
-from . import ast as A
 from ..core.errors import HilaError, HilaSyntaxError
+from ..core.resources import grammar_path
+from . import ast as A
 from .limits import MAX_NESTING
-from .source import source_line
+from .source import source_line, syntax_error
 
 
 def _pos(meta) -> A.Pos:
@@ -149,6 +151,7 @@ class ToAst(Transformer):
         if src.type == "STRING":
             path = _unquote(src)
             if alias is None:
+                # lazy: only this branch needs it
                 from pathlib import PurePath
 
                 alias_text = PurePath(path).stem
@@ -451,12 +454,6 @@ def grammar():
     ``start`` (a program) or ``expr`` (one expression).  A ``lark`` module older than 1.0 (the
     ``lark-parser`` 0.12 that ROS 2's message wheels pull in installs one over lark 1.x) is
     refused with how to put lark 1.x back."""
-    import lark as lark_module
-    from lark import Lark
-
-    from ..core.errors import HilaError
-    from ..core.resources import grammar_path
-
     version = getattr(lark_module, "__version__", "0")
     if not version.split(".")[0].isdigit() or int(version.split(".")[0]) < 1:
         raise HilaError(f"hila needs lark 1.x, but the installed 'lark' module is {version} (lark-parser, which "
@@ -494,8 +491,6 @@ _NAME = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 def _parses_as(name: str, text: str, read) -> bool:
     """Whether ``text`` (a program that writes ``name``) parses and ``read(items)`` gives ``name``
     back: the grammar decides what a name may be, keywords and all."""
-    from lark.exceptions import UnexpectedInput
-
     if not _NAME.fullmatch(name):
         return False
     try:
@@ -546,7 +541,6 @@ def parse_expr(text: str):
         return key
 
     source = _SLOT_OR_STRING.sub(placeholder, text)
-    from lark.exceptions import UnexpectedInput
 
     try:
         e = parse_items(source, "expr")
@@ -600,10 +594,6 @@ def parse_program(text: str, file: str = "<program>") -> A.Program:
     :data:`MAX_NESTING` is refused here, so no later stage (checker, compiler, interpreter, all
     recursive) can run out of stack.
     """
-    from lark.exceptions import UnexpectedInput
-
-    from .source import syntax_error
-
     text = text.removeprefix("\ufeff")
     try:
         items = parse_items(text)

@@ -51,11 +51,13 @@ class WorldCheck:
         self.backend_streams = backend_info.streaming
         self.robot_name = "the iCub"
         if settings is not None:
+            # lazy: only this branch needs it
             from ..plugins.options import split_settings
 
             self.run_settings = split_settings(settings, self.info, backend_info)
             parsed = self.run_settings[1]
             if self.reach_ball is not None and any(k == "robot" or k.startswith("robot.") for k in settings):
+                # lazy: loads numpy, which importing this module does not
                 from ..robot.spec import resolve  # the chosen robot's reach, computed from its chain
 
                 robot = resolve(settings.get("robot"), settings)
@@ -128,6 +130,7 @@ class WorldCheck:
         target = constant_point(value, points, variables)
         if target is None or len(target) != 3:
             return
+        # lazy: loads numpy, which importing this module does not
         from ..robot.reach import out_of_reach
 
         why = out_of_reach(target, *self.reach_ball)

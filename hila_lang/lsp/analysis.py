@@ -35,8 +35,10 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.errors import HilaError
+from ..core.errors import CheckError, HilaError, HilaSyntaxError
 from ..language import ast as A
+from ..language.checker import resolve_import
+from ..language.environment import Environment
 
 #: a line that starts a top-level item
 _TOP = re.compile(r"(?:world|import|point|hand|task|main)\b")
@@ -96,8 +98,6 @@ class Document:
     """One program being edited: its path (imports are found from it) and the last analysis."""
 
     def __init__(self, path: str, env=None) -> None:
-        from ..language.environment import Environment
-
         self.path = str(path)
         self.env = env if env is not None else Environment()  # its own template cache
         self.templates = self.env.templates
@@ -167,8 +167,6 @@ class Document:
         return problems
 
     def _problem(self, exc: HilaError) -> Problem:
-        from ..core.errors import CheckError, HilaSyntaxError
-
         message = exc.message + (f"\nhint: {exc.hint}" if exc.hint else "")
         code = "syntax" if isinstance(exc, HilaSyntaxError) else "check" if isinstance(exc, CheckError) else "error"
         if exc.line is None:
@@ -194,8 +192,6 @@ class Document:
 
     def imports(self) -> dict[str, tuple[Path, object]]:
         """alias -> (file, Template) of the imports that resolve (from the last parse)."""
-        from ..language.checker import resolve_import
-
         program = A.Program(self.items, self.path, self.text)
         out = {}
         for imp in program.of(A.ImportDecl):
@@ -473,6 +469,7 @@ def _open_run(tokens) -> tuple[str, str | None] | None:
 def _tag_line(file: Path, tag: str) -> tuple[int, int] | None:
     """0-based (line, character) of the segment tagged ``tag`` in a template's YAML, read from
     the YAML's node tree (None when the file does not say)."""
+    # lazy: loads yaml, which importing this module does not
     import yaml
 
     try:

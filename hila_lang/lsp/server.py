@@ -14,15 +14,20 @@ in it.  Everything the server logs goes to the client (``window/logMessage``), n
 
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
+import sys
 
 from lsprotocol import types as T
+from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
+from pygls.uris import from_fs_path
 
 from .. import __version__
 from ..language.environment import Environment
 from .analysis import Document
+from .framing import Framing
 
 _KINDS = {"tag": T.CompletionItemKind.Function, "icp": T.CompletionItemKind.Field,
           "question": T.CompletionItemKind.Value, "event": T.CompletionItemKind.Event,
@@ -195,7 +200,6 @@ def make_server() -> HilaServer:
         found = ls.document(params.text_document.uri).definition(params.position.line, params.position.character)
         if found is None:
             return None
-        from pygls.uris import from_fs_path
 
         at = T.Position(found.line, found.character)
         return T.Location(uri=from_fs_path(found.path), range=T.Range(at, at))
@@ -212,13 +216,6 @@ def make_server() -> HilaServer:
 
 def serve(stdin=None, stdout=None) -> None:
     """Serve on stdin/stdout (binary streams) until the client says exit or closes the stream."""
-    import asyncio
-    import sys
-
-    from pygls.io_ import StdoutWriter
-
-    from .framing import Framing
-
     server = make_server()
     server.protocol.set_writer(StdoutWriter(stdout or sys.stdout.buffer))
     root = logging.getLogger()

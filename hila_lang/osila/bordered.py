@@ -39,6 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .tps import _choice_inverses, _complete, _dist, _tps_system, kernel
+
 #: plan adjustment borders the last round's inverses (False: a fresh factorisation every round;
 #: ``bench/osila.py`` sets it to compare the two in one run)
 REUSE = True
@@ -74,8 +76,6 @@ class Factored:
         columns of the warp's numpy choice (:func:`.tps._choice_inverses`: its memory when the
         choice was just made on these pairs, as in the round before) completed by their last
         blocks; None if a system is singular."""
-        from .tps import _choice_inverses, _complete, _dist, _tps_system
-
         got = _choice_inverses(src, dst)
         if got is None:
             return None
@@ -86,8 +86,6 @@ class Factored:
     def grow(self, new: np.ndarray) -> Factored | None:
         """The factorisation of the rows ``src`` then ``new`` (m, D), by bordering; None if the
         bordered system is singular."""
-        from .tps import _dist, kernel
-
         K, D = self.src.shape
         x_old, x_new = (self.src - self.mu) / self.sc, (new - self.mu) / self.sc
         poly = np.vstack([np.ones(len(new)), x_new.T])  # (D + 1, m)

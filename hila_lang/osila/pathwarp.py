@@ -122,6 +122,7 @@ def offsets_matrix(T: int, stamps: tuple[int, ...], mu: float) -> np.ndarray:
 
 @lru_cache(maxsize=4096)
 def _offsets_matrix(T: int, stamps: tuple[int, ...], mu: float) -> np.ndarray:
+    # lazy: loads scipy, which importing this module does not
     from scipy.linalg import solveh_banded
 
     A = len(stamps)

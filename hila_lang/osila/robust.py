@@ -55,7 +55,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..core import jit
-from .tps import LOO_PAIRS
+from .tps import _choice_parts, _inverse, _tps_system, affine_rank, LOO_PAIRS, merge_pairs, SINGULAR_TOL
 
 #: rejection cut in robust standard deviations of the leave-one-out (or LMedS) residuals: 3.5 σ
 #: rejects about 1 in 2000 good pairs of Gaussian noise (a pair's error vector is 2- or 3-D, so
@@ -117,8 +117,6 @@ class Pairs:
 def loo_errors(src: np.ndarray, dst: np.ndarray, compiled_kernel: bool = False) -> np.ndarray | None:
     """Leave-one-out error length per pair (K,) of the better map (by median), or None when the
     pairs cannot be checked (fewer than D + 2, not spanning D dimensions, a singular system)."""
-    from .tps import SINGULAR_TOL, _choice_parts, affine_rank, merge_pairs
-
     K, D = src.shape
     if K < D + 2 or len(merge_pairs(src, dst, fast=compiled_kernel)[0]) < K or affine_rank(src, fast=compiled_kernel) < D:
         return None
@@ -367,8 +365,6 @@ def choose_smoothing(src: np.ndarray, dst: np.ndarray) -> float:
     give λ = 0: interpolation predicts them best; noisy pairs a λ that averages the noise out
     instead of bending the route through it.  0 with fewer than :data:`MIN_PAIRS` pairs.
     """
-    from .tps import _inverse, _tps_system, merge_pairs
-
     src, dst, _ = merge_pairs(src, dst)
     K, D = src.shape
     if K < MIN_PAIRS:
@@ -440,6 +436,7 @@ def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0
     e = errors(idx)
     if method == "lmeds" and e is not None and not keep.all():
         # a dropped pair the kept pairs' map predicts within the cut comes back
+        # lazy: only this branch needs it
         from .tps import fit_warp
 
         warp = fit_warp(src[idx], dst[idx])

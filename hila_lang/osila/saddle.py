@@ -126,6 +126,7 @@ class Saddle:
     def full(self) -> np.ndarray:
         """A⁻¹[:, :K], shape (K + q, K) (what :func:`.tps._inverse` gives), made once."""
         if self._full is None:
+            # lazy: loads scipy, which importing this module does not
             from scipy.linalg import lapack
 
             Minv, info = lapack.dlauum(self.Linv, lower=1)  # L⁻ᵀ L⁻¹ = (L Lᵀ)⁻¹, lower triangle
@@ -147,6 +148,7 @@ class Saddle:
 def _factor(M: np.ndarray) -> np.ndarray | None:
     """L⁻¹ of the Cholesky factor of the symmetric positive definite ``M`` (C order, overwritten),
     or None when it is not definite to rounding."""
+    # lazy: loads scipy, which importing this module does not
     from scipy.linalg import lapack
 
     FACTORISATIONS[0] += 1

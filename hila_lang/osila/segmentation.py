@@ -130,6 +130,7 @@ def kmeans_segments(
     list of (start, stop)
         Covering ``[0, T)`` in order.
     """
+    # lazy: loads sklearn, scipy, threadpoolctl, which importing this module does not
     from sklearn.cluster import KMeans
 
     path, T, k = _checked(path, k, 1)
@@ -192,6 +193,7 @@ def speed_segments(path: Any, k: int, *, times: Any = None) -> list[tuple[int, i
     path, T, k = _checked(path, k, 2)
     if k == 1:
         return [(0, T)]
+    # lazy: loads scipy, which importing this module does not
     from scipy.signal import find_peaks
 
     v = speed(path, _times(T, times))

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.fileio import atomic_write_text, load_yaml, yaml_text
 from ..core.validation import check_path
 
 SCHEMA_VERSION = 1
@@ -336,16 +337,12 @@ def load_template(path: str | os.PathLike) -> Template:
         Naming the file (and line/column for YAML errors) and the offending field: a missing or
         non-YAML file, duplicate keys, unknown fields, wrong shapes, bad segments.
     """
-    from ..core.fileio import load_yaml
-
     doc = load_yaml(path, "template", unique_keys=True)
     return template_from_dict(doc, str(path))
 
 
 def template_text(template: Template) -> str:
     """``template`` as the human-readable YAML :func:`load_template` reads, with a header comment."""
-    from ..core.fileio import yaml_text
-
     _validate(template)
     header = (
         f"hila template {template.name!r} (schema {SCHEMA_VERSION}); edit by hand freely.\n"
@@ -356,6 +353,4 @@ def template_text(template: Template) -> str:
 
 def save_template(template: Template, path: str | os.PathLike) -> Path:
     """Write ``template`` as human-readable YAML (:func:`template_text`), atomically; returns the path written."""
-    from ..core.fileio import atomic_write_text
-
     return atomic_write_text(path, template_text(template))

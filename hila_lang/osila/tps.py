@@ -800,6 +800,7 @@ def _saddle_inverse(phi: np.ndarray, P: np.ndarray, sign: float) -> tuple[np.nda
     G : ndarray, shape (K, K)
     Et : ndarray, shape (Q, K)
     """
+    # lazy: loads scipy, which importing this module does not
     from scipy.linalg import lapack
 
     K, Q = P.shape

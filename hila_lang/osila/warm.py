@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import metrics
 from ..core import jit
-from . import robust, route, tps
+from . import imitate, robust, route, tps
 
 
 def compile_all() -> None:
@@ -22,8 +22,6 @@ def compile_all() -> None:
     calls in 2-D and 3-D, few and many pairs, inside :func:`~hila_lang.core.jit.batch`: a real
     call hands some kernels arrays a kernel's own example does not (the route's candidate
     offsets are read-only, a signature of their own), and numba caches per signature."""
-    from . import imitate
-
     tps._dist_compiled()
     tps._rank_compiled()
     tps._kernel()

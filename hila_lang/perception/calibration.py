@@ -16,8 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
-from ..sim.camera import Camera, project
-from .distortion import DistortedCamera, distort_points
+from ..core.fileio import dump_yaml, load_yaml
+from ..core.rotation import from_euler
+from ..sim.camera import Camera, look_at, project, STUDIO
+from ..sim.scene import SimScene
+from .distortion import distort_points, DistortedCamera
 
 #: default chessboard: inner corners (columns, rows) and square side, metres; one odd and one
 #: even count make the corner order unambiguous (the same in the left and right images)
@@ -75,6 +78,7 @@ class Calibration:
 
 def find_corners(image: np.ndarray, pattern=PATTERN) -> np.ndarray | None:
     """Sub-pixel chessboard corners (N, 2) in ``image`` (H, W[, 3]) uint8, or None if not found."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
@@ -121,6 +125,7 @@ def calibrate(images, pattern=PATTERN, square: float = SQUARE, names=None, min_v
     Views whose RMS reprojection error exceeds 3 times the median (and 0.25 px) are dropped and
     the camera recalibrated without them; ``n_views`` counts the views used.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     images = list(images)
@@ -169,8 +174,6 @@ def chessboard_poses(camera: Camera, dist, n: int, pattern=PATTERN, square: floa
     tilted up to 45 degrees; a pose is kept only if every inner corner lands inside the distorted
     image with a 6 px margin.
     """
-    from ..core.rotation import from_euler
-
     rng = np.random.default_rng(seed)
     cols, rows = pattern
     local = board_points(pattern, square) - [(cols - 1) * square / 2, (rows - 1) * square / 2, 0]
@@ -205,9 +208,6 @@ def chessboard_poses(camera: Camera, dist, n: int, pattern=PATTERN, square: floa
 def chessboard_views(dcam: DistortedCamera, n: int = 14, pattern=PATTERN, square: float = SQUARE,
                      seed: int = 0) -> list[np.ndarray]:
     """Rendered, distorted images (H, W, 3) uint8 of a chessboard card at ``n`` seeded poses."""
-    from ..sim.camera import STUDIO
-    from ..sim.scene import SimScene
-
     cols, rows = pattern
     sq_px = 48
     tex = chessboard_texture(cols + 1, rows + 1, sq_px, border=1)
@@ -239,9 +239,6 @@ def stereo_poses(rig, n: int, pattern=PATTERN, square: float = STEREO_SQUARE, se
     0.5 m ahead when the eyes look in parallel, as the robot's do), up to 0.12 m off it sideways
     and 0.15 m nearer or farther, facing the eyes within 30 degrees.
     """
-    from ..core.rotation import from_euler
-    from ..sim.camera import look_at
-
     rng = np.random.default_rng(seed)
     cols, rows = pattern
     local = board_points(pattern, square) - [(cols - 1) * square / 2, (rows - 1) * square / 2, 0]
@@ -289,9 +286,6 @@ def _closest_point(p, d, q, e, parallel_distance: float = 0.5) -> np.ndarray:
 def stereo_views(left: DistortedCamera, right: DistortedCamera, rig, n: int = 16, pattern=PATTERN,
                  square: float = STEREO_SQUARE, seed: int = 0) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Left and right images of a chessboard card held where both eyes see it, ``n`` poses."""
-    from ..sim.camera import STUDIO
-    from ..sim.scene import SimScene
-
     cols, rows = pattern
     tex = chessboard_texture(cols + 1, rows + 1, 48, border=1)
     size = ((cols + 3) * square, (rows + 3) * square)
@@ -333,6 +327,7 @@ def calibrate_stereo(left_images, right_images, left: Calibration, right: Calibr
         Different numbers of left and right images, or the board found in both images of fewer
         than ``min_pairs`` pairs.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     left_images, right_images = list(left_images), list(right_images)
@@ -362,15 +357,11 @@ def calibrate_stereo(left_images, right_images, left: Calibration, right: Calibr
 
 def save_calibration(path: str | os.PathLike, calib: Calibration, header: str = "") -> Path:
     """Write ``calib`` as YAML, atomically."""
-    from ..core.fileio import dump_yaml
-
     return dump_yaml(path, calib.to_dict(), header=header or "hila camera calibration (OpenCV model)")
 
 
 def load_calibration(path: str | os.PathLike) -> Calibration:
     """Read a calibration YAML written by :func:`save_calibration`."""
-    from ..core.fileio import load_yaml
-
     data = load_yaml(path, "calibration file")
     if not isinstance(data, dict):
         raise InputError("calibration file: expected a mapping with K, dist, width, height", file=str(path))

@@ -14,7 +14,7 @@ the partial-coverage values sub-pixel detection relies on.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -51,6 +51,7 @@ class DistortedCamera:
     _maps: tuple = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         s = int(self.supersample)
@@ -75,6 +76,7 @@ class DistortedCamera:
 
     def distort(self, ideal_rgb: np.ndarray) -> np.ndarray:
         """The camera's image (height, width, 3) uint8 from an ideal render of ``render_camera``."""
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         big = cv2.remap(ideal_rgb, self._maps[0], self._maps[1], cv2.INTER_LINEAR,
@@ -86,6 +88,7 @@ class DistortedCamera:
 
 def distort_points(uv: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     """Ideal pixels (N, 2) -> where the distorted camera sees them (N, 2)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     uv = np.atleast_2d(np.asarray(uv, dtype=float))
@@ -97,6 +100,7 @@ def distort_points(uv: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
 
 def undistort_points(uv: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     """Distorted pixels (N, 2) -> ideal pixels (N, 2) of the same camera (iterative, exact)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     uv = np.atleast_2d(np.asarray(uv, dtype=float)).reshape(-1, 1, 2)
@@ -108,6 +112,7 @@ def undistort_points(uv: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
 
 def undistort_image(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     """The ideal pinhole image (same K, same size) of a distorted ``image`` (cv2.undistort)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     return cv2.undistort(image, np.asarray(K, float), np.asarray(dist, float))
@@ -117,8 +122,6 @@ def undistorted(image):
     """The ideal pinhole version of a :class:`~hila_lang.sim.camera.CameraImage` taken through a
     lens (``image.dist``): the same ``K``, pose and size, ``dist`` None.  An image without ``dist``
     comes back as it is."""
-    from dataclasses import replace
-
     if image.dist is None:
         return image
     rgb = undistort_image(np.ascontiguousarray(image.rgb), image.K, image.dist)

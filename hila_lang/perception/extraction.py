@@ -80,6 +80,7 @@ def detect_blob(image: np.ndarray, min_area: float = 4.0, colour: str = "green")
     Its centre is the coverage-weighted centroid (weights ``clip(colourness / GREEN_FULL, 0,
     1)``, the module docstring), so it is sub-pixel.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     green = colourness(image, colour)
@@ -137,6 +138,7 @@ def bridge(track: np.ndarray, max_gap: int = 3, *, camera: str = "camera", names
         A run of more than ``max_gap`` lost frames, a lost first or last frame, or fewer than 2
         detections; the message lists the lost frames.
     """
+    # lazy: loads scipy, which importing this module does not
     from scipy.interpolate import CubicSpline
 
     track = np.array(track, dtype=float)

@@ -29,8 +29,14 @@ from typing import Callable
 import numpy as np
 
 from ..core.errors import InputError
-from ..osila.segmentation import DEFAULT_METHOD
-from .calibration import Calibration
+from ..osila.segmentation import DEFAULT_METHOD, describe, segment_template
+from ..osila.template import Template
+from ..sim.camera import CameraImage
+from .calibration import calibrate, calibrate_stereo, Calibration, load_calibration
+from .distortion import undistort_image, undistort_points
+from .extraction import marker_track, rbf_smooth
+from .recording import load_cameras, load_frames
+from .triangulation import reprojection_error, triangulate
 
 #: template points at most this far above (or below) the paper are put on it, metres: the
 #: triangulated pen tip scatters about +-2 mm in height, and the robot's pen only inks within
@@ -136,11 +142,6 @@ def perceive(left: list[np.ndarray], right: list[np.ndarray], calibration: dict[
         Different frame counts, image size not matching the calibration, the marker lost too
         long (frames named), or whatever the ICP reader could not find.
     """
-    from ..sim.camera import CameraImage
-    from .distortion import undistort_image, undistort_points
-    from .extraction import marker_track, rbf_smooth
-    from .triangulation import reprojection_error, triangulate
-
     if len(left) != len(right):
         raise InputError(f"left and right frame counts differ: {len(left)} left, {len(right)} right "
                          "(the eyes record in sync, one frame each per time step)")
@@ -198,9 +199,6 @@ def snap_contact(path: np.ndarray, surface_z: float, tolerance: float = CONTACT_
 
 def load_calibration_source(source, eye: str) -> Calibration:
     """A calibration from a YAML file, or calibrated now from a folder of chessboard images."""
-    from .calibration import calibrate, load_calibration
-    from .recording import load_frames
-
     source = Path(source)
     if source.is_file() and source.suffix.lower() in (".yaml", ".yml"):
         return load_calibration(source)
@@ -248,11 +246,6 @@ def template_from_frames(left, right=None, *, read_icps: Callable, calibration_l
     -------
     Template, or (Template, Perception) with ``return_perception``.
     """
-    from ..osila.segmentation import describe, segment_template
-    from ..osila.template import Template
-    from .calibration import calibrate_stereo
-    from .recording import load_cameras, load_frames
-
     left = Path(left)
     if right is None:
         root = left

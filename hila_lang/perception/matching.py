@@ -49,6 +49,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import InputError
+from .distortion import undistort_points
+from .triangulation import projection_matrix
 
 #: feature detectors by name: SIFT (default) and ORB (AKAZE is not in the OpenCV build installed here)
 METHODS = ("sift", "orb")
@@ -97,6 +99,7 @@ class Features:
 
 
 def _detector(method: str):
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     if method == "sift":
@@ -108,9 +111,8 @@ def _detector(method: str):
 
 def detect(image, method: str = "sift") -> Features:
     """Features of a :class:`~hila_lang.sim.camera.CameraImage` (its ``rgb``, ``K``, ``dist``)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from .distortion import undistort_points
 
     det = _detector(method)
     gray = cv2.cvtColor(np.ascontiguousarray(image.rgb), cv2.COLOR_RGB2GRAY)
@@ -128,6 +130,7 @@ def ratio_matches(a: Features, b: Features, ratio: float | None = None) -> tuple
     """Lowe's ratio test from ``a`` to ``b``: indices into ``a`` (M,), into ``b`` (M,) and each
     match's ratio best / second-best descriptor distance (M,), one match per feature of ``b``
     (the best of those that chose it)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     if len(a) == 0 or len(b) < 2:
@@ -149,9 +152,8 @@ def ratio_matches(a: Features, b: Features, ratio: float | None = None) -> tuple
 
 def _triangulate(left, right, uv_left: np.ndarray, uv_right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """World points (N, 3) and whether each lies in front of both eyes (N,)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from .triangulation import projection_matrix
 
     if not len(uv_left):
         return np.zeros((0, 3)), np.zeros(0, bool)
@@ -278,6 +280,7 @@ def _visible(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
 def verify(uv_a: np.ndarray, uv_b: np.ndarray, model: str = "local") -> tuple[np.ndarray, np.ndarray]:
     """Which matches ``uv_a[i] <-> uv_b[i]`` (M, 2) are geometrically consistent: a boolean
     mask (M,) and each match's residual (M,), pixels in image b (see the module docstring)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     if model not in MODELS:

@@ -54,12 +54,16 @@ Over the recording (:meth:`PenTracker.finish`):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ..core.errors import InputError
-from .extraction import bridge, colourness, detect_blob, rbf_smooth
-from .sheet import DICTIONARY, SheetLayout, layout_for_ids
+from ..metrics import resample_in_time
+from ..osila.segmentation import speed
+from .extraction import bridge, colourness, COLOURS, detect_blob, rbf_smooth
+from .recording import iter_frames
+from .sheet import DICTIONARY, layout_for_ids, SheetLayout
 
 #: markers needed in a frame for its homography: three of the four span the sheet
 MIN_MARKERS = 3
@@ -205,6 +209,7 @@ class PenTrack:
 
 
 def _aruco_detector():
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARY))
@@ -287,6 +292,7 @@ def ball_edges(grey: np.ndarray, colour_map: np.ndarray, start: np.ndarray, radi
     Elsewhere -- the ball over a table as dark as itself, a ray that met something else first
     (the pen's dark body beside the ball, a grid line) -- the colourness edge is the point.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     angles = np.linspace(0.0, 2 * np.pi, rays, endpoint=False)
@@ -365,8 +371,6 @@ class PenTracker:
     """
 
     def __init__(self, ball: str = "green", ball_mm: float = BALL_MM, hfov_deg: float | None = None):
-        from .extraction import COLOURS
-
         if ball not in COLOURS:
             raise InputError(f"unknown ball colour {ball!r}; expected one of {', '.join(COLOURS)}")
         if not (np.isfinite(ball_mm) and 2.0 <= ball_mm <= 60.0):
@@ -388,6 +392,7 @@ class PenTracker:
     # -- one frame ---------------------------------------------------------------------------
     def feed(self, rgb: np.ndarray, t: float | None = None, fps: float = 30.0) -> PenFrame:
         """Look at one RGB frame (H, W, 3) uint8 taken at ``t`` seconds (default index / fps)."""
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         rgb = np.asarray(rgb)
@@ -454,6 +459,7 @@ class PenTracker:
 
     def _board(self):
         """The sheet's markers as an OpenCV ArUco board (corners in mm on the plane z = 0)."""
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         if self._board_cache is None:
@@ -561,9 +567,8 @@ class PenTracker:
     def _contact(self, times: np.ndarray, height: np.ndarray, path: np.ndarray) -> np.ndarray:
         """Pen down per frame: the height (median of 5) with hysteresis, short runs dropped, each
         change moved to the air-facing edge of the nearest speed dip (module docstring, step 6)."""
+        # lazy: loads scipy, which importing this module does not
         from scipy.ndimage import median_filter
-
-        from ..osila.segmentation import speed
 
         h = median_filter(height, size=5, mode="nearest")
         down = np.zeros(len(h), bool)
@@ -620,10 +625,6 @@ def track_video(source, *, ball: str = "green", ball_mm: float = BALL_MM, hfov_d
     ``progress(frames_done)`` is called every 100 frames.  Raises :class:`InputError` as
     :meth:`PenTracker.finish` does (and for an unreadable video or folder).
     """
-    from pathlib import Path
-
-    from .recording import iter_frames
-
     tracker = PenTracker(ball, ball_mm, hfov_deg)
     names = []
     for image, name, t in iter_frames(source, "frames", fps=fps):
@@ -640,8 +641,6 @@ def as_demonstration(track: PenTrack, rate: float, icps: dict | None = None, cel
     the paper (z = 0) where the pen is down.  ``icps``: given ones (sheet frame, metres), else
     :func:`sheet_icps` (``cell``'s corners, or the corner markers); ``hand`` is where the pen
     starts unless they name it.  ``hila learn --sheet`` and the studio's Camera scene both use it."""
-    from ..metrics import resample_in_time
-
     icps = dict(icps) if icps is not None else sheet_icps(track.layout, cell)
     path = resample_in_time(track.times, np.column_stack([track.tip / 1000.0, track.contact]), rate)
     pen = path[:, 3] > 0.5

@@ -28,14 +28,19 @@ or a folder of PNGs.
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from dataclasses import dataclass, field, replace
+from fractions import Fraction
 from pathlib import Path
 from typing import Iterable, Iterator
 
 import numpy as np
 
 from ..core.errors import InputError
-from .sheet import SheetLayout, raster
+from ..core.fileio import AtomicFile, write_png
+from ..sim.camera import Camera, intrinsics, look_at
+from .sheet import raster, SheetLayout
 
 #: colours (RGB albedo, 0..255) of the ball on the pen's tip, by name
 BALL_RGB = {"green": (45, 185, 70), "blue": (40, 80, 200), "red": (205, 40, 40)}
@@ -229,8 +234,6 @@ def demonstration(spec: PenVideoSpec, layout: SheetLayout):
 
 def camera(spec: PenVideoSpec, layout: SheetLayout):
     """The true camera: :class:`~hila_lang.sim.camera.Camera` in the sheet frame (mm)."""
-    from ..sim.camera import Camera, intrinsics, look_at
-
     K = intrinsics(spec.width, spec.height, spec.hfov_deg)
     K[0, 2] += spec.principal_offset_px[0]
     K[1, 2] += spec.principal_offset_px[1]
@@ -264,6 +267,7 @@ class PenVideo:
     """
 
     def __init__(self, spec: PenVideoSpec = PenVideoSpec()):
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         self.spec = spec
@@ -355,6 +359,7 @@ class PenVideo:
 
     def _draw_occluder(self, img: np.ndarray, i: int, t: float, tip: np.ndarray, light: np.ndarray) -> None:
         """Skin over ``img`` (the output-size image, lit by ``light``) where the occluder is."""
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         skin = np.array(SKIN_RGB, np.float32) / 255.0
@@ -430,6 +435,7 @@ class PenVideo:
 
     def frame(self, i: int) -> np.ndarray:
         """Frame ``i`` as RGB (height, width, 3) uint8."""
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         spec = self.spec
@@ -487,10 +493,8 @@ def write_y4m(path: str | os.PathLike, frames: Iterable[np.ndarray], fps: float)
 
     The frame rate is written as a fraction (30 -> ``F30:1``, 29.97 -> ``F30000:1001``).
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
-    from fractions import Fraction
-
-    from ..core.fileio import AtomicFile
 
     rate = Fraction(fps).limit_denominator(1001)
     out = AtomicFile(path, binary=True)
@@ -518,11 +522,8 @@ def write_y4m(path: str | os.PathLike, frames: Iterable[np.ndarray], fps: float)
 def write_video(path: str | os.PathLike, video: PenVideo) -> Path:
     """Write ``video`` as ``.y4m``, an OpenCV video (``.mp4``, ``.avi``: ``mp4v`` / ``MJPG``) or,
     for a path without a suffix, a folder of ``frame_00000.png`` ... (written whole or not at all)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-    import shutil
-    import tempfile
-
-    from ..core.fileio import write_png
 
     path = Path(path)
     suffix = path.suffix.lower()

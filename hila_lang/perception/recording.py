@@ -39,7 +39,12 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.fileio import dump_yaml, load_yaml, write_png
+from ..core.images import read_picture
 from ..sim.camera import Camera
+from ..sim.client import quiet_c_output
+from .calibration import chessboard_views, stereo_views
+from .distortion import DistortedCamera, TRUE_DISTORTION
+from .rig import FPS
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm")
 #: supersampling of the chessboard images (the demonstration frames use 2x)
@@ -49,9 +54,8 @@ VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpe
 
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """An image file as RGB (H, W, 3) uint8; :class:`InputError` when it cannot be read."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ..core.images import read_picture
 
     return cv2.cvtColor(read_picture(path, "frame"), cv2.COLOR_BGR2RGB)  # its size checked before decoding
 
@@ -125,9 +129,8 @@ def load_frames(source: str | os.PathLike, what: str = "frames") -> tuple[list[n
 
 def _read_video(path: Path):
     """(RGB frame, name, time) of every frame of a video file, its own time stamps where it has them."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ..sim.client import quiet_c_output
 
     with quiet_c_output():  # FFmpeg prints its own complaint (e.g. "moov atom not found")
         cap = cv2.VideoCapture(str(path))
@@ -204,10 +207,6 @@ def write_recording(out_dir: str | os.PathLike, rig, frames: int, render: Callab
     overwrite : bool
         Replace an existing folder (otherwise an existing non-empty folder is an error).
     """
-    from .calibration import chessboard_views, stereo_views
-    from .distortion import TRUE_DISTORTION, DistortedCamera
-    from .rig import FPS
-
     out = Path(out_dir)
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise InputError("recording folder exists and is not empty (use overwrite)", file=str(out))

@@ -153,6 +153,7 @@ def layout_for_ids(ids) -> SheetLayout | None:
 
 def marker_bits(marker_id: int) -> np.ndarray:
     """The marker's modules (6, 6) bool, True where black, row 0 at the marker's top (border included)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARY))
@@ -237,6 +238,7 @@ def raster(layout: SheetLayout, px_per_mm: float, *, text: bool = True) -> np.nd
     at x * px_per_mm pixels from the left edge of pixel 0.  Text (OpenCV's Hershey font) is
     approximate; ``text=False`` leaves it out.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     w_mm, h_mm = layout.size
@@ -266,6 +268,7 @@ def raster(layout: SheetLayout, px_per_mm: float, *, text: bool = True) -> np.nd
 def png_bytes(layout: SheetLayout, dpi: float) -> bytes:
     """The sheet as a PNG at ``dpi`` dots per inch, with its resolution in a ``pHYs`` chunk
     (so a printer prints it at its real size)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     img = raster(layout, dpi / 25.4)

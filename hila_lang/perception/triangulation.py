@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import InputError
+from ..sim.camera import project
 
 
 def projection_matrix(K: np.ndarray, world_T_camera: np.ndarray) -> np.ndarray:
@@ -29,6 +30,7 @@ def triangulate(uv_left: np.ndarray, uv_right: np.ndarray, K_left: np.ndarray, w
     InputError
         The two tracks differ in length, or a point lands behind a camera.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     a = np.atleast_2d(np.asarray(uv_left, dtype=float))
@@ -50,6 +52,4 @@ def triangulate(uv_left: np.ndarray, uv_right: np.ndarray, K_left: np.ndarray, w
 
 def reprojection_error(points: np.ndarray, uv: np.ndarray, K: np.ndarray, world_T_camera: np.ndarray) -> np.ndarray:
     """Distance (N,), pixels, between ``uv`` (N, 2) and the projections of ``points`` (N, 3)."""
-    from ..sim.camera import project
-
     return np.linalg.norm(project(points, K, world_T_camera) - uv, axis=1)

@@ -12,10 +12,14 @@ the back end that declares it.
 
 from __future__ import annotations
 
+import difflib
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
+
+from ..core.errors import InputError
+from . import registry
 
 
 @dataclass
@@ -146,8 +150,6 @@ def check_osila_options(options: dict, flag=lambda name: f"--set osila.{name}", 
     bounded by :data:`MAX_CANDIDATES`, before any work; an :class:`InputError` names
     ``flag(name)`` and the value (``typed[name]``, as the person typed it, when given).  Options
     not declared here are left to OSILA."""
-    from ..core.errors import InputError
-
     out = dict(options)
     for name, value in options.items():
         if name in OSILA_OPTIONS:
@@ -171,10 +173,6 @@ def osila_options(settings: dict[str, str]) -> dict:
     """``{"osila.threshold": "0.002"}`` -> ``{"threshold": 0.002}`` (other keys are ignored), each
     value read and checked by its declaration (:data:`OSILA_OPTIONS`); an unknown option or a bad
     value is an InputError naming ``--set KEY=VALUE``."""
-    import difflib
-
-    from ..core.errors import InputError
-
     out, typed = {}, {}
     for key, text in settings.items():
         if not key.startswith("osila."):
@@ -204,10 +202,6 @@ def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict
     """``--set`` pairs -> (OSILA options, the world's settings, the back end's), each parsed
     (``world`` a WorldInfo, ``backend`` a BackendInfo); any other key is an InputError that says
     who has it (``--opponent`` on a world without an opponent) or suggests a near name."""
-    import difflib
-
-    from ..core.errors import InputError
-
     world_keys = {s.name for s in world.settings}
     backend_keys = {s.name for s in backend.settings}
     mine: dict[str, dict[str, str]] = {"world": {}, "backend": {}}
@@ -232,8 +226,6 @@ def split_settings(settings: dict[str, str], world, backend) -> tuple[dict, dict
 
 def _owners(key: str) -> tuple[list[str], str | None]:
     """(["world tictactoe", ...] that declare setting ``key``, its command-line flag or None)."""
-    from . import registry
-
     owners, flag = [], None
     for kind in ("world", "back end"):
         for info in registry.declarations(kind):
@@ -246,8 +238,6 @@ def _owners(key: str) -> tuple[list[str], str | None]:
 
 def parse_pairs(pairs: list[str] | None) -> dict[str, str]:
     """``["a=1", "b=x"]`` -> ``{"a": "1", "b": "x"}``; a pair without ``=`` is an InputError."""
-    from ..core.errors import InputError
-
     settings: dict[str, str] = {}
     for pair in pairs or []:
         key, sep, value = pair.partition("=")

@@ -37,7 +37,8 @@ paths are arrays of shape (T, 3).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Mapping, NamedTuple, Protocol, Sequence, runtime_checkable
+import inspect
+from typing import Any, Mapping, NamedTuple, Protocol, runtime_checkable, Sequence, TYPE_CHECKING
 
 if TYPE_CHECKING:  # numpy and the scene types only for annotations: importing this stays light
     import numpy as np
@@ -326,8 +327,6 @@ def _members(protocol: type) -> list[str]:
 
 def _compatible(wanted, given) -> str | None:
     """Why signature ``given`` (an implementation) cannot be called as ``wanted``, or None."""
-    import inspect
-
     P = inspect.Parameter
     have = list(given.parameters.values())
     has_var_pos = any(p.kind is P.VAR_POSITIONAL for p in have)
@@ -372,8 +371,6 @@ def conformance(obj: Any, protocol: type) -> list[str]:
     signature cannot be called as the protocol's; for a :class:`Backend` or a :class:`World`, its
     capabilities too.
     An empty list means it conforms."""
-    import inspect
-
     problems = []
     for name in _members(protocol):
         if not hasattr(obj, name):

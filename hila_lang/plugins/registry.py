@@ -20,10 +20,13 @@ import difflib
 import functools
 import importlib
 from dataclasses import dataclass, field
+from importlib.metadata import entry_points
 from typing import Any, Mapping
 
 from ..core.errors import InputError
-from .settings import Setting, parse_settings
+from .names import Names
+from .protocols import Backend, conformance, World
+from .settings import parse_settings, Setting
 from .studio import StudioView
 
 GROUPS = {"world": "hila.worlds", "back end": "hila.backends", "robot": "hila.robots"}
@@ -43,8 +46,6 @@ def _import(target: str):
 
 
 def _check_conforms(obj: Any, protocol: type, what: str) -> None:
-    from .protocols import conformance
-
     problems = conformance(obj, protocol)
     if problems:  # a plug-in bug, not a user error: it propagates as an internal error
         raise TypeError(f"{what} ({type(obj).__module__}.{type(obj).__qualname__}) does not implement "
@@ -155,8 +156,6 @@ class WorldInfo:
     tracking: bool = False
 
     def __post_init__(self) -> None:
-        from .names import Names
-
         for kind, attr in (("question", "questions"), ("event", "events"), ("point", "points")):
             object.__setattr__(self, attr, Names.of(kind, getattr(self, attr)))
 
@@ -190,8 +189,6 @@ class WorldInfo:
 
     def build(self, options, settings: dict[str, Any]):
         """The world for a run (``settings`` as :meth:`parse` returns them), checked to be a World."""
-        from .protocols import World
-
         world = _import(self.factory)(options, settings)
         _check_conforms(world, World, f"world {self.name!r}")
         return world
@@ -234,8 +231,6 @@ class BackendInfo:
 
     def build(self, scene, options, settings: dict[str, Any]):
         """The back end for a run, checked to be a Backend (capabilities included)."""
-        from .protocols import Backend
-
         backend = _import(self.factory)(scene, options, settings)
         try:
             _check_conforms(backend, Backend, f"back end {self.name!r}")
@@ -270,8 +265,6 @@ class RobotInfo:
 
 @functools.lru_cache(maxsize=None)
 def _entry_points(group: str) -> dict:
-    from importlib.metadata import entry_points
-
     found: dict = {}
     for ep in entry_points(group=group):
         found.setdefault(ep.name, ep)

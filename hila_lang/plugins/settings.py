@@ -11,6 +11,7 @@ imports nothing heavy.
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
@@ -137,8 +138,6 @@ def point(text: str) -> tuple[float, float, float]:
 
 def text(pattern: str | None = None, what: str = "text") -> Callable[[str], str]:
     """Any text, or text matching the regular expression ``pattern`` (whole)."""
-    import re
-
     def parse(value: str) -> str:
         if pattern is not None and not re.fullmatch(pattern, value):
             raise ValueError(f"expected {what}, got {value!r}")

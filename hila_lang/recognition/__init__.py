@@ -19,13 +19,13 @@ The search libraries (stumpy, dtaidistance) are optional: ``pip install 'hila-la
 
 from __future__ import annotations
 
+from ..core.errors import InputError
+
 HINT = "pip install 'hila-lang[recognise]' (stumpy and dtaidistance)"
 
 
 def require() -> None:
     """Raise :class:`~hila_lang.core.errors.InputError` with the install hint if stumpy or dtaidistance is missing."""
-    from ..core.errors import InputError
-
     for name in ("stumpy", "dtaidistance"):
         try:
             __import__(name)

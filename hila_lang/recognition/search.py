@@ -133,6 +133,7 @@ def _local_minima(profile: np.ndarray, gate: float, zone: int) -> np.ndarray:
 
 def _candidates(q: np.ndarray, signal: np.ndarray, entry: Entry) -> list[tuple[float, float, float]]:
     """(lo, hi, distance) windows of ``q`` (indices) where ``entry`` may be, verified and refined."""
+    # lazy: loads numba, scipy, yaml, which importing this module does not
     import stumpy
 
     m = len(signal)
@@ -289,6 +290,7 @@ def recognise(path, entries: list[Entry], times=None, *, open_end: bool = False)
     s = arc_length(sm)
     found: list[tuple[float, float, float, int]] = []
     if s[-1] > 0 and T >= 4:
+        # lazy: only this branch needs it
         from ..osila.segmentation import speed
 
         m = int(np.clip(T, MIN_POINTS, MAX_POINTS))

@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..osila.fallback import fit_similarity
+
 #: smoothing of the raw samples before arc length is measured, samples (Gaussian sigma):
 #: tracking noise on a paused hand would otherwise add arc length and random headings
 SMOOTH_SAMPLES = 1.5
@@ -39,6 +41,7 @@ def smooth(path: np.ndarray, sigma: float = SMOOTH_SAMPLES) -> np.ndarray:
     """``path`` (T, D) low-passed along time with a Gaussian of ``sigma`` samples (ends held)."""
     if sigma <= 0 or len(path) < 3:
         return np.asarray(path, float)
+    # lazy: loads scipy, which importing this module does not
     from scipy.ndimage import gaussian_filter1d
 
     return gaussian_filter1d(np.asarray(path, float), sigma, axis=0, mode="nearest")
@@ -105,8 +108,6 @@ ELASTIC_WINDOW = 8
 
 def similarity_map(src: np.ndarray, dst: np.ndarray):
     """The least-squares similarity taking paired rows ``src`` to ``dst`` (osila.fallback.fit_similarity), as a function of rows."""
-    from ..osila.fallback import fit_similarity
-
     scale, rot, shift = fit_similarity(src, dst, 2)
     return lambda x: scale * (np.asarray(x, float) @ rot.T) + shift
 
@@ -125,6 +126,7 @@ def elastic_distance(a: np.ndarray, b: np.ndarray, window: int = ELASTIC_WINDOW)
     shape 0.053 median, 0.106 at most; another shape 0.123 at least (plain Procrustes: 0.214
     at most against 0.168 at least; they overlap).
     """
+    # lazy: loads cython_runtime, dtaidistance, which importing this module does not
     from dtaidistance import dtw_ndim
 
     A, B = _unit(np.asarray(a, float)), _unit(np.asarray(b, float))

@@ -35,6 +35,7 @@ import re
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.fileio import atomic_write_text
 from ..osila.template import Segment, Template
 from .library import REFERENCE_POINTS
 from .search import Part
@@ -48,8 +49,6 @@ def report(parts: list[Part]) -> dict:
 
 def write_report(path: str | os.PathLike, parts: list[Part]):
     """Write :func:`report` as JSON, atomically."""
-    from ..core.fileio import atomic_write_text
-
     return atomic_write_text(path, json.dumps(report(parts), indent=1) + "\n")
 
 

@@ -33,14 +33,16 @@ import numpy as np
 
 from ..core.bounded import BoundedLog
 from ..core.errors import InputError
-from ..sim.camera import RenderStyle
-from ..sim.scene import Lights, SimScene, check_point
-from ..sim.surface import Surface
 from ..core.validation import check_path
-from .arm import SIM_RATE, SOLVER_ITERATIONS, Arm, Trace
+from ..sim.camera import RenderStyle
+from ..sim.scene import check_point, Lights, SimScene
+from ..sim.surface import Surface
 from . import model
+from .arm import Arm, SIM_RATE, SOLVER_ITERATIONS, Trace
 from .body import Body
 from .paper import Paper, TopView
+from .rig import RigEyes
+from .window import robot_points, Window
 from .workspace import PAPER_THICKNESS, READY_HEIGHT, TABLE_FRONT_X, TABLE_SIZE, TABLE_TOP_Z
 
 #: moves kept in :attr:`PyBulletBackend.traces` (a 4 s move at 240 Hz is about 100 kB)
@@ -113,6 +115,7 @@ class PyBulletBackend:
     def __init__(self, surface: Surface | None = None, *, gui: bool = False, arm: str = "auto",
                  eye_noise: float = 0.0, seed: int = 0, speed: float = 1.0, robot=None) -> None:
         if robot is None:
+            # lazy: only this branch needs it
             from .model import spec as icub
 
             robot = icub()
@@ -127,6 +130,7 @@ class PyBulletBackend:
         self.sim = SimScene(gui=gui, time_step=1.0 / SIM_RATE, solver_iterations=SOLVER_ITERATIONS, style=EYE_LIGHT)
         try:
             if gui:  # framed from the first frame: before the robot loads and the eyes calibrate
+                # lazy: only this branch needs it
                 from .window import frame, robot_points
 
                 frame(self.sim, self.surface, robot_points(self.surface, robot), drawing=False)  # drawn again once the window is made
@@ -144,6 +148,7 @@ class PyBulletBackend:
             self.eyes = self._make_eyes(centre, eye_noise, seed)
             self.lighting = Lights(self.sim)
             self.snapshots = SimSnapshots(self)
+            # lazy: only this branch needs it
             from .streaming import ArmStream
 
             self.streaming = ArmStream(self)
@@ -155,19 +160,17 @@ class PyBulletBackend:
     def _make_eyes(self, centre, noise: float, seed: int):
         """The robot's eyes: in its head (the iCub), on a stand (a rig), or none."""
         if self.robot.eyes == "head":
+            # lazy: only this branch needs it
             from .eyes import Eyes
 
             return Eyes(self.body, centre, self._render, noise=noise, seed=seed)
         if self.robot.eyes is None:
             return None
-        from .rig import RigEyes
 
         return RigEyes(self.body, self.robot.eyes, centre, self._render, self.sim, noise=noise, seed=seed)
 
     def _open_window(self):
         """The ``view``: PyBullet's window framed on the robot and the paper (:mod:`.window`)."""
-        from .window import Window, robot_points
-
         window = Window(self.sim, self.surface, robot_points(self.surface, self.robot))  # framed as when the window opened
         self.arm.observer = window.executed_point
         return window

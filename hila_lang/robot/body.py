@@ -33,6 +33,7 @@ class Body:
 
     def __init__(self, sim, spec=None) -> None:
         if spec is None:
+            # lazy: only this branch needs it
             from .model import spec as icub
 
             spec = icub()

@@ -23,6 +23,10 @@ import numpy as np
 from ..core.bounded import BoundedLog
 from ..core.errors import InputError
 from ..core.validation import check_path
+from ..plugins.snapshots import AttributeSnapshots
+from .reach import check_planned
+from .streaming import DryStream
+from .workspace import default_surface, ready_point
 
 
 #: moves kept in :attr:`DryBackend.moves`
@@ -40,8 +44,6 @@ class DryBackend:
     lighting = None
 
     def __init__(self, start=(0.0, 0.0, 0.0), surface_z: float | None = None, reach=None) -> None:
-        from ..plugins.snapshots import AttributeSnapshots
-
         #: the paper's height, metres (None: no paper, no table check)
         self.surface_z = surface_z
         #: the robot's reach bound ((x, y, z), radius) (:meth:`~.spec.RobotSpec.reach`; None: the iCub's)
@@ -50,7 +52,6 @@ class DryBackend:
         #: every move (label, path, pen_down); the newest kept (:class:`~hila_lang.core.bounded.BoundedLog`)
         self.moves: BoundedLog = BoundedLog(KEEP_MOVES)
         self.snapshots = AttributeSnapshots(self, ("_hand",), append_only=("moves",))
-        from .streaming import DryStream
 
         self.streaming = DryStream(self)
 
@@ -68,7 +69,6 @@ class DryBackend:
         arr = check_path(path, "path")
         if arr.shape[1] != 3:
             raise InputError(f"expected a path of shape (T, 3), got {arr.shape}")
-        from .reach import check_planned
 
         if self.reach is None:
             check_planned(arr, self.surface_z, label)
@@ -85,8 +85,6 @@ class DryBackend:
 def make_backend(scene, options, settings) -> DryBackend:
     """Plug-in factory (see :mod:`hila_lang.plugins.registry`); the robot's reach and sheet come
     from ``options.robot`` (a :class:`~.spec.RobotSpec`; None: the iCub's)."""
-    from .workspace import default_surface, ready_point
-
     robot = getattr(options, "robot", None)
     home = None if scene is None else scene.home
     if home is None:

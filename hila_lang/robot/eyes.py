@@ -24,10 +24,11 @@ from typing import Mapping
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.rotation import about_z, pose
 from ..sim.camera import Camera, CameraImage
 from ..sim.scene import check_point
 from . import ik, model
-from .lens import EYE_HEIGHT, EYE_WIDTH, ICUB_EYE_K, eye_calibration, eyes_calibration, true_lens
+from .lens import eye_calibration, EYE_HEIGHT, EYE_WIDTH, eyes_calibration, ICUB_EYE_K, true_lens
 
 __all__ = ["EYE_HEIGHT", "EYE_WIDTH", "Eyes", "ICUB_EYE_K", "aim_gaze", "eye_pose", "eye_poses_looking_at"]
 
@@ -77,8 +78,6 @@ def eye_poses_looking_at(target: np.ndarray, torso: Mapping[str, float] | None =
     ``torso``, default upright) looks at ``target`` (3,): :func:`aim_gaze` and :func:`eye_pose`
     on the robot's own model, without a simulator -- where its eyes are while it watches a
     demonstration (:func:`hila_lang.worlds.tictactoe.recording.demonstration_rig`)."""
-    from ..core.rotation import about_z, pose
-
     text = model.urdf_path().read_text()
     root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
     gaze = ik.KinematicChain.from_urdf(text, "eyes_tilt_link", root)

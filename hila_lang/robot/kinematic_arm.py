@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import ik
+from .arm import accept, LIMIT_MARGIN
 
 #: a URDF joint velocity above this is a placeholder, not the arm's, rad/s
 PLACEHOLDER_VELOCITY = 2 * math.pi
@@ -115,8 +116,6 @@ class KinematicArm:
     def solve(self, target: np.ndarray, q0: np.ndarray) -> ik.IKResult:
         """IK: the tool tip at ``target`` (3,) (and along :attr:`tool_axis`), warm-started at ``q0``;
         ``converged`` judged by the arm's own thresholds (:func:`hila_lang.robot.arm.accept`)."""
-        from .arm import accept
-
         return accept(ik.solve(self.chain, target, q0, lower=self.ik_lower, upper=self.ik_upper,
                                pen_axis=self.tool_axis, weights=self.weights))
 
@@ -137,8 +136,6 @@ def speed_caps(urdf_velocity) -> tuple[np.ndarray, np.ndarray]:
 def from_spec(spec) -> KinematicArm:
     """The :class:`KinematicArm` of the robot ``spec`` (a :class:`~.spec.RobotSpec`: the pen's tip,
     its IK limits, weights, postures and reach as :class:`~.arm.Arm` plans with them)."""
-    from .arm import LIMIT_MARGIN
-
     chain = spec.chain()
     lo, hi = spec.ik_limits(LIMIT_MARGIN)
     limits = spec.limits()

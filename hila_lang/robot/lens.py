@@ -38,6 +38,21 @@ import numpy as np
 from ..perception.rig import EYE_K as ICUB_EYE_K  # the simulated eyes' true intrinsics: rendering only
 from ..perception.rig import HEIGHT as EYE_HEIGHT
 from ..perception.rig import WIDTH as EYE_WIDTH
+import os
+import tempfile
+from . import ik, model
+from ..core.errors import InputError
+from ..core.fileio import atomic_write_text
+from ..core.fileio import cache_folders
+from ..core.fileio import dump_yaml, load_yaml
+from ..core.rotation import about_z, pose
+from ..perception.calibration import PATTERN, SQUARE
+from ..perception.calibration import StereoCalibration, calibrate_stereo, stereo_views
+from ..perception.calibration import calibrate, chessboard_views, load_calibration, save_calibration
+from ..perception.distortion import TRUE_DISTORTION
+from ..perception.distortion import TRUE_DISTORTION, DistortedCamera
+from ..perception.rig import StereoRig
+from ..sim.camera import Camera
 
 #: chessboard images per eye and their supersampling: as the demonstration's recording
 #: (:func:`hila_lang.perception.recording.write_recording`).  Measured here: 14 views at 2x left
@@ -59,9 +74,6 @@ SHIPPED = Path(__file__).with_name("calibration")
 def true_lens(supersample: int = 1):
     """The simulated eye lens at the origin: a
     :class:`~hila_lang.perception.distortion.DistortedCamera` (truth: renders only)."""
-    from ..perception.distortion import TRUE_DISTORTION, DistortedCamera
-    from ..sim.camera import Camera
-
     return DistortedCamera(Camera(ICUB_EYE_K, np.eye(4), EYE_WIDTH, EYE_HEIGHT), TRUE_DISTORTION,
                            supersample=supersample)
 
@@ -69,10 +81,8 @@ def true_lens(supersample: int = 1):
 def _key(opencv: str | None = None, **what) -> str:
     """A hash of ``what`` and everything a calibration depends on (``opencv``: the version to
     hash, default the one loaded)."""
-    from ..perception.calibration import PATTERN, SQUARE
-    from ..perception.distortion import TRUE_DISTORTION
-
     if opencv is None:
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         opencv = cv2.__version__
@@ -85,9 +95,6 @@ def _key(opencv: str | None = None, **what) -> str:
 def _cached(name: str, load, make, save):
     """``load(path)`` of the first cached (or shipped) ``name`` that reads, else ``make()`` saved
     with ``save(path, value)`` into the first writable cache folder."""
-    from ..core.errors import InputError
-    from ..core.fileio import cache_folders
-
     folders = cache_folders("lens")
     for folder in [*folders, SHIPPED]:
         if (folder / name).is_file():
@@ -117,9 +124,6 @@ def eye_calibration(eye: str):
     """The robot's calibration of ``eye``'s lens (:class:`~hila_lang.perception.calibration.Calibration`):
     read from the cache, else made from simulated chessboard images and cached (see the module
     docstring).  A cache file that cannot be read is made again."""
-    from ..core.errors import InputError
-    from ..perception.calibration import calibrate, chessboard_views, load_calibration, save_calibration
-
     if eye not in CALIBRATION_SEEDS:
         raise InputError(f"eye must be 'left' or 'right', got {eye!r}")
 
@@ -159,9 +163,6 @@ def names(opencv: str | None = None) -> list[str]:
 def eyes_in_head() -> np.ndarray:
     """``left_T_right`` (4, 4): the right eye camera in the left one's frame, from the head's
     model (the eyes tilt together, so it never changes): truth, to render the stereo session."""
-    from ..core.rotation import about_z, pose
-    from . import ik, model
-
     text = model.urdf_path().read_text()
     root = pose(about_z(model.ROOT_YAW), model.ROOT_POSITION)
     left, right = (ik.KinematicChain.from_urdf(text, model.EYE_LINKS[e], root) for e in ("left", "right"))
@@ -190,11 +191,6 @@ def pair_calibration(left_T_right: tuple, who: str = "a stereo rig"):
     cached like :func:`eye_calibration`.  Triangulating with it keeps the two eyes' rays
     consistent with their calibrated intrinsics (a principal point 0.1 px off moves a depth at
     0.5 m by about 1 mm)."""
-    from ..core.fileio import dump_yaml, load_yaml
-    from ..perception.calibration import StereoCalibration, calibrate_stereo, stereo_views
-    from ..perception.rig import StereoRig
-    from ..sim.camera import Camera
-
     head = np.array(left_T_right, dtype=float)
 
     def make(folder):
@@ -226,12 +222,8 @@ def ship(folder: str | Path | None = None) -> list[Path]:
     """Make the three calibrations afresh (nothing cached or shipped is read) and write them into
     ``folder`` (default :data:`SHIPPED`), replacing what was there, with :data:`SHIPPED_MANIFEST`.
     Returns the files written."""
-    import os
-    import tempfile
-
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ..core.fileio import atomic_write_text
 
     global SHIPPED
     target = Path(folder) if folder is not None else SHIPPED

@@ -37,6 +37,8 @@ from functools import lru_cache
 from pathlib import Path
 
 from ..core.errors import HilaError
+from ..core.fileio import atomic_write_text, cache_folders
+from . import REACH
 
 #: the icub-models robot used
 ROBOT_NAME = "iCubGazeboV2_5"
@@ -121,6 +123,7 @@ class ModelError(HilaError):
 def source_urdf() -> Path:
     """Path of the shipped ``model.urdf`` of :data:`ROBOT_NAME` inside ``icub-models``."""
     try:
+        # lazy: loads icub_models, which importing this module does not
         import icub_models
     except ImportError:
         raise ModelError(
@@ -181,6 +184,7 @@ def _prune_leaves(robot: ET.Element) -> None:
 
 
 def _freeze(robot: ET.Element) -> None:
+    # lazy: loads numpy, which importing this module does not
     from ..core.rotation import from_axis_angle, from_rpy, to_rpy
 
     for joint in robot.findall("joint"):
@@ -255,7 +259,7 @@ def spec():
     """The iCub's :class:`~hila_lang.robot.spec.RobotSpec`: this module's facts as a robot
     description (its URDF generated here, its eyes in its head, its reach declared in
     :data:`hila_lang.robot.REACH` and recomputed from the chain by ``tests/test_reach.py``)."""
-    from . import REACH
+    # lazy: loads numpy, which importing this module does not
     from .spec import RobotSpec
 
     return RobotSpec(
@@ -279,8 +283,6 @@ def urdf_path() -> Path:
     writes a new file.  The cache folder is ``$HILA_CACHE_DIR/hila/robot`` or
     ``~/.cache/hila/robot``; when it is not writable a temporary folder is used.
     """
-    from ..core.fileio import atomic_write_text, cache_folders
-
     text = generate_urdf()
     digest = hashlib.sha256((_GENERATOR_VERSION + text).encode()).hexdigest()[:12]
     name = f"{ROBOT_NAME}_hila_{digest}.urdf"

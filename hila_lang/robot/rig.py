@@ -32,10 +32,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.rotation import about_z, pose
 from ..sim.camera import Camera, CameraImage, look_at
 from ..sim.scene import check_point
 from . import ik
-from .lens import EYE_HEIGHT, EYE_WIDTH, eye_calibration, pair_calibration, true_lens
+from .lens import eye_calibration, EYE_HEIGHT, EYE_WIDTH, pair_calibration, true_lens
 
 #: the pen's radius in the body outline, metres (a little wider than the pen)
 PEN_OUTLINE = 0.01
@@ -58,6 +59,7 @@ def watching_poses(robot, target) -> dict[str, np.ndarray]:
     simulator: the iCub's head aims its gaze there (:func:`.eyes.eye_poses_looking_at`); a rig's
     cameras stay where they stand."""
     if robot.eyes == "head":
+        # lazy: only this branch needs it
         from .eyes import eye_poses_looking_at
 
         return eye_poses_looking_at(target)
@@ -103,7 +105,6 @@ class RigEyes:
         half = float(np.linalg.norm(right - left)) / 2 + 0.03
         axis = (right - left) / max(np.linalg.norm(right - left), 1e-9)
         bar = sim.add_box([half, 0.015, 0.015], middle, STAND_RGBA)
-        from ..core.rotation import about_z, pose
 
         sim.set_pose(bar, pose(about_z(float(np.arctan2(axis[1], axis[0]))), middle))
 

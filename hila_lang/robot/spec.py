@@ -33,6 +33,7 @@ spec: :data:`OVERRIDES`.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
@@ -40,7 +41,14 @@ from typing import Any
 
 import numpy as np
 
-from ..core.errors import InputError
+from ..core.errors import did_you_mean, InputError
+from ..core.fileio import load_yaml
+from ..core.rotation import about_z, pose
+from ..plugins import registry
+from ..plugins.options import parse_pairs
+from . import ik
+from .urdf import _pen_rotation, MOVABLE, PEN_TIP_LINK, prepare, read, resolve_meshes, root_link
+from .workspace import default_surface, READY_HEIGHT, TABLE_TOP_Z
 
 #: the robot of a run that names none
 DEFAULT_ROBOT = "icub"
@@ -117,15 +125,10 @@ class RobotSpec:
     # -- frames --------------------------------------------------------------------------------
     def world_T_base(self) -> np.ndarray:
         """Where the base link stands, (4, 4) world frame."""
-        from ..core.rotation import about_z, pose
-
         return pose(about_z(self.base_yaw), self.base_position)
 
     def tool(self) -> np.ndarray:
         """``flange_T_tip`` (4, 4): the pen's tip in the flange's frame, +z along the pen."""
-        from ..core.rotation import pose
-        from .urdf import _pen_rotation
-
         rotation = _pen_rotation(self.pen_axis)
         return pose(rotation, np.asarray(self.pen_offset, float) + rotation[:, 2] * self.pen_length)
 
@@ -133,14 +136,11 @@ class RobotSpec:
         """The URDF file PyBullet loads (made ready once and cached, :mod:`.urdf`)."""
         if self.generator is not None:
             return self.generator()
-        from .urdf import prepare
 
         return prepare(self)
 
     def tip_link(self) -> str:
         """The pen tip's link in :meth:`urdf_path`."""
-        from .urdf import PEN_TIP_LINK
-
         return self.pen_tip_link or PEN_TIP_LINK
 
     def chain(self):
@@ -151,8 +151,6 @@ class RobotSpec:
     def limits(self) -> dict[str, dict[str, float]]:
         """Joint name -> ``lower``, ``upper`` (radians), ``velocity`` (rad/s), ``effort`` (N m,
         the spec's force limit, else the URDF's) for the chain's joints."""
-        from .urdf import read
-
         robot, _ = read(self.source_urdf())
         joints = {j.get("name"): j for j in robot.findall("joint")}
         chain = self.chain()
@@ -209,8 +207,6 @@ class RobotSpec:
 
     def default_surface(self):
         """The sheet a world that says nothing gets (:func:`.workspace.default_surface`)."""
-        from .workspace import default_surface
-
         return default_surface(self.sheet_center, self.sheet_rotation)
 
     def summary(self) -> str:
@@ -233,8 +229,6 @@ _CHAINS: dict = {}
 
 
 def _chain(spec: RobotSpec):
-    from . import ik
-
     key = (spec.name, str(spec.urdf), spec.tip, spec.base_link, spec.base_position, spec.base_yaw, spec.pen_length,
            spec.pen_axis, spec.pen_offset, spec.generator)
     if key not in _CHAINS:
@@ -242,6 +236,7 @@ def _chain(spec: RobotSpec):
             text = spec.urdf_path().read_text(encoding="utf-8")
             _CHAINS[key] = ik.KinematicChain.from_urdf(text, spec.tip_link(), spec.world_T_base(), spec.base_link)
         else:
+            # lazy: only this branch needs it
             from .urdf import chain_joints, read
 
             robot, text = read(spec.urdf)
@@ -263,6 +258,7 @@ def _numbers(value, n: int | None, what: str, source: str) -> tuple[float, ...]:
 
 
 def _pybullet_data(name: str) -> Path:
+    # lazy: loads pybullet_data, which importing this module does not
     import pybullet_data
 
     return Path(pybullet_data.getDataPath()) / name
@@ -296,6 +292,7 @@ def spec_from_mapping(data: dict, *, base: Path, source: str, overrides: dict | 
                          file=source or None)
     unknown = [k for k in data if k not in SPEC_KEYS]
     if unknown:
+        # lazy: only this branch needs it
         from ..core.errors import did_you_mean
 
         raise InputError(f"unknown key {unknown[0]!r} in the robot spec; known: {', '.join(SPEC_KEYS)}",
@@ -304,7 +301,6 @@ def spec_from_mapping(data: dict, *, base: Path, source: str, overrides: dict | 
         raise InputError("the robot spec names no urdf", file=source or None)
     urdf = _urdf_file(data["urdf"], base, source)
     overrides = dict(overrides or {})
-    from .urdf import read, resolve_meshes, root_link
 
     robot, _ = read(urdf)
     base_link = str(data.get("base_link") or root_link(robot, urdf))
@@ -368,7 +364,6 @@ def _by_name(value, names):
 def _eyes(value, spec: RobotSpec, source: str):
     if value in (None, "none"):
         return None
-    from .workspace import TABLE_TOP_Z
 
     centre = np.array([*spec.sheet_center, TABLE_TOP_Z])
     if value == "rig":
@@ -382,8 +377,6 @@ def _eyes(value, spec: RobotSpec, source: str):
 
 
 def _apply_overrides(spec: RobotSpec, overrides: dict) -> RobotSpec:
-    import os
-
     changes: dict[str, Any] = {}
     for key, text in overrides.items():
         if key == "tip":
@@ -403,8 +396,6 @@ def _apply_overrides(spec: RobotSpec, overrides: dict) -> RobotSpec:
 def find_tip(robot, urdf: Path, base: str) -> str:
     """A URDF's flange when none is named: the child of the movable joint with the most movable
     joints above it, then on down a lone fixed joint at a time (a flange or tool frame)."""
-    from .urdf import MOVABLE
-
     by_child = {j.find("child").get("link"): j for j in robot.findall("joint") if j.find("child") is not None}
     best, count = None, -1
     for link in by_child:
@@ -424,8 +415,6 @@ def find_tip(robot, urdf: Path, base: str) -> str:
 
 
 def _default_base(spec: RobotSpec) -> tuple[float, float, float]:
-    from .workspace import TABLE_TOP_Z
-
     at_origin = replace(spec, base_position=(0.0, 0.0, 0.0), base_yaw=0.0)
     (_, _, _), radius = at_origin.reach()
     distance = min(max(BASE_REACH_SHARE * radius, BASE_DISTANCE[0]), BASE_DISTANCE[1])
@@ -437,9 +426,6 @@ def find_seed(spec: RobotSpec, tries: int = 40) -> tuple[float, ...]:
     """A posture with the pen vertical above the sheet's centre, for a robot whose spec gives
     none: IK from the middle of the limits, from zero, then from seeded random postures; the
     first that converges (a spec file should give one: ``seed:``)."""
-    from . import ik
-    from .workspace import READY_HEIGHT, TABLE_TOP_Z
-
     chain = spec.chain()
     target = np.array([*spec.sheet_center, TABLE_TOP_Z + READY_HEIGHT])
     rng = np.random.default_rng(0)
@@ -467,8 +453,6 @@ def bare_spec(urdf: Path, overrides: dict) -> RobotSpec:
 
 def load_spec(path: Path, overrides: dict) -> RobotSpec:
     """A spec file (YAML, :data:`SPEC_KEYS`)."""
-    from ..core.fileio import load_yaml
-
     data = load_yaml(path, "robot spec", unique_keys=True)
     return spec_from_mapping(data, base=Path(path).resolve().parent, source=str(path), overrides=overrides)
 
@@ -481,6 +465,7 @@ def robot_settings(settings: dict[str, str]) -> dict[str, str]:
             continue
         name = key[len("robot."):]
         if name not in OVERRIDES:
+            # lazy: only this branch needs it
             from ..core.errors import did_you_mean
 
             raise InputError(f"unknown setting --set {key}; the robot's settings: "
@@ -492,8 +477,6 @@ def robot_settings(settings: dict[str, str]) -> dict[str, str]:
 def robot_pairs(pairs: list[str] | None, command: str) -> dict[str, str]:
     """The ``--set robot.KEY=VALUE`` pairs of a command that takes the robot's settings only
     (``hila learn``, ``hila robot-sim``) as ``{"robot.KEY": VALUE}``; any other key is an InputError."""
-    from ..plugins.options import parse_pairs
-
     settings = parse_pairs(pairs)
     stray = [k for k in settings if not k.startswith("robot.")]
     if stray:
@@ -509,7 +492,6 @@ def resolve(robot: str | None = None, settings: dict[str, str] | None = None) ->
     if robot is not None and not str(robot).strip():  # --robot "$UNSET": not silently the iCub
         raise InputError("--robot needs a robot's name or the path of a spec file or URDF, got an empty value")
     name = robot or DEFAULT_ROBOT
-    from ..plugins import registry
 
     if name in registry.names("robot"):
         spec = registry.robot(name).spec()
@@ -531,7 +513,6 @@ def resolve(robot: str | None = None, settings: dict[str, str] | None = None) ->
         if not path.is_file():
             raise InputError(f"--robot {name}: no such spec file")
         return load_spec(path, overrides)
-    from ..core.errors import did_you_mean
 
     raise InputError(f"unknown robot {name!r}; known: {', '.join(registry.names('robot'))}, or a path to a "
                      "spec file (.yaml) or a URDF (.urdf)", hint=did_you_mean(name, registry.names("robot")))

@@ -36,6 +36,7 @@ import numpy as np
 from ..core.errors import HilaRuntimeError, InputError
 from ..core.validation import check_path
 from ..plugins.protocols import StreamProgress
+from .arm import ACCELERATION, DRAW_SPEED, SETTLE_STEPS, SETTLED, SIM_RATE, Trace, TRAVEL_SPEED, WAYPOINT_SPACING
 from .reach import check_planned
 from .trajectory import densify, trapezoid_profile
 
@@ -73,8 +74,6 @@ class _Stream:
     of a new path and of where a tail may be replaced from."""
 
     def __init__(self, backend) -> None:
-        from .arm import SIM_RATE
-
         self.b = backend
         self.dt = 1.0 / SIM_RATE
         self._run: dict | None = None
@@ -111,8 +110,6 @@ class ArmStream(_Stream):
 
     # -- the protocol -------------------------------------------------------------------------
     def begin(self, path, *, pen_down: bool = False, label: str = "") -> float:
-        from .arm import ACCELERATION, DRAW_SPEED, TRAVEL_SPEED
-
         b = self.b
         planned = self._start(path, label, b.arm.surface_z)
         if b.view is not None:
@@ -141,7 +138,6 @@ class ArmStream(_Stream):
     def replace(self, index: int, tail) -> None:
         run = self._need()
         tail, passed = self._tail(run, index, tail, self.b.arm.surface_z)
-        from .arm import ACCELERATION, WAYPOINT_SPACING
 
         arc, dense, qs = run["arc"], run["dense"], run["qs"]
         s = run["s"]
@@ -164,8 +160,6 @@ class ArmStream(_Stream):
             self.b.view.planned(run["path"])
 
     def finish(self, each_step=None) -> np.ndarray:
-        from .arm import SETTLE_STEPS, SETTLED
-
         run = self._need()
         try:
             while run["k"] < len(run["profile"]):
@@ -249,8 +243,6 @@ class ArmStream(_Stream):
             each_step(run["steps"] * self.dt)
 
     def _close(self, run) -> np.ndarray:
-        from .arm import Trace
-
         self._run = None
         b = self.b
         executed = np.array(run["executed"]).reshape(-1, 3)
@@ -271,8 +263,6 @@ class DryStream(_Stream):
     """The ``streaming`` capability of :class:`~.dry.DryBackend` (module docstring)."""
 
     def begin(self, path, *, pen_down: bool = False, label: str = "") -> float:
-        from .arm import DRAW_SPEED, TRAVEL_SPEED
-
         planned = self._start(path, label, self.b.surface_z)
         self._run = {"path": planned, "followed": [], "pen_down": bool(pen_down), "label": label, "steps": 0,
                      "speed": DRAW_SPEED if pen_down else TRAVEL_SPEED}

@@ -33,7 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.errors import InputError, did_you_mean
+from ..core.errors import did_you_mean, HilaRuntimeError, InputError
+from ..core.fileio import atomic_write_text, cache_folders
+from ..core.rotation import from_axis_angle, from_rpy, to_rpy
 
 #: the pen tip's link in a prepared URDF
 PEN_TIP_LINK = "hila_pen_tip"
@@ -185,8 +187,6 @@ def resolve_meshes(robot: ET.Element, urdf: Path, packages) -> None:
 
 
 def _freeze(robot: ET.Element, keep: set[str], frozen: dict) -> None:
-    from ..core.rotation import from_axis_angle, from_rpy, to_rpy
-
     for joint in robot.findall("joint"):
         name, kind = joint.get("name"), joint.get("type")
         if kind == "fixed" or name in keep:
@@ -224,8 +224,6 @@ def add_pen(robot: ET.Element, flange: str, length: float, axis=(0.0, 0.0, 1.0),
             *, pen: str = "hila_pen", tip: str = PEN_TIP_LINK) -> None:
     """Fix a pen ``length`` metres long to ``flange``, from ``offset`` (flange frame) along
     ``axis``; its tip is link ``tip`` with +z along the pen."""
-    from ..core.rotation import to_rpy
-
     rpy = to_rpy(_pen_rotation(axis))
     body = (f'<visual><origin xyz="0 0 {length / 2 - 0.005}" rpy="0 0 0"/>'
             f'<geometry><cylinder radius="{PEN_RADIUS}" length="{length - 0.01}"/></geometry>'
@@ -271,9 +269,6 @@ def prepared_text(spec) -> str:
 def prepare(spec) -> Path:
     """Path of ``spec``'s prepared URDF, written once into the cache folder and reused (its name
     carries a hash of its text)."""
-    from ..core.fileio import atomic_write_text, cache_folders
-    from ..core.errors import HilaRuntimeError
-
     text = prepared_text(spec)
     digest = hashlib.sha256((_VERSION + text).encode()).hexdigest()[:12]
     name = f"{spec.name}_hila_{digest}.urdf"

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .workspace import ready_point
+
 #: the camera: (distance, yaw, pitch) in PyBullet's convention (metres, degrees), looking at the
 #: middle of the robot and the paper from the front left, above the table
 CAMERA = (0.5, 45.0, -28.0)
@@ -62,8 +64,6 @@ ARM_HEIGHT = 0.8
 def robot_points(surface, spec=None) -> np.ndarray:
     """What the window frames of the robot (3, 3): the iCub's waist, above its head and the pen's
     ready point; another arm's (``spec``, :mod:`.spec`) base, above it and the ready point."""
-    from .workspace import ready_point
-
     if spec is None or spec.eyes == "head":
         return np.array([[0.0, 0.0, 0.45], np.add(HEAD, [0.0, 0.0, 0.08]), ready_point(surface)])
     base = np.asarray(spec.base_position, dtype=float)

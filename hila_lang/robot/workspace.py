@@ -26,6 +26,7 @@ READY_HEIGHT = 0.10
 
 def ready_point(surface):
     """The pen's start when the world names none: :data:`READY_HEIGHT` above ``surface``'s centre, (3,)."""
+    # lazy: loads numpy, which importing this module does not
     import numpy as np
 
     return surface.to_world(0.0, 0.0) + np.array([0.0, 0.0, READY_HEIGHT])
@@ -35,6 +36,7 @@ def default_surface(center=(0.31, -0.09), rotation: float = math.radians(15.0)):
     """A blank A4 sheet on the table where the robot reaches it well: by default centred at
     (0.31, -0.09), turned 15 degrees (where the tic-tac-toe game's sheet lies; a world that says
     nothing gets it; a robot's spec may say otherwise: ``sheet``)."""
+    # lazy: loads numpy, which importing this module does not
     from ..sim.surface import Surface
 
     return Surface(center=tuple(center), rotation=rotation, z=TABLE_TOP_Z + PAPER_THICKNESS)

@@ -35,6 +35,7 @@ def _joints(value: str) -> tuple[str, ...]:
 
 
 def _workspace(value: str):
+    # lazy: loads numpy, which importing this module does not
     from .plan import Workspace
 
     return Workspace.parse(value)

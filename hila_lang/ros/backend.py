@@ -32,6 +32,7 @@ It has no eyes, ink, overview, lighting or window, and no snapshots: a real arm 
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -40,8 +41,11 @@ import numpy as np
 
 from ..core.bounded import BoundedLog
 from ..core.errors import HilaRuntimeError, InputError
-from .link import JointStates, RosNode, State, ros_modules, trajectory_message
-from .plan import JointPlan, Workspace, plan_move
+from ..robot.kinematic_arm import from_spec
+from ..robot.reach import BELOW_PAPER
+from ..robot.workspace import TABLE_FRONT_X, TABLE_SIZE
+from .link import JointStates, ros_modules, RosNode, State, trajectory_message
+from .plan import JointPlan, plan_move, Workspace
 
 #: after a trajectory's last point, the arm has this long to come to rest within the tolerance, s
 SETTLE = 1.0
@@ -146,8 +150,6 @@ class RosBackend:
 
     @staticmethod
     def _where_hint(topic: str) -> str:
-        import os
-
         domain = os.environ.get("ROS_DOMAIN_ID", "0 (unset)")
         return (f"is the arm's driver running (hila robot-sim, or ros2_control) with the same ROS_DOMAIN_ID (here "
                 f"{domain})? 'ros2 topic info {topic}' shows who is on it; --set ros.controller=/NAME/joint_trajectory "
@@ -294,9 +296,6 @@ def default_workspace(surface_z: float) -> Workspace:
     """Above the table in front of the robot: the table's top (:mod:`hila_lang.robot.workspace`) from
     :data:`~hila_lang.robot.reach.BELOW_PAPER` under the paper at ``surface_z`` up to
     :data:`WORKSPACE_HEIGHT` above it."""
-    from ..robot.reach import BELOW_PAPER
-    from ..robot.workspace import TABLE_FRONT_X, TABLE_SIZE
-
     depth, width, _ = TABLE_SIZE
     return Workspace((TABLE_FRONT_X, -0.05 - width / 2, surface_z - BELOW_PAPER),
                      (TABLE_FRONT_X + depth, -0.05 + width / 2, surface_z + WORKSPACE_HEIGHT))
@@ -312,10 +311,9 @@ def make_backend(scene, options, settings) -> RosBackend:
     from ``--robot``; None: the default robot) as :func:`~hila_lang.robot.kinematic_arm.from_spec`
     describes it, and the ``ros.*`` settings (:data:`hila_lang.ros.ROS`); the workspace box
     defaults to the table under the world's drawing surface (the robot's default sheet otherwise)."""
-    from ..robot.kinematic_arm import from_spec
-
     robot = getattr(options, "robot", None)
     if robot is None:
+        # lazy: only this branch needs it
         from ..robot.spec import resolve
 
         robot = resolve()

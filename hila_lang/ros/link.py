@@ -37,6 +37,7 @@ def ros_modules():
     """``(rclpy, JointTrajectory, JointTrajectoryPoint, JointState)``; an InputError saying how to
     install them when the ``ros`` extra is missing."""
     try:
+        # lazy: rclpy is an optional extra; sensor_msgs is an optional extra; trajectory_msgs is an optional extra
         import rclpy
         from sensor_msgs.msg import JointState
         from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -51,6 +52,7 @@ def _seconds(stamp) -> float:
 
 
 def _duration(seconds: float):
+    # lazy: builtin_interfaces is an optional extra
     from builtin_interfaces.msg import Duration
 
     whole = int(np.floor(seconds))
@@ -109,6 +111,7 @@ class RosNode:
 
     def __init__(self, name: str) -> None:
         rclpy, *_ = ros_modules()
+        # lazy: rclpy is an optional extra
         from rclpy.context import Context
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
@@ -129,6 +132,7 @@ class RosNode:
         self._thread.start()
 
     def _spin(self, context, executor) -> None:
+        # lazy: rclpy is an optional extra
         from rclpy.executors import ExternalShutdownException
 
         try:
@@ -138,12 +142,14 @@ class RosNode:
             pass
 
     def publisher(self, kind, topic: str, sensor: bool = False):
+        # lazy: rclpy is an optional extra
         from rclpy.qos import qos_profile_sensor_data
 
         return self.node.create_publisher(kind, topic, qos_profile_sensor_data if sensor else QUEUE)
 
     def subscribe(self, kind, topic: str, callback, sensor: bool = False):
         """``sensor``: best effort (matches a reliable publisher as well as a best-effort one)."""
+        # lazy: rclpy is an optional extra
         from rclpy.qos import qos_profile_sensor_data
 
         return self.node.create_subscription(kind, topic, callback, qos_profile_sensor_data if sensor else QUEUE)

@@ -30,7 +30,10 @@ import time
 
 import numpy as np
 
-from .link import RosNode, joint_state_message, read_trajectory, ros_modules
+from ..robot.arm import POSITION_GAIN, VELOCITY_GAIN
+from ..robot.backend import PyBulletBackend
+from ..robot.kinematic_arm import from_spec
+from .link import joint_state_message, read_trajectory, ros_modules, RosNode
 from .plan import hermite
 
 #: physics rate, Hz (the PyBullet arm's)
@@ -92,10 +95,6 @@ class SimulatedArm:
 
     def __init__(self, robot, *, controller: str, states: str, rate: float = STATE_RATE,
                  prefix: str = "", brakes=(), gui: bool = False, log=None) -> None:
-        from ..robot.backend import PyBulletBackend
-        from ..robot.arm import POSITION_GAIN, VELOCITY_GAIN
-        from ..robot.kinematic_arm import from_spec
-
         _, JointTrajectory, _, JointState = ros_modules()  # before the simulation: a missing extra says so at once
         self.log = log or sys.stderr
         self.description = from_spec(robot)

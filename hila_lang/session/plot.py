@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.fileio import write_png
 
 #: how the top view is oriented, in words (titles and ``hila show``)
 PAPER_VIEW = "the paper as the robot sees it: farther up, its right to the right"
@@ -40,6 +41,7 @@ class _Labels:
         self.boxes: list[tuple[int, int, int, int]] = []
 
     def put(self, img, text: str, at: tuple[int, int], colour, panel: tuple[int, int, int, int]) -> None:
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         (w, h), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.4, 1)
@@ -75,6 +77,7 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
     points, so a small mark is not lost when a far point (the hand's start) sets the scale.
     Labels are placed apart (:class:`_Labels`).
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     path = np.asarray(path, dtype=float)
@@ -97,7 +100,6 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
     shown = max(float(np.ptp(paper_view(path), axis=0).max()), 1e-6)
     cv2.putText(img, f"{title}  ({len(path)} points, {shown * 100:.1f} cm across; {legend})", (pad, 16),
                 cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-    from ..core.fileio import write_png
 
     return write_png(file, img, bgr=True)
 
@@ -105,6 +107,7 @@ def plot_path(path: np.ndarray, file, *, icps: dict | None = None, executed: np.
 def _panel(img, x0: int, frame, kind: str, label: str, path, executed, icps: dict, marks, fit, dim: int) -> None:
     """One view into ``img`` at column ``x0``: ``kind`` top (:func:`paper_view`) or side (x, z),
     fitted to the points ``fit`` indexes (with the ICPs near them), or to everything."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     pad, top, size = frame

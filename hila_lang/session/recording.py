@@ -28,12 +28,15 @@ import json
 import os
 import time
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .. import __version__
 from ..core.errors import HilaError, InputError
+from ..core.fileio import atomic_write_bytes, check_regular, ensure_writable
 
 #: the version :func:`write_record` writes and :func:`read_record` reads
 RECORD_VERSION = 1
@@ -154,6 +157,7 @@ class Recorder:
         self.steps.append(record)
 
     def eye_image(self, step: int) -> str:
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         image = self.interp.backend.eyes.camera_image("left").rgb
@@ -178,7 +182,6 @@ class Recorder:
                 result["executed"] = _array(error.executed)
         else:
             result = {"status": "failed", "error": f"{type(error).__name__}: {error}", "exit": 3, "state": it.current}
-        from .. import __version__
 
         return {
             "hila_record": RECORD_VERSION,
@@ -213,7 +216,6 @@ def start_recording(args, options):
         if getattr(args, "record_eyes", False):
             raise InputError("--record-eyes needs --record FILE.hilarec")
         return None
-    from ..core.fileio import ensure_writable
 
     path = Path(args.record)
     if path.is_dir():
@@ -239,8 +241,6 @@ def _same(a, b) -> bool:
 
 def write_record(path, document: dict, images: dict[str, bytes] | None = None) -> Path:
     """Write a recording: ``record.json`` and the images, in one ZIP file, atomically."""
-    from ..core.fileio import atomic_write_bytes
-
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as z:
         z.writestr(RECORD_JSON, json.dumps(document, separators=(",", ":")))
@@ -265,8 +265,6 @@ class _Damaged(Exception):
 def _member(z: zipfile.ZipFile, name: str, limit: int) -> bytes:
     """One member of the archive, decompressed, at most ``limit`` bytes (checked as it is read:
     the size the archive declares may lie)."""
-    import zlib
-
     try:
         info = z.getinfo(name)
     except KeyError:
@@ -380,6 +378,7 @@ def _validate(doc) -> None:
     start["hand"] = _points(_need(start, "hand", list, "its 'start'"), "its start 'hand'", "point")
     fsm = _need(doc, "fsm", dict, "the recording")
     try:
+        # lazy: only this branch needs it
         from ..language.fsm import FSM
 
         states = FSM.from_dict(fsm).states
@@ -436,8 +435,6 @@ def read_record(path) -> dict:
     one of the wrong kind.  Only ``record.json`` is read; other members (a huge ``eyes/``) are
     not, and members hila does not write are ignored.
     """
-    from ..core.fileio import check_regular
-
     check_regular(path, "recording")
     try:
         with zipfile.ZipFile(path) as z:

@@ -28,6 +28,7 @@ from ..core.errors import EXIT_INTERRUPTED, HilaError, Interrupted
 from ..core.interrupts import Terminated
 from ..engine.interpreter import Interpreter
 from ..engine.trace import fmt_point, fmt_value
+from ..language.environment import Environment
 
 HISTORY = Path(os.path.expanduser("~")) / ".hila_history"
 
@@ -72,6 +73,7 @@ class Repl(cmd.Cmd):
         if self.use_rawinput and not getattr(self, "_history_read", False):
             self._history_read = True
             try:
+                # lazy: only this branch needs it
                 import readline
 
                 readline.set_completer_delims(" \t\n")
@@ -83,6 +85,7 @@ class Repl(cmd.Cmd):
     def postloop(self) -> None:
         if self.use_rawinput:
             try:
+                # lazy: only this branch needs it
                 import readline
 
                 readline.write_history_file(str(HISTORY))
@@ -200,6 +203,7 @@ class Repl(cmd.Cmd):
         st = it.state
         self.say(f"at {st.name} ({st.kind}): {st.describe()}")
         if st.line:
+            # lazy: only this branch needs it
             from ..language.source import source_line
 
             src = source_line(it.checked.program.source, st.line) or ""
@@ -220,6 +224,7 @@ class Repl(cmd.Cmd):
             self.say(f"  {k:<12} = {fmt_point(v)}")
         last = it.last_run
         if last is not None and last.step_result is not None:  # what OSILA did with the last run's pairs
+            # lazy: only this branch needs it
             from ..hierarchy.explain import pairs_line
 
             pairs = getattr(last.step_result.result, "pairs", None)
@@ -254,6 +259,7 @@ class Repl(cmd.Cmd):
         self.say(f"{last.state}: {len(p)} points, {fmt_point(p[0])} -> {fmt_point(p[-1])}, "
                  f"length {float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()):.3f} m")
         if words:
+            # lazy: only this branch needs it
             from .plot import plot_path
 
             out = plot_path(p, words[1], icps=it.last_icps, executed=last.executed, title=last.state)
@@ -279,8 +285,6 @@ class Repl(cmd.Cmd):
         """reload: re-read the program and the templates it imports and go on from the same state
         (the world and the back end keep theirs).  A program that does not load is reported and the
         old one keeps running."""
-        from ..language.environment import Environment
-
         file = self.interp.fsm.file
         try:
             checked, fsm = Environment.default().load(file)

@@ -23,9 +23,14 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..core.errors import HilaError, HilaRuntimeError
-from ..language.fsm import FSM
 from ..engine.trace import Trace, TraceEntry
+from ..hierarchy.explain import explain_run
+from ..hierarchy.step import Constraint
+from ..language.fsm import FSM
+from ..osila.template import template_from_dict
+from ..plugins.options import RunOptions
 from .recording import sha256
+from .runner import finish, prepare
 
 
 #: the exit statuses of a recorded run stopped from outside: Ctrl-C, SIGHUP, SIGTERM
@@ -35,6 +40,7 @@ INTERRUPTED_EXITS = (130, 129, 143)
 def _entry(s: dict) -> TraceEntry:
     replans = None
     if s.get("replans") is not None:
+        # lazy: only this branch needs it
         from ..engine.tracking import Replan
 
         replans = [Replan.from_dict(r) for r in s["replans"]]
@@ -161,9 +167,8 @@ class ReplayEngine:
 
 def recorded_template(record: dict, st):
     """The (sub-)template a recorded run state ran, from the template text in the recording."""
+    # lazy: loads yaml, which importing this module does not
     import yaml
-
-    from ..osila.template import template_from_dict
 
     entry = record["templates"][st.template]
     template = template_from_dict(yaml.safe_load(entry["text"]), entry["file"])
@@ -171,9 +176,6 @@ def recorded_template(record: dict, st):
 
 
 def explain_recorded(record: dict, s: dict, *, title: str) -> list[str]:
-    from ..hierarchy.explain import explain_run
-    from ..hierarchy.step import Constraint
-
     st = FSM.from_dict(record["fsm"]).states[s["state"]]
     template = recorded_template(record, st)
     osila = s["osila"]
@@ -283,9 +285,6 @@ def changed_files(record: dict) -> list[str]:
 
 def verify(record: dict, *, tolerance: float = 1e-6) -> tuple[bool, list[str]]:
     """Run the recorded command again and compare; returns (no difference, report lines)."""
-    from ..plugins.options import RunOptions
-    from .runner import finish, prepare
-
     lines = [f"note: {n}" for n in changed_files(record)]
     command, steps = record["command"], record["steps"]
     program = record["program"]["file"]

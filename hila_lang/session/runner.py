@@ -19,11 +19,14 @@ from __future__ import annotations
 import contextlib
 import sys
 
+from ..core.interrupts import guarded
+from ..engine.interpreter import Interpreter
+from ..language.environment import Environment
+from ..language.limits import DEFAULT_STEP_LIMIT
+from ..language.source import source_line
 from ..plugins import registry
 from ..plugins.options import RunOptions
-from ..language.environment import Environment
-from ..engine.interpreter import Interpreter
-from ..language.limits import DEFAULT_STEP_LIMIT
+from .runout import run_outputs
 
 
 def prepare(path, options: RunOptions, backend: str | None = None, *,
@@ -33,6 +36,7 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
     ``env`` (default: the process's) finds its templates (the studio's keeps them in its folder)."""
     checked, fsm = (env or Environment.default()).load(path, settings=options.settings, backend=backend)
     if options.robot is None:
+        # lazy: only this branch needs it
         from ..robot.spec import resolve
 
         options.robot = resolve(options.settings.get("robot"), options.settings)  # --robot, --set robot.KEY
@@ -40,7 +44,6 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
     backend_info = registry.backend(backend or world_info.default_backend)
     osila, world_settings, backend_settings = checked.run_settings
     world = world_info.build(options, world_settings)
-    from .runout import run_outputs
 
     outputs = run_outputs(world, options)  # --out for a world that writes none: made and proved writable now
     be = backend_info.build(world.scene, options, backend_settings)
@@ -58,8 +61,6 @@ def prepare(path, options: RunOptions, backend: str | None = None, *,
 
 def show_states(interp: Interpreter) -> None:
     """Tell the back end's view (a window) each state as it starts: its name and program line."""
-    from ..language.source import source_line
-
     def show(name: str | None) -> None:
         if name is None:
             interp.backend.view.show_state("finished", "")
@@ -75,14 +76,13 @@ def show_states(interp: Interpreter) -> None:
 def finish(interp: Interpreter):
     """``world.finish(trace, fsm=FSM)`` (its summary, or None), then close the back end.
     A first Ctrl-C while the world saves its outputs waits until they are saved."""
-    from ..core.interrupts import guarded
-
     try:
         with guarded() as guard:
             guard.hold()
             summary = interp.world.finish(interp.trace, fsm=interp.fsm)
             outputs = getattr(interp, "run_outputs", None)
             if outputs is not None:
+                # lazy: only this branch needs it
                 from .runout import write_run_outputs
 
                 folder, seed, stdout = outputs

@@ -8,10 +8,13 @@ alias for ``--set NAME=VALUE``.
 from __future__ import annotations
 
 import sys
+import textwrap
 from pathlib import Path
 
 from ..core.argtypes import output_path, seed, whole
 from ..language.limits import DEFAULT_STEP_LIMIT
+from ..plugins import registry
+from ..plugins.options import OSILA_SETTABLE, parse_pairs, RunOptions
 
 _steps = whole(note=" (0: no limit)")  # --max-steps
 
@@ -22,8 +25,6 @@ def _out(text: str) -> Path:
 
 def _aliases() -> dict[str, tuple[str, list[str]]]:
     """flag -> (setting name, ["world NAME: doc", ...]) over every declared plug-in."""
-    from ..plugins import registry
-
     flags: dict[str, tuple[str, list[str]]] = {}
     for kind in ("world", "back end"):
         for info in registry.declarations(kind):
@@ -39,8 +40,6 @@ def add_setting_arguments(parser) -> None:
     """``--backend``, ``--set KEY=VALUE`` and the plug-ins' flags: what a program runs with, so
     ``hila check`` can check it the way ``hila exec`` will run it.  ``--help`` lists every
     registered world's and back end's settings (:func:`settings_help`)."""
-    from ..plugins import registry
-
     parser.add_argument("--backend", choices=registry.names("back end"), default=None,
                         help="who moves the hand (default: the world's choice)")
     for flag, (name, owners) in sorted(_aliases().items()):
@@ -59,10 +58,6 @@ def add_setting_arguments(parser) -> None:
 def settings_help() -> str:
     """Every registered world's and back end's settings, and the OSILA options, for ``--help``
     (read from the registry: a plug-in's settings appear as soon as it is installed)."""
-    import textwrap
-
-    from ..plugins import registry
-
     lines = ["settings (--set KEY=VALUE), by the world (world NAME in the program) and the back end:"]
     for kind in ("world", "back end"):
         for info in registry.declarations(kind):
@@ -71,7 +66,6 @@ def settings_help() -> str:
                 lines.extend(textwrap.wrap(s.help(), 96, initial_indent="    ", subsequent_indent="      "))
             if not info.settings:
                 lines.append("    (no settings)")
-    from ..plugins.options import OSILA_SETTABLE  # not hila_lang.osila: 'hila --help' imports no numpy
 
     lines.extend(textwrap.wrap("the robot (--robot NAME|PATH): robot.tip=LINK (the flange), robot.packages=DIR[:DIR] "
                                "(package:// meshes), robot.base=X,Y,Z, robot.pen=METRES (docs/robots.md)",
@@ -84,8 +78,6 @@ def settings_help() -> str:
 
 def settings_of(args) -> dict[str, str]:
     """The ``--set`` pairs and plug-in flags of ``args`` as one dict (a bad pair: InputError)."""
-    from ..plugins.options import parse_pairs
-
     settings = parse_pairs(args.settings)
     for dest, value in vars(args).items():
         if dest.startswith("alias:") and value is not None:
@@ -104,7 +96,5 @@ def add_run_arguments(parser) -> None:
 
 
 def run_options(args):
-    from ..plugins.options import RunOptions
-
     return RunOptions(seed=args.seed, out=args.out, gui=args.gui, settings=settings_of(args),
                       stdin=sys.stdin, stdout=sys.stdout)

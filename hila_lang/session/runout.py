@@ -24,6 +24,9 @@ import json
 
 import numpy as np
 
+from ..core.fileio import OutputFolder
+from .plot import plot_path
+
 #: every file this writes (a reused folder loses the ones a run did not write)
 FILES = ("path.png", "report.json")
 
@@ -33,7 +36,6 @@ def run_outputs(world, options):
     ``--out`` is not given or the world writes its own (it has an ``outputs`` attribute)."""
     if options.out is None or hasattr(world, "outputs"):
         return None
-    from ..core.fileio import OutputFolder
 
     return OutputFolder(options.out, "run-{time}", owned=FILES)
 
@@ -95,8 +97,6 @@ def _scene_points(runs) -> dict:
 
 def write_run_outputs(folder, interp, seed: int | None = None, stdout=None) -> dict:
     """Write ``path.png`` (when a run state moved the hand) and ``report.json`` into ``folder``."""
-    from .plot import plot_path
-
     report = run_report(interp, seed)
     runs = [e for e in interp.trace if e.kind == "run" and e.path is not None]
     if runs:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..sim.camera import Camera, intrinsics, look_at
+
 #: what the camera circles: the middle of the iCub's workspace over the table, world metres
 TARGET = (0.18, -0.08, 0.60)
 DISTANCE = 1.4
@@ -22,8 +24,6 @@ SIZE = (480, 360)
 
 def camera(azimuth_deg: float):
     """A camera ``DISTANCE`` from :data:`TARGET`, ``azimuth_deg`` about +z from the robot's front (+x)."""
-    from ..sim.camera import Camera, intrinsics, look_at
-
     a, e = np.radians(azimuth_deg), np.radians(ELEVATION_DEG)
     eye = np.array(TARGET) + DISTANCE * np.array([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)])
     return Camera(intrinsics(*SIZE, 45.0), look_at(eye, TARGET), *SIZE)
@@ -35,6 +35,7 @@ def render(backend, azimuth_deg: float, planned=None, executed=None) -> np.ndarr
     sim = getattr(backend, "sim", None)
     if sim is None or not hasattr(sim, "render"):
         return None
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     cam = camera(azimuth_deg)

@@ -46,6 +46,7 @@ class Canvas:
         if surface.texture is None:
             self.image[:] = PAPER_RGB
         else:
+            # lazy: loads cv2, which importing this module does not
             import cv2
 
             tex = np.asarray(surface.texture, dtype=np.uint8)
@@ -66,6 +67,7 @@ class Canvas:
 
         ``color`` is an RGB triple or a name from :data:`INK_RGB`; ``width`` in metres.
         """
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         if isinstance(color, str):

@@ -57,5 +57,6 @@ def import_pybullet():
     if "pybullet" in sys.modules:
         return sys.modules["pybullet"]
     with quiet_c_output():
+        # lazy: loads pybullet, numpy, which importing this module does not
         import pybullet
     return pybullet

@@ -22,7 +22,8 @@ import tempfile
 import numpy as np
 
 from ..core.errors import HilaRuntimeError, InputError
-from .camera import Camera, RenderStyle, render
+from ..core.rotation import to_quat
+from .camera import Camera, render, RenderStyle
 from .client import import_pybullet, quiet_c_output
 
 #: where hidden bodies wait, metres
@@ -32,8 +33,6 @@ WINDOW = (1280, 800)
 
 
 def _pb_pose(world_T_body) -> tuple[list[float], list[float]]:
-    from ..core.rotation import to_quat
-
     T = np.asarray(world_T_body, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         raise InputError(f"expected a pose of shape (4, 4), finite, got {T.shape}")
@@ -176,6 +175,7 @@ class SimScene:
         """A :class:`~hila_lang.sim.surface.Surface` as a textured quad (``image``, else its
         texture, else blank); move it with :meth:`set_pose` and ``surface.world_T_surface()``."""
         if image is None:
+            # lazy: only this branch needs it
             from .canvas import Canvas
 
             image = Canvas(surface).image
@@ -183,6 +183,7 @@ class SimScene:
 
     def set_texture(self, body: int, image: np.ndarray) -> None:
         """Show ``image`` (H, W, 3) uint8 RGB on ``body`` (a quad)."""
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         pb, c = self.pb, self.client

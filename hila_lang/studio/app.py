@@ -15,6 +15,10 @@ hila, which the studio survives; its traceback goes to the server's log).
 
 from __future__ import annotations
 
+import errno
+import socket
+import sys
+import threading
 from importlib import resources
 from pathlib import Path
 
@@ -26,8 +30,8 @@ from starlette.staticfiles import StaticFiles
 
 from ..core.errors import HilaError
 from . import demonstrate, files, imitate, run, worker
-from .page import Studio, problem
-from .security import MAX_UPLOAD, Guard, cookie_name
+from .page import problem, Studio
+from .security import cookie_name, Guard, MAX_UPLOAD, new_token
 
 #: seconds Ctrl-C waits for requests under way before it cancels them (and kills the workers)
 SHUTDOWN_S = 0.1
@@ -81,8 +85,7 @@ def make_app(folder: Path, token: str, port: int):
 
 
 def _server_class():
-    import threading
-
+    # lazy: loads uvicorn, which importing this module does not
     import uvicorn
 
     class Server(uvicorn.Server):
@@ -102,13 +105,8 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
 
     Returns 2 when the port is taken (one line says so); Ctrl-C raises KeyboardInterrupt after
     the server has shut down (the CLI maps it to 130)."""
-    import errno
-    import socket
-    import sys
-
+    # lazy: loads uvicorn, which importing this module does not
     import uvicorn
-
-    from .security import new_token
 
     _Server = _server_class()
     token = token or new_token()
@@ -131,6 +129,7 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
     print(f"hila studio: {url}", flush=True)
     print(f"serving {folder.resolve()} (Ctrl-C to stop)", flush=True)
     if open_browser:
+        # lazy: only this branch needs it
         import webbrowser
 
         webbrowser.open(url)

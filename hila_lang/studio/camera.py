@@ -50,6 +50,10 @@ from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
 from ..core.errors import InputError
+from ..evaluation.lasa import RATE_HZ
+from ..perception.pen import as_demonstration, BALL_MM, drawn_cell, PenTracker
+from ..perception.recording import iter_frames
+from ..perception.sheet import PAPERS, raster, SheetLayout
 from .page import JSONSocket, read_body
 
 #: frames a second the page sends at most: hila resamples every demonstration at 20 Hz, so finer
@@ -86,6 +90,7 @@ VIDEO_SUFFIXES = (".mp4", ".webm", ".mkv", ".avi", ".mov", ".y4m")
 def decode_jpeg(data: str) -> np.ndarray:
     """A frame the page sent (base64 JPEG) as RGB uint8; a frame too big, not JPEG or broken is
     refused saying which."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     if not isinstance(data, str):
@@ -108,8 +113,6 @@ def decode_jpeg(data: str) -> np.ndarray:
 
 def options(doc) -> dict:
     """The tracker's options from a request: ``ball`` (colour), ``ball_mm``."""
-    from ..perception.pen import BALL_MM
-
     try:
         ball_mm = float(doc.get("ball_mm") or BALL_MM)
     except (TypeError, ValueError):
@@ -143,9 +146,8 @@ def sheet_scene(layout) -> dict:
 
 
 def sheet_png(paper: str, grid: bool) -> bytes:
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ..perception.sheet import SheetLayout, raster
 
     grey = raster(SheetLayout(paper, grid), SCENE_PX_PER_MM)
     _, png = cv2.imencode(".png", np.asarray(grey, np.uint8))
@@ -182,9 +184,6 @@ def result(tracker, cell=None, source: str = "the recording") -> dict:
     still frames at its ends left out first (:func:`trim_still`; ``still``: how many).  ``cell``: the
     grid cell whose corners are the ICPs; None: the cell the pen drew in
     (:func:`hila_lang.perception.pen.drawn_cell`), or the corner markers off the grid."""
-    from ..evaluation.lasa import RATE_HZ
-    from ..perception.pen import as_demonstration, drawn_cell
-
     before, after = trim_still(tracker)
     track = tracker.finish(names=[f"{source}#{i}" for i in range(len(tracker.frames))], source=source)
     path, times, pen, icps = as_demonstration(track, RATE_HZ, cell=cell)
@@ -203,8 +202,6 @@ class Session:
     """One page's camera: a tracker for the live view and one for the recording."""
 
     def __init__(self, ball: str = "green", ball_mm: float = 12.0) -> None:
-        from ..perception.pen import PenTracker
-
         self.make = lambda: PenTracker(ball, ball_mm)
         self.live = self.make()
         self.recording = None
@@ -273,9 +270,6 @@ class CameraSocket(JSONSocket):
 def track_upload(data: bytes, name: str, query) -> dict:
     """A recorded video (its bytes, its file name) tracked as a recording (:func:`result`); it is
     written to a temporary file for OpenCV to decode and removed, never kept in the folder."""
-    from ..perception.pen import PenTracker
-    from ..perception.recording import iter_frames
-
     suffix = Path(name).suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise InputError(f"{name}: expected a video file ({', '.join(VIDEO_SUFFIXES)})")
@@ -308,7 +302,6 @@ async def _video(request: Request) -> Response:
 async def _sheet(request: Request) -> Response:
     q = request.query_params
     paper = q.get("paper", "a4")
-    from ..perception.sheet import PAPERS
 
     if paper not in PAPERS:
         raise InputError(f"unknown paper {paper!r}; expected {' or '.join(PAPERS)}")

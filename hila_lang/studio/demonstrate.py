@@ -45,6 +45,11 @@ from .save import _names, learned, recorded_pen, save  # noqa: F401 - save: call
 from .page import Page, read_json, studio_of, template_json
 from .schema import query
 from .security import inside, opened
+from ..evaluation import lasa as data
+from ..evaluation.lasa import RATE_HZ, resample_in_time
+from ..osila.segmentation import segments, speed
+from ..plugins import registry
+from .schema import MAX_SECONDS
 
 #: metres per pixel of a blank sheet or an uploaded picture: 0.25 mm, so an 840-pixel-wide
 #: canvas is an A4 sheet's width (0.21 m)
@@ -66,8 +71,6 @@ def scenes(folder: Path | None = None) -> list[dict]:
     """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene, the
     Camera scene (:mod:`.camera`) and the pictures in ``folder`` itself (where an upload goes) --
     not those in its subfolders, which are what runs wrote (a game's eye.png, top.png, ...)."""
-    from ..plugins import registry
-
     pictures = [] if folder is None else [
         dict(name=f"upload:{f}", label=f"picture {f}") for f in files.listing(folder)
         if "/" not in f and f.lower().endswith(PICTURES)]
@@ -79,8 +82,6 @@ def scenes(folder: Path | None = None) -> list[dict]:
 
 def _world_scene(name: str):
     """The :class:`~hila_lang.plugins.studio.DrawingScene` world ``name`` offers."""
-    from ..plugins import registry
-
     info = registry.world(name)
     if info.studio is None or not info.studio.scene:
         raise InputError(f"world {name!r} offers no scene to draw on")
@@ -96,6 +97,7 @@ def scene(name: str, folder: Path) -> dict:
         w, h = SHEET_SIZE
         return dict(name=name, image=None, width=w, height=h, H=_sheet_H(h).tolist(), z=None, features=[], lift=None)
     if name == "camera":  # the printed sheet from above, until a recording says which (studio/camera.py)
+        # lazy: only this branch needs it
         from ..perception.sheet import SheetLayout
 
         return camera.sheet_scene(SheetLayout("a4", grid=True))
@@ -105,6 +107,7 @@ def scene(name: str, folder: Path) -> dict:
                     H=np.asarray(sc.H, float).tolist(), z=sc.z, lift=sc.lift,
                     features=[dict(name=n, point=list(p)) for n, p in sc.features])
     if name.startswith("upload:"):
+        # lazy: only this branch needs it
         from ..core.images import read_picture
 
         with opened(folder, name[len("upload:"):], "uploaded image") as picture:
@@ -133,9 +136,6 @@ def demonstration_path(samples: list, z: float | None,
     Samples whose time stamp does not increase are dropped (a coalesced duplicate);
     fewer than 2 left is an InputError.
     """
-    from ..evaluation.lasa import RATE_HZ, resample_in_time
-    from .schema import MAX_SECONDS
-
     if not isinstance(samples, list):
         raise InputError("expected the demonstration as a list of pointer samples")
     if z is not None and lift_max is None:
@@ -166,8 +166,6 @@ def demonstration_path(samples: list, z: float | None,
 def proposal(path, times, k: int, method: str, seed: int = 0, pen=None) -> dict:
     """The cuts hila proposes (``hila learn``'s :func:`hila_lang.osila.segmentation.segments`) and the
     hand's speed under the path; ``method`` ``contact`` cuts by the recorded ``pen``."""
-    from ..osila.segmentation import segments, speed
-
     path = np.asarray(path, float)
     times = np.asarray(times, float)
     ranges = segments(path, int(k), method, times=times, seed=int(seed), pen=pen)
@@ -179,11 +177,13 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
     demonstration CSV in the folder, ICPs from ``NAME.icps.yaml`` beside it when there is one)
     or ``lasa`` (a LASA shape's first demonstration, resampled at 20 Hz as ``hila eval`` does)."""
     if kind == "template":
+        # lazy: only this branch needs it
         from ..osila.template import load_template
 
         with opened(folder, name, "template") as file:
             return template_json(load_template(file))
     if kind == "csv":
+        # lazy: only this branch needs it
         from ..osila.demofile import load_icps, read_demo
 
         file = inside(folder, name)
@@ -202,6 +202,7 @@ def open_source(folder: Path, kind: str, name: str) -> dict:
                     pen=None if pen is None else pen.tolist(),
                     description=f"from {name}", dim=int(path.shape[1]))
     if kind == "lasa":
+        # lazy: only this branch needs it
         from ..evaluation import lasa
 
         if name not in lasa.all_shapes():
@@ -268,8 +269,6 @@ async def _open(request: Request) -> Response:
 
 
 async def _lasa(request: Request) -> Response:
-    from ..evaluation import lasa as data
-
     return JSONResponse({"shapes": list(data.all_shapes()) if data.available() else []})
 
 

@@ -25,9 +25,16 @@ from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError
+from ..evaluation.controls import dmp_available, generator
+from ..evaluation.protocols import Constraints
+from ..hierarchy.explain import explain_run, warp_reason
+from ..hierarchy.step import Constraint, hila_step
+from ..osila.demofile import demo_csv
+from ..osila.template import load_template
 from . import schema, worker
 from .page import JSONSocket, Page, read_json, studio_of, template_json
 from .schema import query
+from .security import inside
 
 #: the controls drawn beside OSILA (names of hila_lang.evaluation.controls)
 CONTROLS = ("tps", "similarity", "dmp-aligned")
@@ -45,8 +52,6 @@ def _points(mapping, dim: int, what: str) -> dict[str, np.ndarray]:
 
 def scene_parts(template, req: dict):
     """(binding {ICP: point}, constraints) of a request ``{icps, via: [p], avoid: [{centre, radius}]}``."""
-    from ..hierarchy.step import Constraint
-
     dim = template.path.shape[1]
     icps = _points(req.get("icps"), dim, "ICP")
     unknown = sorted(set(icps) - set(template.icps))
@@ -66,9 +71,6 @@ def scene_parts(template, req: dict):
 def imitate(template, req: dict) -> dict:
     """OSILA's path for the scene in ``req`` and why its map is what it is; the controls when
     ``req["controls"]``.  Returns ``{path, reason, server_ms, controls?}`` or ``{error}``."""
-    from ..hierarchy.explain import warp_reason
-    from ..hierarchy.step import hila_step
-
     t0 = time.perf_counter()
     icps, constraints = scene_parts(template, req)
     if not icps:
@@ -91,9 +93,6 @@ def imitate(template, req: dict) -> dict:
 
 def controls(template, icps: dict) -> dict:
     """The controls' paths on the ICP pairs (a control that cannot run here is left out)."""
-    from ..evaluation.controls import dmp_available, generator
-    from ..evaluation.protocols import Constraints
-
     names = list(icps)
     c = Constraints(np.array([template.icps[k] for k in names]), np.array([icps[k] for k in names]),
                     tuple(names), (None,) * len(names), 1)
@@ -110,8 +109,6 @@ def controls(template, icps: dict) -> dict:
 
 def explain(template, req: dict) -> list[str]:
     """``hila explain``'s account of this step (:func:`hila_lang.hierarchy.explain.explain_run`)."""
-    from ..hierarchy.explain import explain_run
-
     icps, constraints = scene_parts(template, req)
     return explain_run(template, icps, None, constraints, {})
 
@@ -125,6 +122,7 @@ def point_names(icps: dict, names: dict | None) -> dict[str, str]:
     the page; default the ICP's own name).  A name must be one a program can declare and pass
     (:func:`hila_lang.language.transformer.usable_as_point`: the grammar decides), and no two
     points may share one."""
+    # lazy: loads lark, which importing this module does not
     from ..language.transformer import usable_as_point
 
     out = {}
@@ -158,9 +156,6 @@ def snippet(template, req: dict, import_name: str) -> str:
 
 
 def load(folder: Path, name: str):
-    from ..osila.template import load_template
-    from .security import inside
-
     return load_template(inside(folder, name))
 
 
@@ -172,8 +167,6 @@ async def _template(request: Request) -> Response:
 
 
 async def _export(request: Request) -> Response:
-    from ..osila.demofile import demo_csv
-
     doc = await read_json(request)
     name = str(doc.get("template", ""))
     t = studio_of(request).template(name)

@@ -26,7 +26,9 @@ from starlette.requests import Request
 from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError, internal_error_message
-from .security import MAX_UPLOAD, inside, opened
+from ..language.environment import Environment
+from ..plugins import registry
+from .security import folder_templates, inside, MAX_UPLOAD, opened
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,7 @@ class Studio:
 
     def template(self, name: str):
         """The template file ``name``, read again only when it changed."""
+        # lazy: loads numpy, which importing this module does not
         from ..osila.template import load_template
 
         with opened(self.folder, name, "template") as path:  # opened once, no link followed
@@ -67,9 +70,6 @@ def studio_env(folder: Path | None):
     """The language environment of the programs the studio checks and runs: their imports only
     inside ``folder`` and the installed templates (:func:`.security.folder_templates`); None
     (hila's own) without a folder."""
-    from ..language.environment import Environment
-    from .security import folder_templates
-
     return None if folder is None else Environment(templates=folder_templates(folder))
 
 
@@ -94,6 +94,7 @@ async def read_body(request: Request, limit: int = MAX_UPLOAD) -> bytes:
 def json_object(text: str | bytes) -> dict:
     """A JSON object from a request or a websocket message, its nesting bounded
     (:func:`.schema.parse_json`); anything else is an InputError."""
+    # lazy: loads numpy, which importing this module does not
     from .schema import parse_json
 
     return parse_json(text)
@@ -102,6 +103,7 @@ def json_object(text: str | bytes) -> dict:
 async def read_json(request: Request) -> dict:
     """The request's body as a JSON object (:func:`read_body`, :func:`json_object`), checked by
     its route's shape (:data:`.schema.BODIES`; a bad field: 400 naming it)."""
+    # lazy: loads numpy, which importing this module does not
     from .schema import BODIES, check
 
     return check(BODIES[request.url.path], json_object(await read_body(request)))
@@ -132,6 +134,7 @@ class JSONSocket(WebSocketEndpoint):
         return message.get("text")
 
     async def on_receive(self, websocket: WebSocket, data: str | None) -> None:
+        # lazy: loads numpy, which importing this module does not
         from .schema import SOCKETS, check
 
         doc: dict = {}
@@ -163,7 +166,7 @@ def template_json(template) -> dict:
 def plugins() -> dict:
     """What the registry's plug-ins declare, for the page's menus: ``backends``, ``robots`` (the
     default robot first) and ``worlds``, each ``[{name, doc}]`` (a world with its default back end)."""
-    from ..plugins import registry
+    # lazy: loads numpy, which importing this module does not
     from ..robot.spec import DEFAULT_ROBOT
 
     robots = sorted(registry.declarations("robot"), key=lambda r: r.name != DEFAULT_ROBOT)  # the default first

@@ -31,7 +31,15 @@ from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError, internal_error_message
 from ..core.fileio import png_bytes, read_text
+from ..lsp.analysis import Document
+from ..plugins import registry
+from ..plugins.options import RunOptions
 from ..plugins.studio import StudioView
+from ..session.recording import read_record
+from ..session.replay import ReplayEngine
+from ..session.repl import Repl
+from ..session.runner import finish, prepare
+from ..session.view3d import render
 from .page import JSONSocket, Page, plugins, read_json, studio_env, studio_of
 
 
@@ -39,8 +47,6 @@ def analyse(path: Path, text: str, folder: Path | None = None) -> dict:
     """The program ``text`` (as if at ``path``) for the page: ``problems`` as ``hila lsp`` locates
     them (0-based ``line``, ``character``, ...), the ``settings`` its world declares, and what the
     world's studio view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
-    from ..lsp.analysis import Document
-
     doc = Document(str(path), env=studio_env(folder))  # imports only inside the studio's folder (issue 32)
     problems = [dict(line=p.line, character=p.character, end_line=p.end_line, end_character=p.end_character,
                      message=p.message, severity=p.severity) for p in doc.analyse(text)]
@@ -153,11 +159,6 @@ class RunSession(Session):
 
     def __init__(self, program: Path, emit, *, backend: str | None = None, settings: dict | None = None,
                  seed: int = 0, robot: str | None = None, folder: Path | None = None) -> None:
-        from ..plugins import registry
-        from ..plugins.options import RunOptions
-        from ..session.repl import Repl
-        from ..session.runner import prepare
-
         super().__init__(emit)
         self.stdin, self.stdout = LineInput(lambda: self.emit(self.snapshot())), Output(emit)
         self._out = tempfile.TemporaryDirectory(prefix="hila-studio-")
@@ -187,7 +188,6 @@ class RunSession(Session):
 
     def _view(self, entry=None) -> None:
         """The 3-D view now, with the last run state's planned and executed paths."""
-        from ..session.view3d import render
 
         entry = entry or self.interp.last_run
         try:
@@ -226,7 +226,6 @@ class RunSession(Session):
         self.command(line)
 
     def close(self) -> None:
-        from ..session.runner import finish
 
         if self.stdin.waiting:
             self.stdin.put("q")
@@ -239,10 +238,6 @@ class ReplaySession(Session):
     """A recording (``.hilarec``), scrubbed step by step without a simulator."""
 
     def __init__(self, file: Path, emit) -> None:
-        from ..session.recording import read_record
-        from ..session.repl import Repl
-        from ..session.replay import ReplayEngine
-
         super().__init__(emit)
         self.record = read_record(file)
         self.interp = ReplayEngine(self.record)

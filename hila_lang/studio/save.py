@@ -5,11 +5,15 @@ transaction (:func:`.files.write`), an existing name only with ``overwrite``."""
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..core.errors import InputError
+from ..hierarchy.learn import learn_files
+from ..osila.demofile import demo_csv, icps_text
+from ..osila.template import template_text
 from . import files
 from .security import inside
 
@@ -17,6 +21,7 @@ from .security import inside
 def _names(req: dict) -> tuple[str, str, str]:
     """(``NAME.yaml``, ``NAME.demo.csv``, ``NAME.icps.yaml``) of a save, its name checked (the
     template first: a 409 names it)."""
+    # lazy: loads lark, which importing this module does not
     from ..language.transformer import usable_as_tag
 
     name = str(req.get("name", "")).strip()
@@ -40,12 +45,6 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
     tracked by the Camera scene), ``icps`` {name: point}, ``tags`` (list), ``contact`` (list),
     ``method``, ``seed`` and optional ``cuts`` (k - 1 indices).
     """
-    import tempfile
-
-    from ..hierarchy.learn import learn_files
-    from ..osila.demofile import demo_csv, icps_text
-    from ..osila.template import template_text
-
     target_name, demo_name, icps_name = _names(req)
     name = target_name[:-len(".yaml")]
     path = np.asarray(req.get("path"), float)
@@ -61,7 +60,7 @@ def learned(folder: Path, req: dict) -> tuple[dict[str, str], dict]:
     method, seed = str(req.get("method", "contact" if pen is not None else "speed")), int(req.get("seed", 0))
     target, demo, icps_file = (inside(folder, n) for n in (target_name, demo_name, icps_name))
     k = max(len(tags), 1)
-    cuts = [int(c) for c in req["cuts"]] if req.get("cuts") and tags else None  # none given: the method's
+    cuts = None if req.get("cuts") is None or not tags else [int(c) for c in req["cuts"]]
     if cuts is not None and len(cuts) != len(tags) - 1:
         raise InputError(f"cuts: expected {len(tags) - 1} cuts for {len(tags)} tags, got {len(cuts)}")
     texts = {demo_name: demo_csv(path, times, pen), icps_name: icps_text(icps)}

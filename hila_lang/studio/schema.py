@@ -23,6 +23,7 @@ from typing import Any, Callable
 
 from ..core.argtypes import SEED_MAX
 from ..core.errors import InputError
+from ..osila.segmentation import METHODS
 from ..osila.template import MAX_COORDINATE
 
 #: deepest nesting of arrays and objects in a request (a scene is 4 deep: {avoid: [{centre: [x]}]});
@@ -272,14 +273,13 @@ def query(request_or_socket, shape: Obj) -> dict:
 # ----------------------------------------------------------------------------- the requests
 
 def _tag(text: str) -> bool:
+    # lazy: loads lark, which importing this module does not
     from ..language.transformer import usable_as_tag
 
     return len(text) <= 64 and usable_as_tag(text)
 
 
 def _methods() -> tuple:
-    from ..osila.segmentation import METHODS
-
     return METHODS
 
 

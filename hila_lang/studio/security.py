@@ -22,6 +22,8 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 from urllib.parse import parse_qs
 
 from ..core.errors import HilaError, InputError
+from ..core.resources import shipped
+from ..language.loader import TemplateLoader
 
 #: largest request body accepted (an uploaded picture, CSV, recording or program), bytes.
 #: 20 MB: an A4 photograph from a phone (3-8 MB) or a long recording with eye images fits.
@@ -258,9 +260,6 @@ def folder_templates(folder: Path):
     FOLDER only.  An absolute path, a ``..`` or a link out of FOLDER is simply not a candidate:
     the program gets the same located "not found" error whether that file exists or not, so its
     existence and kind are not revealed."""
-    from ..core.resources import shipped
-    from ..language.loader import TemplateLoader
-
     root = folder.resolve()
     installed = Path(shipped("primitives")).resolve()
 

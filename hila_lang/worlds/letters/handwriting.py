@@ -45,7 +45,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ...hierarchy.learn import learn_files
+from ...osila.demofile import write_demo_csv, write_icps
 from ...osila.motion import minimum_jerk
+from ...osila.template import save_template
 from .shapes import ALPHABET, LETTERS
 
 #: samples per second
@@ -165,10 +168,6 @@ def write_letter(letter: str, seed: int = 0, corners: dict[str, np.ndarray] | No
 
 def main(argv: list[str] | None = None) -> int:
     """Write every letter's demonstration and learn it as ``hila learn`` does (see the module docstring)."""
-    from ...hierarchy.learn import learn_files
-    from ...osila.demofile import write_demo_csv, write_icps
-    from ...osila.template import save_template
-
     ap = argparse.ArgumentParser(prog="python -m hila_lang.worlds.letters.handwriting",
                                  description="Make the letters' demonstrations and learn them as hila learn does.")
     ap.add_argument("--seed", type=int, default=0)

@@ -27,8 +27,10 @@ import numpy as np
 from ...core.errors import HilaRuntimeError, UnknownNameError
 from ...core.fileio import OutputFolder
 from ...plugins.snapshots import AttributeSnapshots
+from ...sim.canvas import Canvas
 from ...sim.surface import CONTACT_TOLERANCE, Scene
-from .layout import PAPER, layout
+from . import WORLD
+from .layout import layout, PAPER
 
 #: how often a program may ask for a letter without writing it
 MAX_ASKS = 3
@@ -68,8 +70,6 @@ class LettersWorld:
         return k
 
     def query(self, name: str, *args: Any) -> Any:
-        from . import WORLD
-
         return WORLD.questions.answer(self, name, args, "the letters world")
 
     # the questions, as declared in :data:`hila_lang.worlds.letters.WORLD` (name, arguments, doc)
@@ -117,7 +117,6 @@ class LettersWorld:
         """The sheet from above (H, W, 3) uint8 RGB, row 0 its far edge (the letters' tops)."""
         if self.backend is not None and self.backend.ink is not None:
             return self.backend.ink.ink_image()
-        from ...sim.canvas import Canvas
 
         canvas = Canvas(PAPER)
         for w in self.written:

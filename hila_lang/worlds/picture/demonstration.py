@@ -27,11 +27,19 @@ picture: ``hila exec PROGRAM --set picture.image=FILE``.
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
 
+from ...core.errors import HilaError, InputError
+from ...osila.demofile import read_demo
+from ...osila.template import save_template, Segment, Template
+from ...perception.matching import scene_features
+from ...robot.backend import PyBulletBackend
+from ..tictactoe.marks import by_arc_length
 from . import scenes as S
+from .texture import map_texture, person_page, read_picture
 
 TEXTURE_SEED = 0
 ROUTE_SEED = 0
@@ -48,8 +56,6 @@ def feature_name(i: int) -> str:
 def page_of(image=None):
     """``(page texture, to_uv)``: the generated map (``to_uv`` None), or the person's picture
     file ``image`` on the page (:func:`~.texture.person_page`)."""
-    from .texture import map_texture, person_page, read_picture
-
     if image is None:
         return map_texture(S.SIZE, TEXTURE_SEED), None
     return person_page(S.SIZE, read_picture(image))
@@ -59,8 +65,6 @@ def demonstration_features(backend, page=None):
     """What the robot saw of the demonstration sheet (printed with ``page``, default the
     generated map): ``(SceneFeatures, Sheet, images, true left camera)`` (the last for the
     referee only).  The hand waits at HOME."""
-    from ...perception.matching import scene_features
-
     backend.reset_hand(S.HOME)
     sheet = S.demo_sheet(backend.surface.z)
     bodies = S.show(backend, sheet, page_of()[0] if page is None else page)
@@ -75,8 +79,6 @@ def recorded_demonstration(page=None):
     recorded: through the iCub's eyes (who watched it when ``primitives/picture.yaml`` was
     learned), in a simulation of its own.
     A robot with other eyes matches its task images against these."""
-    from ...robot.backend import PyBulletBackend
-
     with PyBulletBackend(S.mat()) as watcher:
         return demonstration_features(watcher, page)
 
@@ -90,14 +92,11 @@ def _min_jerk(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
 def person_route(route_file, picture_shape, to_uv) -> np.ndarray:
     """A route a person drew on their picture (module docstring) as the page's texture
     coordinates (DRAW, 2): its pen-down part, evenly along its length."""
-    from ...core.errors import InputError
-    from ...osila.demofile import read_demo
-    from ..tictactoe.marks import by_arc_length
-
     if str(route_file).endswith(".csv"):
         path = read_demo(route_file).path
         part = path
     else:
+        # lazy: only this branch needs it
         from ...osila.template import load_template
 
         t = load_template(route_file)
@@ -130,15 +129,12 @@ def demonstrated_path(sheet, route_uv=None) -> np.ndarray:
 
 def learn(path_out: str, image=None, route=None) -> None:
     """Write the template (module docstring); with ``image`` and ``route`` a person's own."""
-    from ...core.errors import InputError
-    from ...robot.backend import PyBulletBackend
-    from ...osila.template import Segment, Template, save_template
-
     if (image is None) != (route is None):
         raise InputError("a person's route needs both --image (the picture) and --route (what was drawn on it)")
     page, to_uv = page_of(image)
     route_uv = None
     if route is not None:
+        # lazy: only this branch needs it
         from .texture import read_picture
 
         route_uv = person_route(route, read_picture(image).shape, to_uv)
@@ -162,10 +158,6 @@ def learn(path_out: str, image=None, route=None) -> None:
 
 
 def main(argv=None) -> int:
-    import argparse
-
-    from ...core.errors import HilaError
-
     parser = argparse.ArgumentParser(prog="python -m hila_lang.worlds.picture.demonstration",
                                      description="Learn the picture world's route template: the seeded route on the "
                                                  "generated map, or a person's route on their own picture.")

@@ -15,7 +15,13 @@ import math
 
 import numpy as np
 
+from ...osila import imitate
+from ...perception.rig import EYE_K
+from ...robot.workspace import PAPER_THICKNESS, TABLE_TOP_Z
+from ...sim.camera import intersect_plane_z, project
 from ...sim.sheet import Sheet
+from ...sim.surface import Surface
+from ..tictactoe.reading import own_body_mask
 
 #: the demonstration sheet: an A4 map, flat, turned 10 degrees, where the robot reaches
 SIZE = (0.21, 0.297)
@@ -100,9 +106,6 @@ CONTROL_OPTIONS = {"no rejection": {"reject": "none"}, "true ICPs": {"reject": "
 
 def mat():
     """The desk mat (:class:`hila_lang.sim.surface.Surface`) the sheet lies on."""
-    from ...robot.workspace import PAPER_THICKNESS, TABLE_TOP_Z
-    from ...sim.surface import Surface
-
     return Surface(MAT_CENTER, 0.0, TABLE_TOP_Z + PAPER_THICKNESS, MAT_SIZE,
                    texture=np.full((100, 88, 3), MAT_RGB, np.uint8))
 
@@ -125,8 +128,6 @@ def own_body(backend):
     """``image -> mask`` of the pixels the robot's arm covers, as its joint angles place it
     (:meth:`hila_lang.robot.eyes.Eyes.body_outline`; the tic-tac-toe reader's
     :func:`~hila_lang.worlds.tictactoe.reading.own_body_mask`)."""
-    from ..tictactoe.reading import own_body_mask
-
     outline = backend.eyes.body_outline()
     return lambda image: own_body_mask(image, outline)
 
@@ -134,9 +135,6 @@ def own_body(backend):
 def referee_pairs(pairs, demo: Sheet, task: Sheet, demo_camera: np.ndarray, task_camera: np.ndarray):
     """The truth about scene pairs: where each pair's demonstration feature truly is in the
     demonstration (N, 3) and on the task sheet (N, 3), and which pairs are true (N,)."""
-    from ...perception.rig import EYE_K  # the simulated eyes' true intrinsics (the head's and a rig's)
-    from ...sim.camera import intersect_plane_z, project
-
     true_demo = intersect_plane_z(pairs.template_uv, EYE_K, demo_camera, demo.z)
     true_task = task.to_world(sheet_uv(demo, true_demo))
     true = np.linalg.norm(project(true_task, EYE_K, task_camera) - pairs.task_uv, axis=1) < TRUE_PIXELS
@@ -156,8 +154,6 @@ def control_sets(pairs, demo: Sheet, task: Sheet, true_demo, true_task) -> dict:
 def control_errors(path: np.ndarray, route: slice, sets: dict, goal: np.ndarray, hand: np.ndarray) -> dict:
     """Route error (median, p95) in mm of OSILA's planned route for each set of pairs, the hand
     (the same point in both scenes) added to each; NaN where OSILA refused the pairs."""
-    from ...osila import imitate
-
     out = {}
     for name, (src, dst) in sets.items():
         try:

@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...core.errors import InputError
+from ...core.images import read_picture as read
+
 #: the texture's resolution, pixels per metre (as :data:`hila_lang.sim.canvas.PIXELS_PER_METRE`)
 PIXELS_PER_METRE = 2000.0
 _AREA_RGB = ((170, 215, 150), (150, 190, 230), (230, 210, 150), (215, 180, 200), (190, 200, 160))
@@ -19,6 +22,7 @@ _AREA_RGB = ((170, 215, 150), (150, 190, 230), (230, 210, 150), (215, 180, 200),
 
 def map_texture(size: tuple[float, float], seed: int) -> np.ndarray:
     """An RGB uint8 image (H, W, 3) of a map-like page ``size`` = (across, depth) metres."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     rng = np.random.default_rng([int(seed), 24])
@@ -79,9 +83,6 @@ def read_picture(path) -> np.ndarray:
     """A person's picture file as RGB uint8 (H, W, 3) (:func:`hila_lang.core.images.read_picture`:
     its size checked by its header before it is decoded); an :class:`InputError` naming the file
     when it is missing, too large, not a picture or smaller than 16 pixels a side."""
-    from ...core.errors import InputError
-    from ...core.images import read_picture as read
-
     image = read(path)
     if min(image.shape[:2]) < 16:
         raise InputError("a picture of 16 pixels or more a side is needed to find features on", file=str(path))
@@ -93,6 +94,7 @@ def person_page(size: tuple[float, float], picture: np.ndarray) -> tuple[np.ndar
     it whole, its shape kept, centred on paper.  Returns the page (H, W, 3) and ``to_uv``
     (3, 3): the map from the picture's pixels (u right, v down, homogeneous) to the page's
     texture coordinates (0..1, v down), so a route drawn on the picture lands on the page."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     w = int(round(size[0] * PIXELS_PER_METRE))

@@ -19,10 +19,12 @@ on the sheet in its final position.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
-from ...sim.motion import SheetMotion, moved
+from ...osila.fallback import fit_similarity
+from ...sim.motion import carried, moved, SheetMotion
 
 #: a feature found again agrees with a move of the map when the move puts it this near, metres
 AGREE = 0.003
@@ -73,7 +75,6 @@ class PictureTracking:
         pose = None if self.motion is None else self.motion.pose(t)
         if pose is None:
             return
-        from dataclasses import replace
 
         world = self.world
         world.task = replace(world.task, center=(pose[0], pose[1]), rotation=pose[2])
@@ -91,8 +92,6 @@ class PictureTracking:
 
     def carried(self, executed: np.ndarray) -> np.ndarray:
         """The pen samples of the stroke just drawn, where they lie on the sheet now."""
-        from ...sim.motion import carried
-
         during = [] if self.motion is None else self.motion.during
         return carried(executed, during, pose_of(self.world.task)) if during else executed
 
@@ -100,8 +99,6 @@ class PictureTracking:
 def followed(known: dict, found: dict) -> dict:
     """Every point of ``known`` (name -> (3,) or None) moved as the map moved to the points
     ``found`` again (see the module docstring); ``known`` itself when too few agree."""
-    from ...osila.fallback import fit_similarity
-
     common = [n for n, p in known.items() if p is not None and found.get(n) is not None]
     if len(common) < MIN_AGREE:
         return known

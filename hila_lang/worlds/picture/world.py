@@ -45,11 +45,14 @@ import numpy as np
 
 from ...core.errors import HilaRuntimeError, InputError, UnknownNameError
 from ...core.fileio import OutputFolder
+from ...perception.distortion import undistorted
+from ...perception.matching import match_scenes, scene_features
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
-from . import scenes as S
-from .demonstration import (DRAW, LIFT, REACH, ROUTE_SEED, demonstration_features, feature_name,
-                            recorded_demonstration)
+from . import scenes as S, WORLD
+from .demonstration import (demonstrated_path, demonstration_features, DRAW, feature_name, LIFT, page_of, REACH,
+    recorded_demonstration, ROUTE_SEED)
+from .tracking import PictureTracking
 
 FILES = ("report.json", "route.png", "eyes.png")
 #: the template's ICPs must be the demonstration's features within this distance, metres
@@ -66,6 +69,7 @@ class PictureWorld:
         self.model = settings["verify"]
         self.image = settings.get("picture.image")
         if self.image is not None:  # read now: a bad file is refused before anything is built
+            # lazy: only this branch needs it
             from .demonstration import page_of
 
             self.page, self.to_uv = page_of(self.image)
@@ -79,7 +83,6 @@ class PictureWorld:
         self.light = 1.0
         self.task = None  # the task sheet (the truth), where it is now
         self.matched_task = None  # ... and where it was at the robot's last match (the pairs' referee)
-        from .tracking import PictureTracking
 
         #: the map moving while the robot draws (``map.slide`` ...), and the robot following it (``track``)
         self.tracking = PictureTracking(self, settings)
@@ -92,7 +95,6 @@ class PictureWorld:
         backend.reset_hand(S.HOME)
         if backend.eyes is None or getattr(backend, "sim", None) is None:
             return  # nothing to see: 'ask matched' says so
-        from .demonstration import page_of
 
         self.texture = page_of()[0] if self.image is None else self.page
         robot = getattr(backend, "robot", None)
@@ -114,8 +116,6 @@ class PictureWorld:
         return dict(self.points_now)
 
     def query(self, name: str, *args: Any) -> Any:
-        from . import WORLD
-
         return WORLD.questions.answer(self, name, args, "the picture world")
 
     # the questions, as declared in :data:`hila_lang.worlds.picture.WORLD` (name, arguments, doc)
@@ -129,8 +129,6 @@ class PictureWorld:
     def _match(self, move_arm: bool = True) -> None:
         """The robot looks with both eyes and matches; ``move_arm``: first take the hand out of the
         way (not while it draws: its own arm is masked anyway)."""
-        from ...perception.matching import match_scenes, scene_features
-
         if self.backend is None or self.backend.eyes is None or getattr(self.backend, "sim", None) is None:
             raise InputError("the picture world's robot matches what its eyes see: run it with --backend pybullet "
                              f"(this back end, {getattr(self.backend, 'name', None)!r}, has no eyes)")
@@ -193,8 +191,6 @@ class PictureWorld:
         return S.sheet_uv(self.demo, path[np.concatenate(down)] if down else path)
 
     def _score(self) -> dict[str, Any]:
-        from .demonstration import demonstrated_path
-
         route = self._route_uv()
         goal = self.task.to_world(route)
         out: dict[str, Any] = {}
@@ -232,6 +228,7 @@ class PictureWorld:
         return executed[keep] if keep.any() else None
 
     def _route_image(self) -> np.ndarray:
+        # lazy: loads cv2, which importing this module does not
         import cv2
 
         img = np.ascontiguousarray(self.texture.copy())
@@ -250,9 +247,8 @@ class PictureWorld:
         return img
 
     def _eyes_image(self) -> np.ndarray:
+        # lazy: loads cv2, which importing this module does not
         import cv2
-
-        from ...perception.distortion import undistorted
 
         img = np.ascontiguousarray(undistorted(self.task_left).rgb.copy())
         for (u, v), keep in zip(self.pairs.task_uv, self.pairs.kept):

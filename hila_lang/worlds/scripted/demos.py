@@ -28,6 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from ...osila.motion import minimum_jerk_samples
+from ...osila.segmentation import segment_template
+from ...osila.template import save_template, Template
 
 RATE = 20.0  # samples per second
 TABLE_Z = 0.57
@@ -65,9 +67,6 @@ def movement(points, seconds, lifts, rng: np.random.Generator) -> tuple[np.ndarr
 
 def _demonstration(name: str, path: np.ndarray, icps: dict, seed: int, what: str, tags: list[str]):
     """A 20 Hz recording as a :class:`~hila_lang.osila.template.Template`, segmented equal-N into ``tags``."""
-    from ...osila.segmentation import segment_template
-    from ...osila.template import Template
-
     t = Template(name, path, icps, times=np.arange(len(path)) / RATE, description=(
         f"Stand-in demonstration made by hila_lang.worlds.scripted.demos (seed {seed}; python -m "
         f"hila_lang.worlds.scripted.demos): {what}"))
@@ -105,8 +104,6 @@ def make_reach(seed: int = 0):
 
 
 def main(argv: list[str] | None = None) -> int:
-    from ...osila.template import save_template
-
     ap = argparse.ArgumentParser(description="Write primitives/abc.yaml and primitives/reach.yaml.")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("primitives"))

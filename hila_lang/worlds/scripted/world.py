@@ -26,8 +26,11 @@ import numpy as np
 
 from ...core.bounded import BoundedLog
 from ...core.errors import HilaRuntimeError, InputError, UnknownNameError
+from ...core.fileio import load_yaml
+from ...plugins.registry import Declared
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
+from .motion import ScriptedTracking
 
 
 #: notifications kept in :attr:`ScriptedWorld.log`
@@ -38,8 +41,6 @@ class ScriptedWorld:
     """Implements :class:`hila_lang.plugins.protocols.World` from a script (see the module docstring)."""
 
     def __init__(self, points=None, answers=None, events=None, home=None, stdout=None, motion=None) -> None:
-        from .motion import ScriptedTracking
-
         #: where :meth:`finish` prints the result line (None: it prints nothing)
         self.stdout = stdout
         #: the points as they are, and as the robot last saw them while a step runs (None between steps)
@@ -114,8 +115,6 @@ def _point(value, what: str) -> np.ndarray:
 
 def load_script(path, stdout=None) -> ScriptedWorld:
     """A :class:`ScriptedWorld` from a YAML script file."""
-    from ...core.fileio import load_yaml
-
     doc = load_yaml(path, "world script", unique_keys=True) or {}
     if not isinstance(doc, dict):
         raise InputError("expected a world script mapping with keys points, answers, events, home", file=str(path))
@@ -161,8 +160,6 @@ def _check_shape(doc: dict) -> None:
 
 def declared(settings):
     """What the world with these settings answers (for ``hila check``): its script's names."""
-    from ...plugins.registry import Declared
-
     script = settings.get("script")
     if not script:
         return Declared({}, {}, frozenset(), False, "the scripted world (no --set script=FILE.yaml)",

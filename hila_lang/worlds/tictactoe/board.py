@@ -25,6 +25,7 @@ import numpy as np
 
 from ...core.errors import InputError
 from ...robot.workspace import PAPER_THICKNESS, TABLE_TOP_Z
+from ...sim.canvas import Canvas
 from ...sim.surface import Surface
 
 #: width of the printed grid's lines, metres, and their colour (RGB)
@@ -112,7 +113,6 @@ class Grid:
         blank = self._sheet
         if not printed:
             return blank
-        from ...sim.canvas import Canvas
 
         canvas = Canvas(blank)
         for segment in self.grid_lines():

@@ -38,7 +38,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.errors import HilaError
 from ...osila.motion import minimum_jerk_samples
+from ...osila.segmentation import segment_template
+from ...osila.template import save_template, Template
+from .board import cell_center, cell_corners, Grid
 
 #: the four corners of the target cell, as ICP names
 CORNER_ICPS = ("tl", "tr", "br", "bl")
@@ -121,8 +125,6 @@ def demonstrate(seed: int = 0, scene=None, cell: int = DEMO_CELL) -> Demonstrati
     -------
     Demonstration
     """
-    from .board import Grid, cell_center, cell_corners
-
     spec = Grid.demonstration() if scene is None else scene
     rng = np.random.default_rng(seed)
     corners = cell_corners(spec, cell)
@@ -209,9 +211,6 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
         Named ``circle``, ICPs :data:`ICP_NAMES`, segments tagged :data:`TAGS` with contact on
         ``draw``, times in seconds, and a description saying how it was made.
     """
-    from ...osila.segmentation import segment_template
-    from ...osila.template import Template
-
     demo = demonstrate(seed)
     description = (
         f"Human-like demonstration made by a documented motion model "
@@ -239,9 +238,6 @@ def make_circle_template(seed: int = 0, *, segmentation_seed: int = 0):
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m hila_lang.worlds.tictactoe.demonstration -o primitives/circle.yaml [--seed N]``."""
-    from ...core.errors import HilaError
-    from ...osila.template import save_template
-
     parser = argparse.ArgumentParser(
         prog="python -m hila_lang.worlds.tictactoe.demonstration",
         description="Write the seeded human-like circle demonstration as a segmented template.",

@@ -39,7 +39,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ...osila.demofile import lift, write_demo_csv, write_icps
 from ...osila.motion import minimum_jerk
+from ..letters.shapes import LETTERS
+from .board import cell_center, cell_corners, Grid
 
 #: samples per second of the demonstration (as hila studio resamples a drawing)
 RATE_HZ = 20.0
@@ -110,8 +113,6 @@ class Drawing:
 def mark_strokes(mark: str, rng: np.random.Generator | None = None) -> tuple:
     """The strokes of ``mark`` (:data:`MARKS`, a capital letter, or ``scribble``: a smooth loop
     through 6 seeded points, which needs ``rng``)."""
-    from ..letters.shapes import LETTERS
-
     if mark in MARKS:
         return MARKS[mark]
     if mark in LETTERS:
@@ -162,9 +163,6 @@ def draw_mark(mark: str = "triangle", style: str = "careful", seed: int = 0, cel
     """A person drawing ``mark`` in ``cell`` of ``spec`` (default the demonstration sheet,
     :meth:`~hila_lang.worlds.tictactoe.board.Grid.demonstration`) in ``style``: reach, draw,
     retract (see the module docstring).  Seeded by ``seed``, ``mark`` and ``style``."""
-    from ...osila.demofile import lift
-    from .board import Grid, cell_center, cell_corners
-
     if style not in STYLES:
         raise ValueError(f"unknown style {style!r}; expected one of {', '.join(STYLES)}")
     spec = Grid.demonstration() if spec is None else spec
@@ -233,8 +231,6 @@ def draw_mark(mark: str = "triangle", style: str = "careful", seed: int = 0, cel
 def write_demonstration(folder, name: str, drawing: Drawing) -> tuple[Path, Path]:
     """Write ``NAME.demo.csv`` (``t,x,y,z,pen``) and ``NAME.icps.yaml`` into ``folder``; returns
     both paths (for ``hila learn``)."""
-    from ...osila.demofile import write_demo_csv, write_icps
-
     folder = Path(folder)
     demo, icps = folder / f"{name}.demo.csv", folder / f"{name}.icps.yaml"
     write_demo_csv(demo, drawing.path, drawing.times, drawing.pen)

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...metrics import correlation, resample
+from ...osila.fallback import fit_similarity
 from ...sim.surface import CONTACT_TOLERANCE
-from .board import Grid, cell_center
+from .board import cell_center, Grid
 
 #: half the length of a cross's bar, as a fraction of the cell size
 CROSS_HALF = 0.30
@@ -68,8 +70,6 @@ def similarity_align(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (N, D)
     """
-    from ...osila.fallback import fit_similarity
-
     src = np.asarray(source, dtype=float)
     dst = np.asarray(target, dtype=float)
     if not np.ptp(src, axis=0).any():
@@ -100,8 +100,6 @@ def mark_correlation(drawn: np.ndarray, demonstrated: np.ndarray, n: int = 200) 
     aligned onto the demonstrated one (:func:`similarity_align`), and R is the paper's eq. 1
     (:func:`hila_lang.metrics.correlation`).
     """
-    from ...metrics import correlation, resample
-
     m = max(len(drawn), len(demonstrated), n)
     a = resample(by_arc_length(drawn, m), n)
     b = resample(by_arc_length(demonstrated, m), n)
@@ -117,6 +115,7 @@ def tracking_error(planned: np.ndarray, executed: np.ndarray, step: float = 0.00
     moves straight from where the pen was to the plan's first waypoint, and that move is part
     of what it was asked to do.
     """
+    # lazy: loads scipy, which importing this module does not
     from scipy.spatial import cKDTree
 
     planned = np.asarray(planned, dtype=float)

@@ -11,12 +11,13 @@ Every opponent plays crosses (``"X"``) and answers :meth:`Opponent.choose` with 
 
 from __future__ import annotations
 
+import difflib
 import random
 import sys
 from typing import Protocol, TextIO
 
 from ...core.errors import HilaRuntimeError, InputError
-from .rules import CROSS, Board, best_moves, free_cells, render
+from .rules import best_moves, Board, CROSS, free_cells, render
 
 #: names accepted by ``--opponent``
 NAMES = ("random", "minimax", "human")
@@ -130,7 +131,6 @@ def make_opponent(name: str | None, seed: int = 0, stdin: TextIO | None = None,
         return MinimaxOpponent(seed)
     if name == "human":
         return HumanOpponent(stdin, stdout)
-    import difflib
 
     close = difflib.get_close_matches(name, NAMES, n=1)
     hint = f"did you mean {close[0]!r}?" if close else None

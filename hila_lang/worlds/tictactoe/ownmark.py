@@ -43,10 +43,16 @@ read as the other side's, 2 unclear.  So :data:`OWN_BELOW` 0.015 and :data:`OTHE
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ...osila.fallback import fit_similarity
+from ...sim.surface import CONTACT_TOLERANCE
+from .board import Grid
+from .marks import cross_strokes
 
 #: below this distance a cell's ink is the robot's own mark (measured: see the module docstring)
 OWN_BELOW = 0.015
@@ -83,6 +89,7 @@ class Reference:
     dense: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
+        # lazy: loads scipy, which importing this module does not
         from scipy.spatial import cKDTree
 
         strokes = [np.asarray(s, dtype=float)[:, :2] for s in self.strokes if len(s)]
@@ -108,8 +115,6 @@ def _densify(points: np.ndarray, step: float) -> np.ndarray:
 def inked_strokes(template) -> list[np.ndarray]:
     """The strokes the pen inks when ``template`` is run (see the module docstring): a list of
     (n, 2) arrays in the paper's plane, metres; empty when it has no contact segment."""
-    from ...sim.surface import CONTACT_TOLERANCE
-
     path = np.asarray(template.path, dtype=float)
     segments = [s for s in template.segments if s.contact] if template.segments else []
     if not segments:
@@ -194,6 +199,7 @@ class _Ink:
     down, so y = -row), in pixels."""
 
     def __init__(self, mask: np.ndarray, resolution: float) -> None:
+        # lazy: loads scipy, which importing this module does not
         from scipy.spatial import cKDTree
 
         rows, cols = np.nonzero(np.asarray(mask, bool))
@@ -226,6 +232,7 @@ class _Ink:
     def distance(self, ref: Reference) -> float:
         full = (self.points, self.tree)
         if len(self.points) > FIT_POINTS:  # fit on an even subset of the ink; the cost on all of it
+            # lazy: loads scipy, which importing this module does not
             from scipy.spatial import cKDTree
 
             some = self.points[:: int(np.ceil(len(self.points) / FIT_POINTS))]
@@ -260,8 +267,6 @@ class _Ink:
 def _similarity(source: np.ndarray, target: np.ndarray):
     """(scale, rotation (2, 2), shift (2,)) mapping ``source`` onto ``target`` (N, 2) best in the
     least-squares sense, reflections excluded (Umeyama)."""
-    from ...osila.fallback import fit_similarity
-
     return fit_similarity(source, target, rank=2)
 
 
@@ -269,6 +274,7 @@ def render(strokes, resolution: float, width: float) -> np.ndarray:
     """Strokes (list of (n, 2) metres) inked into a top view (bool mask; column right = +x, row
     down = -y) at ``resolution`` metres per pixel with a pen ``width`` metres wide: the pixels
     whose centres lie within half the width of a stroke."""
+    # lazy: loads scipy, which importing this module does not
     from scipy.spatial import cKDTree
 
     pts = np.vstack(strokes)
@@ -285,9 +291,6 @@ def render(strokes, resolution: float, width: float) -> np.ndarray:
 def cross_samples(count: int = 6, seed: int = 0) -> list[list[np.ndarray]]:
     """``count`` of the world's own crosses (:func:`.marks.cross_strokes`), half neat and half
     sloppy, in the game's cells, as strokes (n, 2) in the paper's plane, metres."""
-    from .board import Grid
-    from .marks import cross_strokes
-
     spec = Grid.game()
     rng = np.random.default_rng([seed, 30])
     out = []
@@ -324,8 +327,6 @@ def check_mark(ref: str, template) -> str | None:
     """The world's ``mark_check`` (``hila check``): why the robot could not play ``template`` (a
     pen-down sub-template ``ref``) as its mark, or None (:func:`too_alike`).  Remembered per
     template's content, so a program checked again (an editor, at every keystroke) costs nothing."""
-    import hashlib
-
     key = ref, hashlib.sha1(np.ascontiguousarray(template.path, dtype=float).tobytes()
                        + repr([(s.start, s.stop, s.contact) for s in template.segments]).encode()).hexdigest()
     if key not in _CHECKED:

@@ -30,13 +30,17 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, Callable
 
 import numpy as np
 
 from ...core.errors import HilaRuntimeError
 from . import rules as ttt
-from .board import Grid, cell_at, cell_corners, cell_number
+from .board import cell_at, cell_corners, cell_number, Grid
+from .reading import read_board
+from .tracking import SheetTracker
+from .vision import look_at_board, Memory, Table, TABLE_PRIOR_BELOW_GAZE
 
 ROBOT, OPPONENT = "robot", "opponent"
 #: how far beyond the grid's right edge the pen goes to take the arm out of the eyes' view, metres
@@ -98,8 +102,6 @@ class Player:
 
     def __init__(self, first: str, park: np.ndarray, *, eyes=None, hand: Hand | None = None,
                  layout: Grid | None = None, table_prior: float | None = None) -> None:
-        from .vision import TABLE_PRIOR_BELOW_GAZE, Table
-
         self.first = first
         self.park = np.asarray(park, dtype=float).copy()
         self.eyes, self.hand = eyes, hand
@@ -156,14 +158,10 @@ class Player:
             return None
         if not self._stale and self.sightings:
             return self.sightings[-1]
-        from .vision import Memory, look_at_board
 
         clock = time.perf_counter()
         last = self.sightings[-1] if self.sightings else None
         memory = Memory(None if last is None else tuple(last["board"]), None if last is None else self._since)
-        from functools import partial
-
-        from .reading import read_board
 
         seen = look_at_board(self.eyes, self.hand, self.table, memory, self.lift_point(), self.aside_point(),
                              read=partial(read_board, own=self.mark))
@@ -199,8 +197,6 @@ class Player:
     # -- following the sheet while drawing (a ``track`` clause) --------------------------------------
     def track_begin(self) -> None:
         """A tracked step begins: follow the grid from where the robot knows it to be."""
-        from .tracking import SheetTracker
-
         self.tracker = None if not self.sees or not self.sightings else SheetTracker(self._known(), self.table.z)
 
     def glance(self) -> None:

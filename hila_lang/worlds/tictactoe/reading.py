@@ -46,6 +46,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.errors import InputError
+from ...perception.distortion import undistorted
+from ...sim.camera import intersect_plane_z, world_to_camera
 from .board import cell_number
 
 #: size of a top-down pixel, metres
@@ -124,6 +126,7 @@ def plane_to_image_homography(K: np.ndarray, world_T_camera: np.ndarray, z: floa
 def _planes(rgb: np.ndarray):
     """The red, green and blue planes of an RGB image and its darkest and brightest channel per
     pixel, uint8 (H, W) each (OpenCV's per-element operations: 3x numpy's on int16 copies)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     r, g, b = cv2.split(np.ascontiguousarray(rgb))
@@ -138,6 +141,7 @@ def _channels(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _total(r: np.ndarray, g: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The sum of three uint8 planes, uint16 (OpenCV's saturating adds never saturate here)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     return cv2.add(cv2.add(r, g, dtype=cv2.CV_16U), b, dtype=cv2.CV_16U)
@@ -182,6 +186,7 @@ def _paper_mask(rgb: np.ndarray, level: float | None = None) -> np.ndarray:
     neutral things in view (their 95th percentile): in good light, darkest channel above 150 and
     spread below 40 (of 255), as measured on the game's sheet; both scale with the light.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     _, _, _, lo, hi = _planes(rgb)
@@ -202,6 +207,7 @@ def _ink_masks(rgb: np.ndarray, paper_level: float, resolution: float) -> tuple[
     strokes); marks may be in any ink (dark strokes, or coloured pixels: a spread between the
     channels of more than 0.3 of the paper's brightness).  The green hand marker is neither.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     r, g, b, lo, hi = _planes(rgb)
@@ -219,9 +225,8 @@ def own_body_mask(image, body, shape=None) -> np.ndarray:
     """Pixels (bool, ``shape`` = (H, W), default the image's) of a pinhole ``image`` covered by
     the camera's own robot: ``body`` is a list of capsules ``(points (2, 3), radius)``, world
     frame, metres (:meth:`hila_lang.robot.eyes.Eyes.body_outline`)."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ...sim.camera import world_to_camera
 
     h, w = shape or np.asarray(image.rgb).shape[:2]
     mask = np.zeros((h, w), np.uint8)
@@ -255,10 +260,8 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     own : ndarray (h, w) bool
         What the camera's own robot hides in the top view (``body``, see :func:`own_body_mask`).
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
-
-    from ...perception.distortion import undistorted
-    from ...sim.camera import intersect_plane_z
 
     image = undistorted(image)
     rgb = np.ascontiguousarray(np.asarray(image.rgb)[:, :, :3])
@@ -298,6 +301,7 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
 
 def _fill_holes(mask: np.ndarray) -> np.ndarray:
     """``mask`` (bool) with every region it encloses (not connected to the image's border) filled."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     outside = np.pad(~mask, 1, constant_values=True).astype(np.uint8)
@@ -394,6 +398,7 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     InputError
         No sheet, no grid, or a grid of implausible size in the image.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     top, origin, regions, hidden = rectify(image, float(surface_z), resolution, body=body)
@@ -484,6 +489,7 @@ def _vec3(v2: np.ndarray) -> np.ndarray:
 def _depth(k: int, labels: np.ndarray, stats: np.ndarray, near: np.ndarray) -> float:
     """How far piece ``k`` reaches from the grid lines (``near``: each pixel's distance from the
     nearest line), its convex hull included, so the inside of a circle counts."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     x0, y0, bw, bh = stats[k, :4]
@@ -502,6 +508,7 @@ def _read_marks(mark, seen, frame, lines, own=None):
     its largest piece of ink (the ink cut along the grid lines) whose centre is in the cell;
     what the mark is, all its pieces that are not spills over a line, compared with ``own``.
     """
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     origin, res, centre, right, far, cell = frame

@@ -19,9 +19,18 @@ import numpy as np
 
 from ...core.errors import InputError
 from ...osila.segmentation import DEFAULT_METHOD
-from ...sim.camera import STUDIO, Camera
-from .board import Grid, cell_center
+from ...perception.learn import template_from_frames
+from ...perception.recording import write_recording
+from ...perception.rig import rig
+from ...robot.rig import watching_poses
+from ...robot.spec import resolve
+from ...sim.camera import Camera, STUDIO
+from ...sim.canvas import Canvas
+from ...sim.scene import SimScene
+from .board import cell_center, Grid
+from .demonstration import demonstrate
 from .marks import cross_strokes
+from .vision import demonstration_icps
 
 #: colour of the demonstrator's hand marker (RGBA, 0..1): saturated green (nothing else in the scene is green)
 MARKER_RGBA = (0.05, 0.8, 0.1, 1.0)
@@ -40,8 +49,6 @@ def paper_texture(spec: Grid, marks=None, *, grid: bool = True, seed: int = 0) -
     robot's ink, crosses (:func:`.marks.cross_strokes`) in the opponent's, both a little
     irregular (seeded) like hand-drawn ones.  Row 0 is the sheet's far edge.
     """
-    from ...sim.canvas import Canvas
-
     canvas = Canvas(spec.paper(printed=grid))
     rng = np.random.default_rng(seed)
     cell = spec.grid_size / 3
@@ -75,8 +82,6 @@ class DemonstrationScene:
 
     def __init__(self, spec: Grid | None = None, marks=None, *, marker: bool = True, table: bool = True,
                  paper: bool = True, seed: int = 0) -> None:
-        from ...sim.scene import SimScene
-
         self.spec = spec or Grid.demonstration()
         self.sim = SimScene(style=STUDIO)
         s = self.spec
@@ -115,10 +120,6 @@ def demonstration_rig(spec: Grid | None = None, robot=None):
     by its joint angles through its kinematic chain (:func:`hila_lang.robot.eyes.eye_poses_looking_at`,
     the function that places the game's eyes); a stereo rig's cameras where they stand
     (:func:`hila_lang.robot.rig.watching_poses`)."""
-    from ...perception.rig import rig
-    from ...robot.rig import watching_poses
-    from ...robot.spec import resolve
-
     spec = spec or Grid.demonstration()
     robot = robot if robot is not None else resolve()
     return rig(watching_poses(robot, (spec.grid_center[0], spec.grid_center[1], spec.surface_z)))
@@ -134,9 +135,6 @@ def record_demonstration(out_dir, seed: int = 0, *, n_calibration: int = 40, n_s
     :func:`hila_lang.perception.recording.write_recording`'s.  ``truth.yaml`` holds the pen-tip
     path, times, ICPs and the demonstrated cell.
     """
-    from ...perception.recording import write_recording
-    from .demonstration import demonstrate
-
     spec = Grid.demonstration()
     demo = demonstrate(seed, spec)
     n = len(demo.path) if frames is None else max(2, min(int(frames), len(demo.path)))
@@ -165,9 +163,6 @@ def learn_from_sim(seed: int = 0, *, k: int = 3, tags=("reach", "draw", "retract
     chessboard sessions (see :func:`record_demonstration`).  The ICPs are read by
     :func:`.vision.demonstration_icps`.
     """
-    from ...perception.learn import template_from_frames
-    from .vision import demonstration_icps
-
     def run(folder: Path):
         record_demonstration(folder, seed, n_calibration=n_calibration, n_stereo=n_stereo, overwrite=True,
                              frames=frames, robot=robot)

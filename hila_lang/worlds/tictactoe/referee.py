@@ -42,9 +42,11 @@ from typing import Any
 import numpy as np
 
 from ...core.errors import HilaRuntimeError
+from ...sim.motion import carried, SheetMotion
 from . import rules as ttt
-from .board import Grid, cell_at, cell_corners
-from .marks import cross_strokes, on_paper
+from .board import cell_at, cell_corners, Grid
+from .marks import cross_strokes, mark_correlation, on_paper, outside_cell, tracking_error
+from .ownmark import inked_strokes
 
 ROBOT, OPPONENT = "robot", "opponent"
 #: the largest turn of a bumped sheet, degrees (reached at a push of BUMP_FULL metres)
@@ -119,8 +121,6 @@ class Referee:
 
     def __init__(self, layout: Grid, first: str, seed: int, *, bump: float = 0.0, light: float = 1.0,
                  sloppy: bool = False, slide: float = 0.0, turn: float = 0.0, jump: float = 0.0) -> None:
-        from ...sim.motion import SheetMotion
-
         self.layout = layout
         self.grid = layout
         self.first = first
@@ -233,10 +233,6 @@ class Referee:
     def score_circle(self, entry: dict[str, Any], template=None, intended: int | None = None,
                      t: float = 0.0) -> dict[str, Any]:
         """Score the robot's circle (a finished pen-down state) and record it where its ink is."""
-        from .marks import mark_correlation, outside_cell, tracking_error  # metrics: lazy
-
-        from ...sim.motion import carried
-
         drawn = entry["executed"] if entry["executed"] is not None else entry["planned"]
         if drawn is None or len(drawn) == 0:
             raise HilaRuntimeError("the robot drew, but the back end reported no path", state=entry["state"])
@@ -247,7 +243,6 @@ class Referee:
         cell = cell_at(self.grid, np.median(ink, axis=0))
         if cell is None:
             raise HilaRuntimeError("the robot drew its circle outside the grid", state=entry["state"])
-        from .ownmark import inked_strokes
 
         strokes = [] if template is None else inked_strokes(template)
         demo_circle = np.vstack(strokes) if strokes else None  # the demonstrated ink, in its paper's plane

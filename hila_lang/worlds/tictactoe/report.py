@@ -40,7 +40,12 @@ from typing import Any
 
 import numpy as np
 
+from ...core.fileio import OutputFolder
+from ...sim.canvas import Canvas, INK_RGB
+from ...sim.motion import carried
 from . import rules as ttt
+from .marks import on_paper, tracking_error
+from .referee import pose_of
 
 PLANNED_BGR = (60, 170, 60)
 EXECUTED_BGR = (200, 80, 20)
@@ -52,8 +57,6 @@ def _mm(x: float | None) -> float | None:
 
 def build_report(world, trace=None) -> dict[str, Any]:
     """The game's summary as plain JSON-ready data (see the module docstring)."""
-    from .marks import tracking_error
-
     errors = []
     for st in world.states:
         if st["planned"] is not None and st["executed"] is not None and len(st["executed"]):
@@ -157,8 +160,6 @@ FILES = ("eye.png", "fsm.dot", "paper.png", "report.json", "top.png", "traces.cs
 def output_folder(out: Path | str | None, seed: int):
     """``out`` as given, or a fresh ``runs/game-<UTC time>-seed<N>[-k]`` folder: an
     :class:`~hila_lang.core.fileio.OutputFolder`, created and proved writable."""
-    from ...core.fileio import OutputFolder
-
     return OutputFolder(out, f"game-{{time}}-seed{seed}", owned=FILES)
 
 
@@ -194,14 +195,13 @@ def _on_sheet_now(points: np.ndarray, then, now) -> np.ndarray:
 def _overlay(rgb: np.ndarray, world, project) -> np.ndarray:
     """``rgb`` with every planned (green) and executed (blue) robot path drawn over it, each
     where it lies on the sheet now."""
+    # lazy: loads cv2, which importing this module does not
     import cv2
 
     scale = 1 if rgb.shape[0] >= 480 else 2
     if scale > 1:
         rgb = cv2.resize(rgb, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
     bgr = np.ascontiguousarray(rgb[:, :, ::-1])
-    from ...sim.motion import carried
-    from .referee import pose_of
 
     for st in world.states:
         for kind, colour in (("planned", PLANNED_BGR), ("executed", EXECUTED_BGR)):
@@ -225,9 +225,6 @@ def paper_view(world) -> np.ndarray:
     With the PyBullet back end this is the texture the cameras see; otherwise the ink is
     rasterised here from the pen traces that touched the paper and the opponent's strokes.
     """
-    from ...sim.canvas import INK_RGB, Canvas
-    from .marks import on_paper
-
     canvas = Canvas(world.spec.paper())
     ink = None if world.backend is None else world.backend.ink
     if ink is not None:

@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import functools
 
+from ...core.fileio import png_bytes
 from ...plugins.studio import Board, DrawingScene
-from .board import Grid, cell_corners
+from .board import cell_corners, Grid
 from .reading import plane_to_image_homography
+from .recording import demonstration_rig, DemonstrationScene
+from .world import PARK_HEIGHT, RESULT_WORDS
 
 
 def features(spec: Grid) -> tuple:
@@ -34,10 +37,6 @@ def features(spec: Grid) -> tuple:
 def scene() -> DrawingScene:
     """The demonstration sheet seen by the left eye (rendered once per process: it starts a
     PyBullet client)."""
-    from ...core.fileio import png_bytes
-    from .recording import DemonstrationScene, demonstration_rig
-    from .world import PARK_HEIGHT
-
     spec = Grid.demonstration()
     eye = demonstration_rig(spec).left
     camera = eye.with_size(eye.width * 2, eye.height * 2, scale=2.0)
@@ -68,6 +67,4 @@ def board(world) -> Board:
 
 def outcome(world) -> str:
     """The finished program's game in words: who won, a draw, or why it is unfinished."""
-    from .world import RESULT_WORDS
-
     return RESULT_WORDS[world.result()] + world._why_unfinished(world.result())

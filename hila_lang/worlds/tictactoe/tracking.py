@@ -34,6 +34,8 @@ import time
 import numpy as np
 
 from ...core.errors import InputError
+from .reading import _ink_masks, rectify, sheet_level
+from .referee import grid_at, pose_of
 
 #: pixels farther than this from every grid line do not pull the fit, metres
 GATE = 0.004
@@ -117,8 +119,6 @@ class SheetTracker:
         board.turn=10``): with the mask 98 of 125 glances saw the grid, and the robot was blind
         for a second at a time while drawing in cell 4; without it all 114 saw it, 0.52 mm median
         and 0.89 mm largest corner error."""
-        from .reading import _ink_masks, rectify, sheet_level
-
         top, origin, sheet, _ = rectify(image, self.z, RESOLUTION)
         level = sheet_level(top, sheet) if sheet.any() else 240.0
         grid_ink, _ = _ink_masks(top, level, RESOLUTION)
@@ -243,8 +243,6 @@ class TicTacToeTracking:
         return self.world.referee.motion.active
 
     def begin(self, state: str, pen_down: bool, seconds: float) -> None:
-        from .referee import pose_of
-
         referee = self.world.referee
         if pen_down:
             referee.motion.begin(pose_of(referee.grid), seconds)
@@ -252,8 +250,6 @@ class TicTacToeTracking:
             self.world.player.track_begin()
 
     def elapse(self, t: float) -> None:
-        from .referee import grid_at
-
         referee = self.world.referee
         pose = referee.motion.pose(t)
         grid = None if pose is None else grid_at(referee.grid, pose)

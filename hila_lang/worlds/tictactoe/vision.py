@@ -49,8 +49,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ...core.errors import HilaRuntimeError, InputError
-from .board import CORNER_NAMES, cell_number
+from ...core.errors import HilaRuntimeError, InputError, UnreachableError
+from ...perception.learn import frame_name, IcpReading
+from ...perception.triangulation import triangulate
+from .board import cell_number, CORNER_NAMES
+from .reading import read_board
 from .rules import NAMES as _NAMES
 
 #: the views tried in order while in doubt: (name, eye, where the arm is -- None: where the views
@@ -193,6 +196,7 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
         each eye, saw the whole grid).
     """
     if read is None:
+        # lazy: only this branch needs it
         from .reading import read_board
 
         read = read_board
@@ -306,8 +310,6 @@ def _crossing_heights(left: _Image, right: _Image, right_T_left: np.ndarray) -> 
     The left eye is placed by its joint angles, the right one relative to it by the robot's
     calibration of the pair (``right_T_left``), which keeps the two rays consistent with the
     calibrated intrinsics."""
-    from ...perception.triangulation import triangulate
-
     uv = {im.eye: im.image.project(np.array([im.reading.corners[5][n] for n in CORNER_NAMES]))
           for im in (left, right)}
     world_T_right = left.image.world_T_camera @ np.linalg.inv(right_T_left)
@@ -379,8 +381,6 @@ def _move_arm(hand, target: np.ndarray, *, straight_up: bool) -> bool:
     """Move the pen to ``target`` (3,); ``straight_up``: only up to its height, and only when
     the pen is more than :data:`LIFT_TOLERANCE` lower.  True when the arm moved; False when it
     did not need to, or could not (the place is out of reach: that view is skipped)."""
-    from ...core.errors import UnreachableError
-
     here = np.asarray(hand.position(), dtype=float)
     if straight_up:
         if here[2] >= target[2] - LIFT_TOLERANCE:
@@ -408,9 +408,6 @@ def demonstration_icps(view, frames: int, path: np.ndarray, surface_z: float, na
     corners (left and right averaged) become ``tl``, ``tr``, ``br``, ``bl``, and ``hand`` is the
     first triangulated point (names as :mod:`.demonstration` uses them).
     """
-    from ...perception.learn import IcpReading, frame_name
-    from .reading import read_board
-
     names = names or {}
     readings = []
     for eye in ("left", "right"):

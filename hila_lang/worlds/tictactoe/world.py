@@ -55,11 +55,13 @@ import numpy as np
 from ...core.errors import HilaRuntimeError, InputError, UnknownNameError
 from ...plugins.snapshots import AttributeSnapshots
 from ...sim.surface import Scene
-from . import rules as ttt
+from . import rules as ttt, WORLD
 from .board import Grid
 from .opponents import make_opponent
-from .player import OPPONENT, ROBOT, Hand, Player
+from .player import Hand, OPPONENT, Player, ROBOT
 from .referee import Referee
+from .report import build_report, write_outputs
+from .tracking import TicTacToeTracking
 
 #: park height above the paper, metres (low, high)
 PARK_HEIGHT = (0.08, 0.13)
@@ -97,8 +99,6 @@ class TicTacToeWorld:
     """
 
     def __init__(self, options, settings: dict[str, Any] | None = None) -> None:
-        from . import WORLD
-
         self.t0 = time.perf_counter()
         self.options = options
         self.seed = int(options.seed)
@@ -110,6 +110,7 @@ class TicTacToeWorld:
         #: the output folder, made and proved writable now: a game is never played to be lost
         self.outputs = None
         if self.write_report:
+            # lazy: only this branch needs it
             from .report import output_folder
 
             self.outputs = output_folder(options.out, self.seed)
@@ -123,7 +124,6 @@ class TicTacToeWorld:
                                jump=self.settings["board.jump"])
         self.player = Player(self.first, self.park, layout=layout)
         self.states: list[dict[str, Any]] = []
-        from .tracking import TicTacToeTracking
 
         #: following the sheet while the robot draws (``track``), and moving it (``board.slide``)
         self.tracking = TicTacToeTracking(self)
@@ -235,8 +235,6 @@ class TicTacToeWorld:
         return pts
 
     def _answer(self, name: str, *args: Any) -> Any:
-        from . import WORLD
-
         return WORLD.questions.answer(self, name, args, "the tictactoe world")
 
     # the questions, as declared in :data:`hila_lang.worlds.tictactoe.WORLD` (name, arguments, doc)
@@ -274,8 +272,6 @@ class TicTacToeWorld:
 
     # -- World protocol: the referee's side ---------------------------------------------------
     def wait(self, event: str, *args: Any) -> Any:
-        from . import WORLD
-
         return WORLD.events.answer(self, event, args, "the tictactoe world")
 
     def wait_opponent_moved(self) -> Any:
@@ -315,6 +311,7 @@ class TicTacToeWorld:
 
     def notify(self, event: str, **data: Any) -> None:
         if event == "program":  # the pen-down sub-templates the program draws with: the robot's own mark
+            # lazy: only this branch needs it
             from .ownmark import OwnMark
 
             self.player.mark = OwnMark.from_templates(data.get("marks") or {})
@@ -391,8 +388,6 @@ class TicTacToeWorld:
 
     def finish(self, trace=None, *, fsm=None) -> dict[str, Any]:
         """Print the result and write the output folder; returns the report as a dict."""
-        from .report import build_report, write_outputs
-
         if fsm is not None:
             self.fsm = fsm
         self._score()
