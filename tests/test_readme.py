@@ -13,7 +13,7 @@ README = ROOT / "README.md"
 FIRST_SCREEN = 40
 SETUP = ("python3 -m venv .venv && . .venv/bin/activate && pip install . && hila exec programs/game.hila",
          "python3 -m venv .venv && . .venv/bin/activate && pip install '.[test,ros]' && "
-         "pip install --force-reinstall --no-deps 'lark>=1.1,<2' && pytest && pytest -m slow -n 2")
+         "pip install --force-reinstall --no-deps 'lark>=1.1,<2' && pytest -n 2 && pytest -m slow -n 2")
 #: every section the README had before issue 23, and the page that holds it now
 MOVED = {
     "Tic-tac-toe: `hila exec programs/game.hila`": "worlds.md",
