@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"expected FOLDER to be a folder, got {args.folder!r}"
                          + (" (it does not exist)" if not folder.exists() else ""))
     try:
-        # lazy: loads starlette, which importing this module does not; loads uvicorn, which importing this module doe...
+        # lazy: loads starlette and uvicorn (the 'studio' extra), which importing this module does not
         import starlette  # noqa: F401
         import uvicorn  # noqa: F401
     except ImportError:

@@ -233,7 +233,7 @@ def write_png(path: str | os.PathLike, image, *, bgr: bool = False) -> Path:
 
 def png_bytes(image, *, bgr: bool = False) -> bytes:
     """An image (H, W, 3) or (H, W) uint8 encoded as PNG; RGB unless ``bgr``."""
-    # lazy: loads cv2, numpy, which importing this module does not; loads numpy, which importing this module does not
+    # lazy: loads cv2 and numpy, which importing this module does not
     import cv2
     import numpy as np
 

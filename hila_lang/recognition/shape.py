@@ -126,7 +126,7 @@ def elastic_distance(a: np.ndarray, b: np.ndarray, window: int = ELASTIC_WINDOW)
     shape 0.053 median, 0.106 at most; another shape 0.123 at least (plain Procrustes: 0.214
     at most against 0.168 at least; they overlap).
     """
-    # lazy: loads cython_runtime, dtaidistance, which importing this module does not
+    # lazy: dtaidistance (the 'recognise' extra), which importing this module does not load
     from dtaidistance import dtw_ndim
 
     A, B = _unit(np.asarray(a, float)), _unit(np.asarray(b, float))

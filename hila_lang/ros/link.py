@@ -37,7 +37,7 @@ def ros_modules():
     """``(rclpy, JointTrajectory, JointTrajectoryPoint, JointState)``; an InputError saying how to
     install them when the ``ros`` extra is missing."""
     try:
-        # lazy: rclpy is an optional extra; sensor_msgs is an optional extra; trajectory_msgs is an optional extra
+        # lazy: rclpy and the message packages are the optional 'ros' extra
         import rclpy
         from sensor_msgs.msg import JointState
         from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
