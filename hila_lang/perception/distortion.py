@@ -49,6 +49,7 @@ class DistortedCamera:
     supersample: int = 2
     render_camera: Camera = field(init=False)
     _maps: tuple = field(init=False, repr=False)
+    _float_maps: tuple = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         # lazy: loads cv2, which importing this module does not
@@ -73,6 +74,7 @@ class DistortedCamera:
         mx = ideal_r[:, 0].reshape(H, W).astype(np.float32)
         my = ideal_r[:, 1].reshape(H, W).astype(np.float32)
         self._maps = cv2.convertMaps(mx, my, cv2.CV_16SC2)
+        self._float_maps = (mx, my)
 
     def distort(self, ideal_rgb: np.ndarray) -> np.ndarray:
         """The camera's image (height, width, 3) uint8 from an ideal render of ``render_camera``."""
@@ -84,6 +86,42 @@ class DistortedCamera:
         if self.supersample == 1:
             return big
         return cv2.resize(big, (self.camera.width, self.camera.height), interpolation=cv2.INTER_AREA)
+
+    def window_source(self, window: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+        """The part ``(x0, y0, x1, y1)`` of :attr:`render_camera`'s canvas (end exclusive) that the
+        image's pixels ``window = (u0, v0, u1, v1)`` (end exclusive) are made from, with a pixel
+        to spare for the interpolation: render only that (:meth:`render_window`) for those pixels."""
+        u0, v0, u1, v1 = (int(v) * self.supersample for v in window)
+        mx, my = (m[v0:v1, u0:u1] for m in self._float_maps)
+        canvas = self.render_camera
+        x0, y0 = max(0, int(np.floor(mx.min())) - 1), max(0, int(np.floor(my.min())) - 1)
+        x1, y1 = min(canvas.width, int(np.ceil(mx.max())) + 2), min(canvas.height, int(np.ceil(my.max())) + 2)
+        return x0, y0, x1, y1
+
+    def render_window(self, source: tuple[int, int, int, int]) -> Camera:
+        """The ideal camera of the canvas part ``source`` (:meth:`window_source`): the same rays."""
+        x0, y0, x1, y1 = source
+        K = self.render_camera.K.copy()
+        K[0, 2] -= x0
+        K[1, 2] -= y0
+        return Camera(K, self.render_camera.world_T_camera, x1 - x0, y1 - y0)
+
+    def distort_window(self, ideal_part: np.ndarray, window: tuple[int, int, int, int],
+                       source: tuple[int, int, int, int]) -> np.ndarray:
+        """The image's pixels ``window`` (v1 - v0, u1 - u0, 3) uint8 from a render of
+        :meth:`render_window` ``(source)``: the same values as ``distort(full)[v0:v1, u0:u1]``
+        when the renders agree there (the maps are the full image's, shifted by whole pixels)."""
+        # lazy: loads cv2, which importing this module does not
+        import cv2
+
+        s = self.supersample
+        u0, v0, u1, v1 = (int(v) * s for v in window)
+        mx, my = (m[v0:v1, u0:u1] - float(o) for m, o in zip(self._float_maps, source[:2]))
+        maps = cv2.convertMaps(np.ascontiguousarray(mx), np.ascontiguousarray(my), cv2.CV_16SC2)
+        part = cv2.remap(ideal_part, maps[0], maps[1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if s == 1:
+            return part
+        return cv2.resize(part, ((u1 - u0) // s, (v1 - v0) // s), interpolation=cv2.INTER_AREA)
 
 
 def distort_points(uv: np.ndarray, K: np.ndarray, dist) -> np.ndarray:

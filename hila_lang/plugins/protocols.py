@@ -65,8 +65,10 @@ class Eyes(Protocol):
         """``world_T_camera`` (4, 4) of ``eye`` now (OpenCV camera frame)."""
         ...
 
-    def camera_image(self, eye: str = "left") -> "CameraImage":
-        """An image (240, 320, 3) of ``eye`` with its intrinsics, pose and joint angles."""
+    def camera_image(self, eye: str = "left", *, region=None) -> "CameraImage":
+        """An image (240, 320, 3) of ``eye`` with its intrinsics, pose and joint angles; with
+        ``region`` (N, 3 world points) only the part of the sensor that sees them, its ``K``
+        shifted to match (:func:`hila_lang.robot.lens.sensor_window`)."""
         ...
 
     def chain(self, eye: str = "left") -> Any:

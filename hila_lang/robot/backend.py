@@ -135,6 +135,7 @@ class PyBulletBackend:
 
                 frame(self.sim, self.surface, robot_points(self.surface, robot), drawing=False)  # drawn again once the window is made
             self.body = Body(self.sim, robot)
+            self.sim.cull(self.body.id)  # its links out of view are not drawn (the same images, faster)
             self._build_table(self.surface.z - PAPER_THICKNESS)
             self.ink = Paper(self.sim, self.surface)
             self.overview = TopView(self.ink, self._render, self._arm_aside)

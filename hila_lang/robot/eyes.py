@@ -25,10 +25,10 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.rotation import about_z, pose
-from ..sim.camera import Camera, CameraImage
+from ..sim.camera import CameraImage
 from ..sim.scene import check_point
 from . import ik, model
-from .lens import eye_calibration, EYE_HEIGHT, EYE_WIDTH, eyes_calibration, ICUB_EYE_K, true_lens
+from .lens import eye_calibration, EYE_HEIGHT, EYE_WIDTH, eyes_calibration, ICUB_EYE_K, lens_image, sensor_window, through_lens, true_lens
 
 __all__ = ["EYE_HEIGHT", "EYE_WIDTH", "Eyes", "ICUB_EYE_K", "aim_gaze", "eye_pose", "eye_poses_looking_at"]
 
@@ -164,24 +164,29 @@ class Eyes:
         ``right_T_left``)."""
         return eyes_calibration()
 
-    def camera_image(self, eye: str = "left", *, shadow: bool = False) -> CameraImage:
+    def camera_image(self, eye: str = "left", *, shadow: bool = False, region=None) -> CameraImage:
         """The ``eye`` camera's image (240, 320, 3) through its lens, with what the robot knows
         of it: its calibration (``K``, ``dist``), its pose from the joint angles and the angles.
 
         The head first re-aims at the gaze target (the surface's centre unless :meth:`look_at`
-        was told otherwise), since the torso may have moved.
+        was told otherwise), since the torso may have moved.  ``region`` (N, 3) world points:
+        only the part of the sensor that sees them, as the robot's calibration and pose place them
+        (:func:`.lens.sensor_window`; a glance at a known thing), is read -- a smaller image whose
+        ``K`` says where it lies on the sensor, at a fraction of the cost (the whole image when
+        the region is not in view).
         """
         _check_eye(eye)
         self.look_at(self.target)
         joints = self.joints(eye)
         if self._lens is None:
             self._lens = true_lens(LENS_SUPERSAMPLE)
+        calib = self.calibration(eye)
+        world_T_camera = eye_pose(self.chain(eye), joints)
+        window = None if region is None else sensor_window(region, calib, world_T_camera)
         # the simulator's own link pose places the rendering camera: truth, for the picture only
         truth = self.body.link_pose(model.EYE_LINKS[eye])
-        ideal = self._lens.render_camera
-        rgb = self._lens.distort(self.render(Camera(ideal.K, truth, ideal.width, ideal.height), shadow=shadow))
+        rgb = through_lens(self._lens, self.render, truth, window, shadow)
         if self.noise > 0:
             rgb = np.clip(rgb + self._rng.normal(0.0, self.noise, rgb.shape), 0, 255).astype(np.uint8)
-        calib = self.calibration(eye)
-        return CameraImage(rgb, calib.K.copy(), eye_pose(self.chain(eye), joints), EYE_WIDTH, EYE_HEIGHT,
-                           joints, tuple(float(v) for v in calib.dist))
+        return lens_image(rgb, calib, world_T_camera, joints, window)
+

@@ -50,9 +50,9 @@ from ..perception.calibration import PATTERN, SQUARE
 from ..perception.calibration import StereoCalibration, calibrate_stereo, stereo_views
 from ..perception.calibration import calibrate, chessboard_views, load_calibration, save_calibration
 from ..perception.distortion import TRUE_DISTORTION
-from ..perception.distortion import TRUE_DISTORTION, DistortedCamera
+from ..perception.distortion import TRUE_DISTORTION, DistortedCamera, distort_points
 from ..perception.rig import StereoRig
-from ..sim.camera import Camera
+from ..sim.camera import Camera, CameraImage, project
 
 #: chessboard images per eye and their supersampling: as the demonstration's recording
 #: (:func:`hila_lang.perception.recording.write_recording`).  Measured here: 14 views at 2x left
@@ -69,6 +69,57 @@ STEREO_SEED = 2000
 _VERSION = "1"
 #: the calibrations shipped with hila (module docstring), read after the cache folders
 SHIPPED = Path(__file__).with_name("calibration")
+
+
+#: pixels kept around a region's projection when an eye reads only part of its sensor
+#: (:func:`sensor_window`): its calibration's and pose's errors are a fraction of a pixel
+WINDOW_MARGIN = 4
+
+
+def sensor_window(region, calib, world_T_camera: np.ndarray, margin: int = WINDOW_MARGIN,
+                  width: int = EYE_WIDTH, height: int = EYE_HEIGHT) -> tuple[int, int, int, int] | None:
+    """The sensor pixels ``(u0, v0, u1, v1)`` (end exclusive) that see the world points
+    ``region`` (N, 3), as the robot's own calibration ``calib`` (``K``, ``dist``) and its own pose
+    of the camera ``world_T_camera`` place them, grown by ``margin`` pixels: the part of an image a
+    reader of that region needs.  None -- the whole image -- when a point is behind the camera or
+    the region lies outside the image."""
+    points = np.asarray(region, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0 or not np.all(np.isfinite(points)):
+        raise InputError(f"an eye's region must be finite world points of shape (N, 3), got shape {points.shape}")
+    uv = project(points, calib.K, world_T_camera)
+    if not np.all(np.isfinite(uv)):
+        return None
+    uv = distort_points(uv, calib.K, calib.dist)
+    u0, v0 = (max(0, int(np.floor(v)) - margin) for v in uv.min(axis=0))
+    u1, v1 = (min(n, int(np.ceil(v)) + margin + 1) for v, n in zip(uv.max(axis=0), (width, height)))
+    if u1 - u0 < 2 * margin or v1 - v0 < 2 * margin:
+        return None
+    return u0, v0, u1, v1
+
+
+def through_lens(lens, render, world_T_camera: np.ndarray, window=None, shadow: bool = False) -> np.ndarray:
+    """The image ``lens`` (a :class:`~hila_lang.perception.distortion.DistortedCamera`) makes at
+    the camera pose ``world_T_camera`` (the simulator's: rendering only): all of it, or only its
+    pixels ``window`` (:func:`sensor_window`), for which only the part of the ideal canvas they
+    are made from is rendered (the same pixels, far fewer rendered)."""
+    if window is None:
+        ideal = lens.render_camera
+        return lens.distort(render(Camera(ideal.K, world_T_camera, ideal.width, ideal.height), shadow=shadow))
+    source = lens.window_source(window)
+    part = lens.render_window(source)
+    rgb = render(Camera(part.K, world_T_camera, part.width, part.height), shadow=shadow)
+    return lens.distort_window(rgb, window, source)
+
+
+def lens_image(rgb: np.ndarray, calib, world_T_camera: np.ndarray, joints, window) -> CameraImage:
+    """A :class:`CameraImage` of a lens camera's pixels ``window`` (None: all), with the robot's
+    calibration ``calib`` (its principal point moved to the window's frame) and pose."""
+    K = calib.K.copy()
+    if window is not None:
+        K[0, 2] -= window[0]
+        K[1, 2] -= window[1]
+    return CameraImage(rgb, K, np.asarray(world_T_camera, dtype=float).copy(), rgb.shape[1], rgb.shape[0], joints,
+                       tuple(float(v) for v in calib.dist))
 
 
 def true_lens(supersample: int = 1):

@@ -33,10 +33,10 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.rotation import about_z, pose
-from ..sim.camera import Camera, CameraImage, look_at
+from ..sim.camera import CameraImage, look_at
 from ..sim.scene import check_point
 from . import ik
-from .lens import eye_calibration, EYE_HEIGHT, EYE_WIDTH, pair_calibration, true_lens
+from .lens import eye_calibration, lens_image, pair_calibration, sensor_window, through_lens, true_lens
 
 #: the pen's radius in the body outline, metres (a little wider than the pen)
 PEN_OUTLINE = 0.01
@@ -157,16 +157,16 @@ class RigEyes:
         out = [(np.array([a, b]), radius) for a, b in zip(points[:-1], points[1:])]
         return out + [(np.array([base, tip[:3, 3]]), PEN_OUTLINE)]
 
-    def camera_image(self, eye: str = "left", *, shadow: bool = False) -> CameraImage:
+    def camera_image(self, eye: str = "left", *, shadow: bool = False, region=None) -> CameraImage:
         """The camera's image (240, 320, 3) through its lens, with what the robot knows of it: its
-        calibration (``K``, ``dist``) and the mount's pose (no joints)."""
+        calibration (``K``, ``dist``) and the mount's pose (no joints); ``region`` (N, 3): only
+        the sensor's part that sees those points, as :meth:`.eyes.Eyes.camera_image`."""
         pose = self.poses[_check_eye(eye)]
         if self._lens is None:
             self._lens = true_lens(1)
-        ideal = self._lens.render_camera
-        rgb = self._lens.distort(self.render(Camera(ideal.K, pose, ideal.width, ideal.height), shadow=shadow))
+        calib = self.calibration(eye)
+        window = None if region is None else sensor_window(region, calib, pose)
+        rgb = through_lens(self._lens, self.render, pose, window, shadow)
         if self.noise > 0:
             rgb = np.clip(rgb + self._rng.normal(0.0, self.noise, rgb.shape), 0, 255).astype(np.uint8)
-        calib = self.calibration(eye)
-        return CameraImage(rgb, calib.K.copy(), pose.copy(), EYE_WIDTH, EYE_HEIGHT, {},
-                           tuple(float(v) for v in calib.dist))
+        return lens_image(rgb, calib, pose, {}, window)

@@ -7,5 +7,6 @@
 - :mod:`~hila_lang.sim.canvas` -- a surface's texture as a raster strokes are drawn into
 - :mod:`~hila_lang.sim.camera` -- the one camera model: intrinsics, poses, projection, rendering
 - :mod:`~hila_lang.sim.client` -- silencing PyBullet's C-level output
+- :mod:`~hila_lang.sim.culling` -- links a camera cannot see left out of its image (the same image, faster)
 - :mod:`~hila_lang.sim.scene` -- the one PyBullet scene
 """

@@ -25,6 +25,7 @@ from ..core.errors import HilaRuntimeError, InputError
 from ..core.rotation import to_quat
 from .camera import Camera, render, RenderStyle
 from .client import import_pybullet, quiet_c_output
+from .culling import Culler
 
 #: where hidden bodies wait, metres
 HIDDEN = (0.0, 0.0, -10.0)
@@ -93,6 +94,10 @@ class SimScene:
         self.style = style
         self.client = -1
         self._uploads = 0
+        self.gui = bool(gui)
+        #: the bodies whose links :meth:`render` leaves out when the camera cannot see them
+        #: (:meth:`cull`); None until a body is added
+        self.culler: Culler | None = None
         self._tmpdir = tempfile.mkdtemp(prefix="hila-scene-")
         try:
             self._connect(gui)
@@ -220,11 +225,25 @@ class SimScene:
         self.pb.removeBody(body, physicsClientId=self.client)
 
     # -- seeing -----------------------------------------------------------------------------------
+    def cull(self, body: int) -> int:
+        """Leave ``body``'s links out of an image when the camera cannot see them
+        (:mod:`.culling`: the same image, fewer triangles); returns how many links may be left
+        out.  Not with a window (its own renderer would flicker) nor for images with shadows
+        (what is out of view may cast one into it)."""
+        if self.gui:
+            return 0
+        if self.culler is None:
+            self.culler = Culler(self.pb, self.client)
+        return self.culler.add(body)
+
     def render(self, camera: Camera, *, shadow: bool | None = None) -> np.ndarray:
         """An ideal pinhole RGB image (height, width, 3) uint8 of ``camera`` (tiny renderer)."""
         style = self.style if shadow is None or shadow == self.style.shadow else \
             RenderStyle(**{**self.style.__dict__, "shadow": bool(shadow)})
-        return render(self.pb, self.client, camera, style)
+        if self.culler is None or style.shadow:
+            return render(self.pb, self.client, camera, style)
+        with self.culler.hidden(camera, style.near):
+            return render(self.pb, self.client, camera, style)
 
     # -- lifetime ---------------------------------------------------------------------------------
     def close(self) -> None:
