@@ -90,26 +90,32 @@ def _local_box(pb, geometry: int, dims, filename: bytes) -> tuple[np.ndarray, np
     return -half, half
 
 
+def _quat_matrices(quats: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of unit quaternions (N, 4), PyBullet's order (x, y, z, w)."""
+    x, y, z, w = quats.T
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+                     np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+                     np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], 1)
+
+
 class Culler:
     """The links of some bodies of one PyBullet client, made transparent for an image when the
     camera cannot see them (see the module docstring)."""
 
     def __init__(self, pb, client: int) -> None:
         self.pb, self.client = pb, client
-        #: body id -> [(link index, rgba, corners (8, 4) homogeneous, in the link's frame)]
-        self.shapes: dict[int, list] = {}
-        #: links made transparent by the latest :meth:`hidden`, and every image it was used for
+        #: body id -> (link indices (L,), their colours, box corners (L, 8, 3) in each link's frame)
+        self.shapes: dict[int, tuple[list[int], list[tuple], np.ndarray]] = {}
+        #: links made transparent for the latest image
         self.last_culled = 0
-        self.images = 0
 
     def add(self, body: int) -> int:
         """Take ``body``'s links whose extent is known; returns how many."""
         pb, c = self.pb, self.client
-        data = pb.getVisualShapeData(body, physicsClientId=c)
         per_link: dict[int, list] = {}
-        for shape in data:
+        for shape in pb.getVisualShapeData(body, physicsClientId=c):
             per_link.setdefault(shape[1], []).append(shape)
-        kept = []
+        links, colours, boxes = [], [], []
         for link, shapes in per_link.items():
             if len(shapes) != 1:  # several shapes: one colour cannot be put back on each
                 continue
@@ -118,29 +124,35 @@ class Culler:
             if box is None:
                 continue
             lo, hi = box
-            corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
             # the visual's frame is given in the link's (URDF) frame: the one getLinkState's
-            # worldLinkFrame places (checked against rendered pixels, tests/test_sim_culling.py)
-            link_T_corners = (pose(from_quat(orientation), position) @ corners.T).T
-            kept.append((link, tuple(rgba), link_T_corners))
-        self.shapes[body] = kept
-        return len(kept)
+            # worldLinkFrame places (checked against rendered pixels when this was written)
+            R = from_quat(orientation)
+            links.append(link)
+            colours.append(tuple(rgba))
+            boxes.append(corners @ R.T + np.asarray(position, dtype=float))
+        self.shapes[body] = (links, colours, np.array(boxes).reshape(-1, 8, 3))
+        return len(links)
 
-    def _link_frames(self, body: int, links: list[int]) -> dict[int, np.ndarray]:
-        """``world_T_link`` (4, 4) of ``links`` now (the base: its inertial frame undone)."""
+    def _link_frames(self, body: int, links: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Rotations (L, 3, 3) and origins (L, 3) of ``links``' frames in the world now (the
+        base's: its inertial frame undone)."""
         pb, c = self.pb, self.client
-        frames = {}
+        quats, origins = np.zeros((len(links), 4)), np.zeros((len(links), 3))
         moving = [k for k in links if k >= 0]
-        if moving:
-            for k, state in zip(moving, pb.getLinkStates(body, moving, computeForwardKinematics=True, physicsClientId=c)):
-                frames[k] = pose(from_quat(state[5]), state[4])
+        states = pb.getLinkStates(body, moving, computeForwardKinematics=True, physicsClientId=c) if moving else []
+        by_link = dict(zip(moving, states))
+        for i, k in enumerate(links):
+            if k >= 0:
+                origins[i], quats[i] = by_link[k][4], by_link[k][5]
+        rotations = _quat_matrices(quats)
         if -1 in links:
+            i = links.index(-1)
             position, orientation = pb.getBasePositionAndOrientation(body, physicsClientId=c)
             info = pb.getDynamicsInfo(body, -1, physicsClientId=c)
-            world_T_com = pose(from_quat(orientation), position)
-            link_T_com = pose(from_quat(info[4]), info[3])
-            frames[-1] = world_T_com @ np.linalg.inv(link_T_com)
-        return frames
+            world_T_link = pose(from_quat(orientation), position) @ np.linalg.inv(pose(from_quat(info[4]), info[3]))
+            rotations[i], origins[i] = world_T_link[:3, :3], world_T_link[:3, 3]
+        return rotations, origins
 
     def unseen(self, camera: Camera, near: float) -> list[tuple[int, int, tuple]]:
         """The (body, link, rgba) whose box lies wholly outside ``camera``'s frustum (the image's
@@ -152,15 +164,17 @@ class Culler:
         planes = np.array([[fx, 0.0, cx - u0], [-fx, 0.0, u1 - cx], [0.0, fy, cy - v0], [0.0, -fy, v1 - cy],
                            [0.0, 0.0, 1.0]])
         offsets = np.array([0.0, 0.0, 0.0, 0.0, -near])
-        camera_T_world = np.linalg.inv(np.asarray(camera.world_T_camera, dtype=float))
+        T = np.asarray(camera.world_T_camera, dtype=float)
         out = []
-        for body, shapes in self.shapes.items():
-            frames = self._link_frames(body, [s[0] for s in shapes])
-            for link, rgba, corners in shapes:
-                local = (camera_T_world @ frames[link] @ corners.T)[:3]  # (3, 8), camera frame
-                side = planes @ local + offsets[:, None]  # (5, 8)
-                if np.any(np.all(side < 0, axis=1)):
-                    out.append((body, link, rgba))
+        for body, (links, colours, boxes) in self.shapes.items():
+            if not links:
+                continue
+            rotations, origins = self._link_frames(body, links)
+            world = np.einsum("lij,lkj->lki", rotations, boxes) + origins[:, None, :]  # (L, 8, 3)
+            local = (world - T[:3, 3]) @ T[:3, :3]  # the camera's frame
+            side = local @ planes.T + offsets  # (L, 8, 5)
+            outside = np.any(np.all(side < 0, axis=1), axis=1)
+            out += [(body, links[i], colours[i]) for i in np.nonzero(outside)[0]]
         return out
 
     @contextmanager
@@ -171,7 +185,6 @@ class Culler:
         for body, link, rgba in unseen:
             pb.changeVisualShape(body, link, rgbaColor=[rgba[0], rgba[1], rgba[2], 0.0], physicsClientId=c)
         self.last_culled = len(unseen)
-        self.images += 1
         try:
             yield
         finally:
