@@ -12,15 +12,18 @@ simulator and renderer --
   iCub loaded into PyBullet, its calibrations read) and exits, timed from outside, as the game is;
 - physics: the game's simulator steps (counted in one in-process game with the same seed and
   opponent) times the cost of a bare ``stepSimulation`` in that scene;
-- eyes: the game's eye images (counted the same way) times the cost of one eye image (render
-  through the lens) in that scene.
+- eyes: the game's images (counted the same way) times the cost of one image as it is made
+  there: a glance while drawing reads only the eye's fovea around the grid (a part of the
+  sensor, :func:`hila_lang.robot.lens.sensor_window`), every other image (a look at the board,
+  the output folder's pictures) is a whole eye image through the lens.
 
-``floor = start-up + steps x step + images x image``; ``ratio = wall / floor`` (goal <= 1.5).
-The three unit costs are sampled before the single games, between them and after them (a
-start-up process, 5 x 1000 bare steps and 7 eye images each time, in the counted game's scene
-kept open), and their medians used: on a shared machine the load moves within minutes, and unit
-costs timed at one moment put the same code's ratio anywhere between 0.96 and 1.73 (main, load
-10-14, two runs five minutes apart).
+``floor = start-up + steps x step + glances x glance + images x image``; ``ratio = wall / floor``
+(goal <= 1.5).  The unit costs are sampled before the single games, between them and after them
+(a start-up process, 5 x 1000 bare steps, 7 whole eye images and 7 fovea glances each time, in
+the counted game's scene kept open, the fovea where the robot last saw the grid), and their
+medians used: on a shared machine the load moves within minutes, and unit costs timed at one
+moment put the same code's ratio anywhere between 0.96 and 1.73 (main, load 10-14, two runs
+five minutes apart).
 
 Part 1 times ``hila exec programs/game.hila`` as a fresh process (start-up, loading the iCub,
 the whole game, the output folder), reading the child's peak resident memory.  Targets: under
@@ -29,7 +32,7 @@ with its own PyBullet client, and prints the resident memory after each, so a le
 ``loadTexture`` on every ink reload, docs/design.md §5) shows as growth per game.  The last line
 sums it up::
 
-    game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> images=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
+    game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> glances=<n>x<ms> images=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
 
 ``wall`` is the median of the single games (all seeds play the same opening against minimax
 when the robot starts, so their counts are alike; the floor's counts come from seed 0).
@@ -101,23 +104,38 @@ def counted_game(seed: int, out: Path):
 
     options = RunOptions(seed=seed, out=out, settings={"opponent": "minimax"}, stdin=io.StringIO(), stdout=io.StringIO())
     interp = prepare(PROGRAM, options, "pybullet")
+    eyes, glances = interp.backend.eyes, []
+    camera_image = eyes.camera_image
+
+    def counted(eye="left", **kw):  # a fovea glance (a region given) or a whole eye image
+        glances.append(kw.get("region") is not None)
+        return camera_image(eye, **kw)
+
+    eyes.camera_image = counted
     t0 = time.perf_counter()
     interp.run()
     in_game = time.perf_counter() - t0
+    eyes.camera_image = camera_image
     stats = interp.backend.stats
-    return interp, {"steps": stats["steps"], "images": stats["renders"], "in_game_s": in_game,
+    return interp, {"steps": stats["steps"], "glances": sum(glances), "images": stats["renders"] - sum(glances),
+                    "in_game_s": in_game,
                     "ik_solves": stats["ik_solves"], "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"],
                     "render_s": stats["render_seconds"]}
 
 
 class Probe:
     """The floor's unit costs, sampled again and again in the counted game's scene: a start-up
-    process, a bare ``stepSimulation`` (5 x 1000, the arm held) and an eye image (7, the eyes
-    in turn); :meth:`costs` gives the medians of every sample."""
+    process, a bare ``stepSimulation`` (5 x 1000, the arm held), a whole eye image and a fovea
+    glance (7 each, the eyes in turn; the fovea where the robot last saw the grid); :meth:`costs`
+    gives the medians of every sample."""
 
     def __init__(self, interp, out: Path) -> None:
         self.backend, self.out = interp.backend, out
-        self.start, self.step, self.image = [], [], []
+        player = interp.world.player
+        player.track_begin()  # the tracker as a drawing would start it: its fovea
+        self.fovea = player.tracker.fovea()
+        player.track_end()
+        self.start, self.step, self.image, self.glance = [], [], [], []
 
     def sample(self) -> None:
         be = self.backend
@@ -133,10 +151,13 @@ class Probe:
             a = time.perf_counter()
             be.eyes.camera_image(("left", "right")[k % 2])
             self.image.append(time.perf_counter() - a)
+            a = time.perf_counter()
+            be.eyes.camera_image(("left", "right")[k % 2], region=self.fovea)
+            self.glance.append(time.perf_counter() - a)
         be.stats["renders"] = renders  # the probe's images are not the game's
 
-    def costs(self) -> tuple[float, float, float]:
-        return float(np.median(self.start)), float(np.median(self.step)), float(np.median(self.image))
+    def costs(self) -> tuple[float, float, float, float]:
+        return tuple(float(np.median(v)) for v in (self.start, self.step, self.glance, self.image))
 
 
 def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
@@ -191,11 +212,12 @@ def main(argv: list[str] | None = None) -> int:
         finish(interp)  # the output folder: its pictures are eye images too (eye.png) or top views
         counts["outputs_s"] = time.perf_counter() - a
         counts["images"] += interp.backend.stats["renders"] - renders
-        start, step, image = probe.costs()
-        counts.update(step_s=step, image_s=image)
-        floor = start + counts["steps"] * step + counts["images"] * image
+        start, step, glance, image = probe.costs()
+        counts.update(step_s=step, glance_s=glance, image_s=image)
+        floor = start + counts["steps"] * step + counts["glances"] * glance + counts["images"] * image
         print(f"floor: start-up {start:.2f} s + {counts['steps']} steps x {step * 1e3:.3f} ms "
-              f"+ {counts['images']} eye images x {image * 1e3:.1f} ms = {floor:.2f} s (medians of "
+              f"+ {counts['glances']} fovea glances x {glance * 1e3:.1f} ms "
+              f"+ {counts['images']} whole images x {image * 1e3:.1f} ms = {floor:.2f} s (medians of "
               f"{len(probe.start)} samples, before, between and after the games); the in-process game spent "
               f"{counts['in_game_s']:.2f} s: stepping loop {counts['step_loop_s']:.2f} s, "
               f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s; "
@@ -217,7 +239,8 @@ def main(argv: list[str] | None = None) -> int:
         wall = float(np.median(walls))
         print(f"load average {os.getloadavg()[0]:.2f} at the end")
         print(f"game wall={wall:.2f} floor={floor:.2f} ratio={wall / floor:.2f} startup={start:.2f} "
-              f"steps={counts['steps']}x{counts['step_s'] * 1e3:.3f}ms images={counts['images']}x"
+              f"steps={counts['steps']}x{counts['step_s'] * 1e3:.3f}ms glances={counts['glances']}x"
+              f"{counts['glance_s'] * 1e3:.1f}ms images={counts['images']}x"
               f"{counts['image_s'] * 1e3:.1f}ms peak={peak:.0f} series={args.series} failed={failed} "
               f"rss_growth_per_game={growth:.2f} r_min={min(r_all):.4f}")
     return 1 if failed else 0
