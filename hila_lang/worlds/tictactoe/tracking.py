@@ -9,7 +9,9 @@ its own calibration and poses, its table estimate and the grid it last saw.
 grid (the right arm crosses the left eye's view), so reading the whole board
 (:func:`.reading.read_board`) is not possible; the robot instead registers what it sees of the
 grid against the grid it knows.  One eye's image (the left one first; the other when the first
-sees too little of the grid, and then whichever saw more goes first) is rectified onto the table plane (:func:`.reading.rectify`), the grid's ink pixels are
+sees too little of the grid, and then whichever saw more goes first) -- only its fovea, the
+part of the sensor that sees the grid's square where the robot last saw it (:meth:`SheetTracker.fovea`),
+and the whole images only when no eye finds the grid there -- is rectified onto the table plane (:func:`.reading.rectify`), the grid's ink pixels are
 picked as the reader picks them (dark, neutral, thin strokes; the robot's own body is not masked:
 :meth:`SheetTracker.ink` says why), and the planar rigid motion
 (a turn about the grid's centre and a shift) that lays the known grid lines (four segments) onto
