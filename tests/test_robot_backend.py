@@ -414,3 +414,69 @@ def test_an_eye_image_carries_what_the_robot_knows_to_place_it(robot):
         assert set(chain.names) <= set(image.joints) and "neck_pitch" in chain.names
         world_T_eye = chain.forward(np.array([image.joints[n] for n in chain.names]))[0]
         np.testing.assert_allclose(world_T_eye, image.world_T_camera, atol=1e-6)
+
+
+def _without_culling(sim, camera):
+    culler, sim.culler = sim.culler, None
+    try:
+        return sim.render(camera)
+    finally:
+        sim.culler = culler
+
+
+def _postures(robot, n=4, seed=3):
+    """The arm at ``n`` seeded places over the sheet (and back where it was)."""
+    rng = np.random.default_rng(seed)
+    start = robot.body.arm_angles()
+    for _ in range(n):
+        x, y = rng.uniform(-0.08, 0.08, 2)
+        robot.reset_hand(GRID.grid_to_world(x, y) + np.array([0.0, 0.0, rng.uniform(0.01, 0.08)]))
+        yield
+    robot.body.set_arm(start)
+
+
+@pytest.mark.slow
+def test_culled_images_are_the_same_images_and_leave_links_out(robot):
+    """Links out of a camera's view are left out of its image (hila_lang.sim.culling): the
+    eyes' images and an outside view, at several arm postures, equal those drawn with every link."""
+    sim = robot.sim
+    assert sim.culler is not None and len(sim.culler.shapes[robot.body.id][0]) >= 30  # the iCub's meshes
+    from hila_lang.robot import model
+    from hila_lang.robot.lens import true_lens
+    from hila_lang.sim.camera import Camera, intrinsics, look_at
+
+    ideal = true_lens(1).render_camera
+    hand = robot.body.link_position("r_hand")
+    outside = Camera(intrinsics(320, 240, 70), look_at(hand + np.array([0.5, 0.6, 0.4]), hand), 320, 240)
+    culled_by_eye = []
+    for _ in _postures(robot):
+        cameras = [Camera(ideal.K, robot.body.link_pose(model.EYE_LINKS[e]), ideal.width, ideal.height)
+                   for e in ("left", "right")]
+        for camera in [*cameras, outside]:
+            fast = sim.render(camera)
+            culled_by_eye.append(sim.culler.last_culled)
+            assert np.array_equal(fast, _without_culling(sim, camera))
+    # the eyes look down at the table: the legs, hips and head are never drawn for them
+    assert min(c for k, c in enumerate(culled_by_eye) if k % 3 != 2) >= 15
+
+
+@pytest.mark.slow
+def test_an_eye_reading_a_region_gives_that_part_of_its_whole_image(robot):
+    """A glance's fovea (``camera_image(region=...)``) is those pixels of the whole image."""
+    from hila_lang.robot.lens import sensor_window
+
+    eyes = robot.eyes
+    centre = GRID.grid_to_world(0.0, 0.0)
+    region = centre + np.array([[-0.09, -0.09, 0.0], [0.09, -0.09, 0.0], [0.09, 0.09, 0.0], [-0.09, 0.09, 0.0]])
+    for eye in ("left", "right"):
+        whole = eyes.camera_image(eye)
+        part = eyes.camera_image(eye, region=region)
+        u0, v0, u1, v1 = sensor_window(region, eyes.calibration(eye), eyes.camera_pose(eye))
+        assert part.rgb.shape == (v1 - v0, u1 - u0, 3) and (part.width, part.height) == (u1 - u0, v1 - v0)
+        assert part.rgb.size < 0.6 * whole.rgb.size  # a glance reads much less than the whole sensor
+        assert np.array_equal(part.rgb, whole.rgb[v0:v1, u0:u1])
+        # its K places the world where the whole image's K does, shifted by the window's corner
+        assert np.allclose(part.project(region), whole.project(region) - [u0, v0])
+        assert part.dist == whole.dist
+    far_away = region + np.array([0.0, 0.0, -50.0])  # nothing of it in view: the whole image
+    assert eyes.camera_image("left", region=far_away).rgb.shape == (240, 320, 3)
