@@ -19,8 +19,9 @@ simulator and renderer --
 
 ``floor = start-up + steps x step + glances x glance + images x image``; ``ratio = wall / floor``
 (goal <= 1.5).  The unit costs are sampled before the single games, between them and after them
-(a start-up process, 5 x 1000 bare steps, 7 whole eye images and 7 fovea glances each time, in
-the counted game's scene kept open, the fovea where the robot last saw the grid), and their
+(a start-up process, 5 x 1000 bare steps, 7 whole eye images and 7 of the game's fovea glances
+-- each with its eye, its fovea and the arm where it was -- each time, in the counted game's
+scene kept open), and their
 medians used: on a shared machine the load moves within minutes, and unit costs timed at one
 moment put the same code's ratio anywhere between 0.96 and 1.73 (main, load 10-14, two runs
 five minutes apart).
@@ -104,11 +105,13 @@ def counted_game(seed: int, out: Path):
 
     options = RunOptions(seed=seed, out=out, settings={"opponent": "minimax"}, stdin=io.StringIO(), stdout=io.StringIO())
     interp = prepare(PROGRAM, options, "pybullet")
-    eyes, glances = interp.backend.eyes, []
+    backend, glances = interp.backend, []
+    eyes = backend.eyes
     camera_image = eyes.camera_image
 
     def counted(eye="left", **kw):  # a fovea glance (a region given) or a whole eye image
-        glances.append(kw.get("region") is not None)
+        if kw.get("region") is not None:  # where it looked and where the arm was: the probe's glances
+            glances.append((eye, np.array(kw["region"]), backend.body.arm_angles()))
         return camera_image(eye, **kw)
 
     eyes.camera_image = counted
@@ -117,7 +120,8 @@ def counted_game(seed: int, out: Path):
     in_game = time.perf_counter() - t0
     eyes.camera_image = camera_image
     stats = interp.backend.stats
-    return interp, {"steps": stats["steps"], "glances": sum(glances), "images": stats["renders"] - sum(glances),
+    return interp, {"steps": stats["steps"], "glances": len(glances), "images": stats["renders"] - len(glances),
+                    "glance_views": glances,
                     "in_game_s": in_game,
                     "ik_solves": stats["ik_solves"], "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"],
                     "render_s": stats["render_seconds"]}
@@ -125,16 +129,14 @@ def counted_game(seed: int, out: Path):
 
 class Probe:
     """The floor's unit costs, sampled again and again in the counted game's scene: a start-up
-    process, a bare ``stepSimulation`` (5 x 1000, the arm held), a whole eye image and a fovea
-    glance (7 each, the eyes in turn; the fovea where the robot last saw the grid); :meth:`costs`
-    gives the medians of every sample."""
+    process, a bare ``stepSimulation`` (5 x 1000, the arm held), a whole eye image (7, the eyes
+    in turn) and a fovea glance (7 of the game's glances spread over it, each with its eye, its
+    fovea and the arm where it was: the arm in view costs the renderer); :meth:`costs` gives the
+    medians of every sample."""
 
-    def __init__(self, interp, out: Path) -> None:
+    def __init__(self, interp, out: Path, glances: list) -> None:
         self.backend, self.out = interp.backend, out
-        player = interp.world.player
-        player.track_begin()  # the tracker as a drawing would start it: its fovea
-        self.fovea = player.tracker.fovea()
-        player.track_end()
+        self.views = [glances[int(k)] for k in np.linspace(0, len(glances) - 1, 7)] if glances else []
         self.start, self.step, self.image, self.glance = [], [], [], []
 
     def sample(self) -> None:
@@ -151,13 +153,21 @@ class Probe:
             a = time.perf_counter()
             be.eyes.camera_image(("left", "right")[k % 2])
             self.image.append(time.perf_counter() - a)
-            a = time.perf_counter()
-            be.eyes.camera_image(("left", "right")[k % 2], region=self.fovea)
-            self.glance.append(time.perf_counter() - a)
+        saved = pb.saveState(physicsClientId=c)  # the arm where it was at each glance, then back
+        try:
+            for eye, region, arm in self.views:
+                for index, value in zip(be.body.arm_joints, arm):
+                    pb.resetJointState(be.body.id, index, float(value), 0.0, physicsClientId=c)
+                a = time.perf_counter()
+                be.eyes.camera_image(eye, region=region)
+                self.glance.append(time.perf_counter() - a)
+        finally:
+            pb.restoreState(stateId=saved, physicsClientId=c)
+            pb.removeState(saved, physicsClientId=c)
         be.stats["renders"] = renders  # the probe's images are not the game's
 
     def costs(self) -> tuple[float, float, float, float]:
-        return tuple(float(np.median(v)) for v in (self.start, self.step, self.glance, self.image))
+        return tuple(float(np.median(v)) if v else 0.0 for v in (self.start, self.step, self.glance, self.image))
 
 
 def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
@@ -193,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
         from hila_lang.session.runner import finish
 
         interp, counts = counted_game(0, tmp / "counted")
-        probe = Probe(interp, tmp)
+        probe = Probe(interp, tmp, counts.pop("glance_views"))
         probe.sample()
         walls, r_all = [], []
         peak = 0.0
