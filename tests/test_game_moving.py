@@ -143,3 +143,43 @@ def test_a_circle_drawn_while_the_sheet_slides_and_turns(tmp_path):
     assert tracked["cell"] == 4 and tracked["outside_cell_mm"] == 0.0 and tracked["r"] > 0.99
     assert len(tracked["replans"]) >= 4 and not any(r["lifted"] for r in tracked["replans"])
     assert untracked["replans"] == [] and untracked["outside_cell_mm"] > 3.0 and untracked["r"] < tracked["r"] - 0.02
+
+
+class _GlanceEyes:
+    """Eyes for a glance that hand back ink points instead of images (the tracker's ``ink`` is
+    bypassed): ``fovea`` what a region's image shows, ``whole`` what a whole image shows."""
+
+    def __init__(self, fovea, whole):
+        self.fovea, self.whole, self.calls = fovea, whole, []
+
+    def camera_image(self, eye="left", *, region=None):
+        self.calls.append((eye, None if region is None else np.array(region)))
+        return self.whole if region is None else self.fovea
+
+
+def test_a_glance_reads_its_fovea_first_and_the_whole_images_only_when_the_grid_is_not_there():
+    from dataclasses import replace
+
+    from hila_lang.worlds.tictactoe.tracking import FOVEA_MARGIN
+
+    rng = np.random.default_rng(3)
+    known = Grid.game()
+    tracker = SheetTracker({c: cell_corners(known, c) for c in range(1, 10)}, known.surface_z)
+    fovea = tracker.fovea()
+    # the fovea: the grid's square where the robot knows it, grown by the margin, on the table
+    half = 1.5 * tracker.spacing + FOVEA_MARGIN
+    assert fovea.shape == (4, 3) and np.allclose(fovea[:, 2], known.surface_z)
+    assert np.allclose(np.abs(tracker._local(fovea[:, :2])), half)
+    tracker.ink = lambda image: image
+    grid_ink = _ink_of(known, rng)
+    still = _GlanceEyes(fovea=grid_ink, whole=None)
+    assert tracker.glance(still) is not None
+    assert [(e, r is not None) for e, r in still.calls] == [("left", True)]  # one fovea, nothing more
+    assert np.allclose(still.calls[0][1], fovea) and tracker.glances[-1]["whole_image"] is False
+    # the sheet jumped out of the fovea: neither eye finds it there, the whole image does
+    jumped = replace(known, grid_center=tuple(np.add(known.grid_center, (0.002, -0.001))))
+    away = _GlanceEyes(fovea=rng.uniform(-1, 1, (300, 2)), whole=_ink_of(jumped, rng))
+    assert tracker.glance(away) is not None
+    assert [(e, r is not None) for e, r in away.calls] == [("left", True), ("right", True), ("left", False)]
+    assert tracker.glances[-1]["whole_image"] is True and tracker.glances[-1]["seen"]
+    assert np.linalg.norm(tracker.centre[:2] - np.asarray(jumped.grid_center)) < 1e-3
