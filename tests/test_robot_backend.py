@@ -468,6 +468,19 @@ def test_an_eye_reading_a_region_gives_that_part_of_its_whole_image(robot):
     eyes = robot.eyes
     centre = GRID.grid_to_world(0.0, 0.0)
     region = centre + np.array([[-0.09, -0.09, 0.0], [0.09, -0.09, 0.0], [0.09, 0.09, 0.0], [-0.09, 0.09, 0.0]])
+    render, canvases = eyes.render, []
+
+    def sized(camera, **kw):  # what the renderer is asked for: only the part the window needs
+        canvases.append(camera.width * camera.height)
+        return render(camera, **kw)
+
+    eyes.render = sized
+    try:
+        whole = eyes.camera_image("left")
+        eyes.camera_image("left", region=region)
+    finally:
+        eyes.render = render
+    assert canvases[1] < 0.5 * canvases[0]
     for eye in ("left", "right"):
         whole = eyes.camera_image(eye)
         part = eyes.camera_image(eye, region=region)
