@@ -183,3 +183,23 @@ def test_a_glance_reads_its_fovea_first_and_the_whole_images_only_when_the_grid_
     assert [(e, r is not None) for e, r in away.calls] == [("left", True), ("right", True), ("left", False)]
     assert tracker.glances[-1]["whole_image"] is True and tracker.glances[-1]["seen"]
     assert np.linalg.norm(tracker.centre[:2] - np.asarray(jumped.grid_center)) < 1e-3
+
+
+def test_the_distance_to_the_grid_lines_is_the_obvious_one():
+    """:meth:`SheetTracker.distances` against the plain loop over the four lines (each a segment
+    1.5 spacings either side of the centre, half a spacing off it), seeded points near and far."""
+    known = Grid.game()
+    tracker = SheetTracker({c: cell_corners(known, c) for c in range(1, 10)}, known.surface_z)
+    s = tracker.spacing
+    rng = np.random.default_rng(5)
+    m = np.vstack([rng.uniform(-2.5 * s, 2.5 * s, (2000, 2)), [[0.0, 0.0], [s / 2, 0.0], [s / 2, s / 2]]])
+    d, kind = tracker.distances(m)
+    for p, dp, kp in zip(m, d, kind):
+        best, best_kind = np.inf, 0
+        for axis in (0, 1):
+            for c in (-s / 2, s / 2):
+                beyond = max(abs(p[1 - axis]) - 1.5 * s, 0.0)
+                dist = math.hypot(p[axis] - c, beyond)
+                if dist < best:
+                    best, best_kind = dist, axis
+        assert dp == pytest.approx(best, abs=1e-15) and kp == best_kind

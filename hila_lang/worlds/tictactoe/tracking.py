@@ -103,16 +103,14 @@ class SheetTracker:
         which direction that line runs (N,): 0 along ``far`` (constant ``right``), 1 along ``right``."""
         s = self.spacing
         half, end = s / 2, 1.5 * s
-        out = np.full(len(m), np.inf)
-        kind = np.zeros(len(m), dtype=int)
-        for axis in (0, 1):
-            across, along = m[:, axis], m[:, 1 - axis]
-            beyond = np.maximum(np.abs(along) - end, 0.0)
-            for c in (-half, half):
-                d = np.hypot(across - c, beyond)
-                better = d < out
-                out[better], kind[better] = d[better], axis
-        return out, kind
+        a = np.abs(m)
+        beyond = np.maximum(a - end, 0.0)  # how far past the lines' ends, along each axis
+        # the nearer of the two lines across each axis is |across| - half away (exactly as far as
+        # across - c for the nearer c = +-half); a line along far (axis 0) wins a tie
+        d0 = np.hypot(np.abs(a[:, 0] - half), beyond[:, 1])
+        d1 = np.hypot(np.abs(a[:, 1] - half), beyond[:, 0])
+        kind = (d1 < d0).astype(int)
+        return np.minimum(d0, d1), kind
 
     # -- a glance ------------------------------------------------------------------------------
     def fovea(self) -> np.ndarray:
