@@ -110,16 +110,19 @@ class Replan:
     points: dict = field(default_factory=dict)
     tail: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     of: int = 0  # the template's points
+    ahead: float = 0.0  # seconds the looked-at points were carried ahead along their motion (:class:`Prediction`)
 
     def text(self) -> str:
         lift = "; the pen lifted, carried and put down where its ink stopped" if self.lifted else ""
+        if self.ahead > 0:
+            lift = f"; the moving points carried {self.ahead * 1000:g} ms ahead" + lift
         return (f"re-plan at {self.t:.3f} s: {self.which} moved {self.moved * 1000:.1f} mm; warped again from point "
                 f"{self.stamp} of {self.of}, blended over {self.blend * 1000:g} mm{lift}; {len(self.tail)} new points "
                 f"from {fmt_point(self.tail[0])}")
 
     def to_dict(self) -> dict:
         return {"t": self.t, "stamp": self.stamp, "index": self.index, "moved": self.moved, "which": self.which,
-                "blend": self.blend, "lifted": self.lifted, "of": self.of,
+                "blend": self.blend, "lifted": self.lifted, "of": self.of, "ahead": self.ahead,
                 "points": {k: np.asarray(v, dtype=float).tolist() for k, v in self.points.items()},
                 "tail": np.asarray(self.tail, dtype=float).tolist()}
 
@@ -127,7 +130,7 @@ class Replan:
     def from_dict(cls, d: dict) -> "Replan":
         return cls(float(d["t"]), int(d["stamp"]), int(d["index"]), float(d["moved"]), str(d["which"]),
                    float(d["blend"]), bool(d["lifted"]), {k: np.asarray(v, dtype=float) for k, v in d["points"].items()},
-                   np.asarray(d["tail"], dtype=float).reshape(-1, 3), int(d.get("of", 0)))
+                   np.asarray(d["tail"], dtype=float).reshape(-1, 3), int(d.get("of", 0)), float(d.get("ahead", 0.0)))
 
 
 @dataclass
@@ -302,6 +305,7 @@ class Prediction:
         self.fit: tuple | None = None  # the last window's line: (mean time, mean points, velocity, n, spread)
         self.still_since = 0.0  # when the run of still looks began (seen time)
         self.moving = 0  # looks in a row taken as moving
+        self.carried = 0.0  # seconds the last look's points were carried ahead (0: not)
         self.state = "unknown"  # "moving", "still", "knock" or "unknown": what the last look was taken as
 
     def noise(self) -> float | None:
@@ -342,6 +346,7 @@ class Prediction:
         what the look was taken as."""
         here = motion(self.origin[kept], seen)(self.origin)
         when = t - self.latency
+        self.carried = 0.0
         knock = self._knock(when, here)
         if knock:
             self.looks, self.fit = [], None
@@ -357,13 +362,14 @@ class Prediction:
             self.state = "unknown"
             return here, self.state
         if _significant(v, spread, noise):
-            self.state, self.moving = "moving", self.moving + 1
+            self.state, self.moving, self.carried = "moving", self.moving + 1, self.horizon
             return here + self.horizon * v, self.state
         if self.state not in ("still", "moving") or self.moving > 1:
             self.still_since = when - PREDICT_WINDOW
         self.state, self.moving = "still", 0
         tm, Pm, v, n, spread, _ = self.line(self.still_since)
         if _significant(v, spread, noise):
+            self.carried = self.horizon
             return Pm + (when - tm + self.horizon) * v, self.state
         return Pm, self.state
 
@@ -431,9 +437,8 @@ class _Follower:
         kept = np.array([now.get(n) is not None for n in self.has])
         if not kept.any():
             return now
-        placed, state = self.predict.add(t, kept, np.array([now[n] for n, k in zip(self.has, kept) if k]))
-        if state == "moving":
-            self.ahead = self.predict.horizon
+        placed, _ = self.predict.add(t, kept, np.array([now[n] for n, k in zip(self.has, kept) if k]))
+        self.ahead = self.predict.carried
         return {**now, **dict(zip(self.has, placed))}
 
     def seen(self, binding: dict) -> dict:
@@ -489,7 +494,7 @@ class _Follower:
         self.stamps = np.concatenate([self.stamps[:k], tail_stamps])
         self.replans.append(Replan(progress.t, int(np.floor(at)), k, moved, which, spec.blend, bool(lifted),
                                    {n: np.asarray(now[n], dtype=float) for n in names if now.get(n) is not None},
-                                   tail, self.T))
+                                   tail, self.T, self.ahead))
         self.binding = task
         self.plan = {n: now.get(n) for n in names}
 
