@@ -18,7 +18,10 @@ clock:
    in the plan to their perceived ones (:func:`motion`, least squares) places them all, so one
    point seen a little off does not bend the warp and one not seen moves with the rest (a
    deformation of the object itself is not followed; two objects that move apart are two
-   tracked runs).  The step's ``start`` (where the hand was when it began: the first ink of a
+   tracked runs).  The points a look gives are where the scene *was* (a look is ``latency`` old,
+   and its plan is drawn until the next look): :class:`Prediction` carries moving points over
+   that time along their motion estimated from the last looks, averages still ones, and takes a
+   knock as seen.  The step's ``start`` (where the hand was when it began: the first ink of a
    stroke) moves with them, so the shape is re-warped whole in the moved scene and not pulled
    back to where the sheet was;
 3. the rest of the new plan, from the template point the arm has not reached yet, replaces the
