@@ -147,18 +147,21 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
         for j in range(M):
             nxt[j] = W[t, j]
             more[j] = low + gap[j] < W[t, j]
+        # the cheapest previous candidate's way: no other can beat it where it costs no more than
+        # the second lowest W[t, i] (W[t, i] + G >= W[t, i] >= low2, G >= 0).  The usual case
+        # when the ball is narrow against a step (OSILA's default ball on a clean path: G ~
+        # threshold² is tiny against the differences of W, and the scan below, which stops on G,
+        # would visit every candidate); not tried at a stamp where even its nearest other
+        # candidate costs more than low2 (a wide ball)
+        narrow = low + gap[first] <= low2
         for j in range(M):
             if not more[j]:
                 continue
-            # the cheapest previous candidate's way: no other can beat it once it costs no more
-            # than the second lowest W[t, i] (W[t, i] + G >= W[t, i] >= low2, G >= 0).  The usual
-            # case when the ball is narrow against a step (OSILA's default ball on a clean path:
-            # G ~ threshold² is tiny against the differences of W, and the scan below, which
-            # stops on G, would visit every candidate)
-            best = W[t, first] + G[first, j]
-            if best <= low2:
-                nxt[j] = best
-                continue
+            if narrow:
+                best = W[t, first] + G[first, j]
+                if best <= low2:
+                    nxt[j] = best
+                    continue
             best = nxt[j]
             for k in range(1, M):
                 g = gs[j, k]
