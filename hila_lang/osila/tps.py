@@ -150,6 +150,10 @@ BLOCK_VALUES = 4_000_000
 def kernel(r: np.ndarray, dim: int) -> np.ndarray:
     """Biharmonic radial kernel U(r): r² log r for ``dim`` = 2 (0 at r = 0), r for ``dim`` = 3."""
     if dim == 2:
+        if r.size and r.min() > 0:  # the usual case off the pairs: no zero to mask (8 of 19 us at 1000 x 8)
+            out = np.log(r)
+            out *= r * r  # (r * r) * log(r): the same product
+            return out
         with np.errstate(divide="ignore", invalid="ignore"):
             out = r * r * np.log(r)
         return np.where(r > 0, out, 0.0)
