@@ -1081,8 +1081,8 @@ def fit_warp(
                     tps_each = np.where(judged, ((sol[:K] / diag[:, None]) ** 2).sum(1), np.inf)
                 tps_loo, sim_loo = ((float(tps_each[judged].mean()), float(sim_each[judged].mean()))
                                     if judged.any() else (np.inf, 0.0))
-            tie = (1e-9 * float(np.abs(dst - dst.sum(0) / K).max())) ** 2
-            if K < LOO_PAIRS or tps_loo <= sim_loo + tie:
+            # (the tie only matters from LOO_PAIRS pairs on)
+            if K < LOO_PAIRS or tps_loo <= sim_loo + (1e-9 * float(np.abs(dst - dst.sum(0) / K).max())) ** 2:
                 # the TPS predicts left-out pairs at least as well: check its amplification on the path
                 if factored is None:
                     mu = src.sum(0) / K
