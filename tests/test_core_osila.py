@@ -609,3 +609,23 @@ def test_tps_kernel_without_zeros_equals_the_masked_formula_bit_for_bit():
     np.testing.assert_array_equal(tps.kernel(r, 2), want)
     assert tps.kernel(r, 2)[10, 2] == 0.0
     assert tps.kernel(r, 3) is r
+
+
+def test_max_abs_row_sum_equals_numpys_bit_for_bit():
+    """The amplification's max_t Σ_k |L_tk| sums only the rows that can hold the maximum (one
+    matrix-vector product finds them); it is ``np.abs(L).sum(1).max()`` exactly, near ties
+    (rows that are permutations of each other: the same sum up to the order) and non-finite
+    values included."""
+    from hila_lang.osila.tps import _max_abs_row_sum
+
+    rng = np.random.default_rng(11)
+    for it in range(300):
+        T, K = int(rng.integers(1, 2000)), int(rng.integers(1, 200))
+        L = rng.normal(size=(T, K)) * np.exp(rng.normal(0, 3, (T, K)))
+        if it % 3 == 0:
+            for i in range(1, T // 2):
+                L[i] = rng.permutation(L[0])
+        if it % 50 == 1:
+            L[rng.integers(0, T), rng.integers(0, K)] = np.inf if it % 100 == 1 else np.nan
+        want, got = float(np.abs(L).sum(1).max()), _max_abs_row_sum(L)
+        assert got == want or (np.isnan(got) and np.isnan(want)), (T, K, got, want)

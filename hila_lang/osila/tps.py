@@ -1126,12 +1126,33 @@ def _lebesgue(y, x, card, dst, limit, tol) -> tuple[float, np.ndarray | None, di
         L = kernel(r, D) @ card[:K]
         L += card[K]
         L += y[a:a + step] @ card[K + 1:]
-        lam = max(lam, float(np.abs(L).sum(1).max()))
+        lam = max(lam, _max_abs_row_sum(L))
         if lam > limit:
             return lam, None, None
         mapped[a:a + step] = L @ dst
         at.update((t + a, k) for t, k in _at_stamps(r, tol).items())
     return lam, mapped, at
+
+
+def _max_abs_row_sum(L: np.ndarray) -> float:
+    """``np.abs(L).sum(1).max()``, bit for bit, from the exact row sums of the few rows that can hold it.
+
+    numpy sums each of many short rows at ~18 ns a row (1000 x 8: 19 us of a 0.35 ms ``imitate``).
+    One matrix-vector product gives every row sum to within γ_K = K u / (1 - K u) of its size
+    (any order of summation, the row's own included), so only rows within twice that of the
+    largest can hold the maximum; numpy sums those (each row's sum depends on that row alone,
+    so they are the numbers the full sum gives).  Non-finite values: the full sum.
+    """
+    A = np.abs(L)
+    T, K = A.shape
+    if T < 64 or K == 0:
+        return float(A.sum(1).max())
+    approx = A @ np.ones(K)
+    top = float(approx.max())
+    if not np.isfinite(top):
+        return float(A.sum(1).max())
+    near = approx >= top * (1.0 - 4.0 * (K + 2) * np.finfo(float).eps)
+    return float(A[near].sum(1).max())
 
 
 def amplification(src: np.ndarray, on: np.ndarray) -> float:
