@@ -94,7 +94,8 @@ def _server_class():
         """uvicorn's server, stopped at once by Ctrl-C (SIGTERM): the signal first kills the workers
         (from a thread: the handler may have interrupted the main thread inside :mod:`.worker`'s
         lock), so requests under way are answered at once and the shutdown does not wait for their
-        work; and it wakes the main loop, which otherwise looks for a stop only every 0.1 s."""
+        work; and it wakes the main loop, which otherwise looks for a stop only every 0.1 s (and
+        the shutdown waits no fixed time: uvicorn's sleeps 0.1 s twice)."""
 
         async def main_loop(self) -> None:
             self._woken = asyncio.Event()
@@ -104,6 +105,22 @@ def _server_class():
                 counter = (counter + 1) % 864000
                 with contextlib.suppress(asyncio.TimeoutError):
                     await asyncio.wait_for(self._woken.wait(), 0.1)
+
+        async def shutdown(self, sockets=None) -> None:
+            """uvicorn's shutdown without its fixed 0.1 s sleeps: connections are asked to close,
+            requests under way get up to :data:`SHUTDOWN_S` (looked at every 10 ms), then cancelled."""
+            for server in self.servers:
+                server.close()
+            for sock in sockets or []:
+                sock.close()
+            for connection in list(self.server_state.connections):
+                connection.shutdown()
+            loop = asyncio.get_running_loop()
+            end = loop.time() + self.config.timeout_graceful_shutdown
+            while (self.server_state.connections or self.server_state.tasks) and loop.time() < end:
+                await asyncio.sleep(0.01)
+            for task in list(self.server_state.tasks):
+                task.cancel()
 
         def handle_exit(self, sig, frame) -> None:
             threading.Thread(target=worker.stop, args=(True,), daemon=True).start()
