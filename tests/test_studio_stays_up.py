@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from studio_support import Studio
+from studio_support import request, Studio
 
 pytest.importorskip("starlette")
 
@@ -40,18 +40,6 @@ from hila_lang.studio.page import Studio as StudioState  # noqa: E402
 
 INSIDE = "main {\n    let a = 1\n}\n"
 OUTSIDE = "main {\n    let secret = 1\n    let more = 2\n    let most = 3\n}\n"
-
-
-def _request(s, method, path, body=None, timeout=120):
-    conn = http.client.HTTPConnection("127.0.0.1", s.port, timeout=timeout)
-    sep = "&" if "?" in path else "?"
-    conn.request(method, f"{path}{sep}token={s.token}", body=body, headers={"Host": f"127.0.0.1:{s.port}"})
-    r = conn.getresponse()
-    text = r.read().decode("utf-8", "replace")
-    try:
-        return r.status, json.loads(text)
-    except ValueError:
-        return r.status, text
 
 
 # ----------------------------------------------------------------------------- 1. Ctrl-C at once
@@ -186,7 +174,7 @@ def test_another_request_is_answered_while_a_large_body_is_checked(tmp_path):
         sent.wait(60)
         gets = []
         while thread.is_alive() and len(gets) < 200:
-            assert _request(s, "GET", "/api/pages")[0] == 200
+            assert request(s, "GET", "/api/pages")[0] == 200
             gets.append(time.monotonic())
         thread.join(120)
         assert answered["status"] == 400 and "k: expected" in answered["text"]
@@ -336,7 +324,7 @@ def test_a_request_whose_page_went_away_stops_its_work(tmp_path):
         path = np.column_stack([np.cos(t / 7) * t, np.sin(t / 5) * 3])
         body = json.dumps(dict(path=path.tolist(), times=t.tolist(), k=100, method="kmeans"))  # seconds of work
         small = json.dumps(dict(path=[[i, i % 2] for i in range(8)], times=list(range(8)), k=1))
-        assert _request(s, "POST", "/api/demonstration", small)[0] == 200  # the workers are up
+        assert request(s, "POST", "/api/demonstration", small)[0] == 200  # the workers are up
         workers = _descendants(s.proc.pid)
         conn = http.client.HTTPConnection("127.0.0.1", s.port, timeout=60)
         conn.request("POST", f"/api/demonstration?token={s.token}", body=body, headers={"Host": f"127.0.0.1:{s.port}"})
@@ -347,8 +335,8 @@ def test_a_request_whose_page_went_away_stops_its_work(tmp_path):
         while os.path.exists(f"/proc/{busy}") and time.monotonic() < end:
             time.sleep(0.1)
         assert not os.path.exists(f"/proc/{busy}") or _cpu(busy) < 0, "the worker went on computing"
-        assert _request(s, "GET", "/api/pages")[0] == 200
-        status, answer = _request(s, "POST", "/api/demonstration", small)
+        assert request(s, "GET", "/api/pages")[0] == 200
+        status, answer = request(s, "POST", "/api/demonstration", small)
         assert status == 200 and answer["path"], answer  # a new worker took the next request
     finally:
         s.stop()
@@ -482,7 +470,7 @@ def test_a_save_killed_halfway_leaves_nothing_after_the_next_start(tmp_path):
     assert len(left) == 1 and not (tmp_path / "a.hila").exists()
     s = Studio(tmp_path)
     try:
-        assert _request(s, "GET", "/api/files")[0] == 200
+        assert request(s, "GET", "/api/files")[0] == 200
         assert not [p for p in tmp_path.iterdir() if p.name.startswith(".hila-staging-")]
     finally:
         s.stop()
