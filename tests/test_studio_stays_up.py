@@ -393,6 +393,23 @@ def test_a_websocket_closed_during_its_work_cancels_it():
         worker.stop()
 
 
+def test_a_run_whose_page_closed_stops_before_its_next_state():
+    """The Run page's socket closes its session when the page goes away: a game running on
+    stops after the step under way (before: close waited for the whole game to be played)."""
+    from studio_support import ROOT
+
+    out: list = []
+    session = run.RunSession(ROOT / "programs" / "game.hila", out.append, backend="dry", settings={"opponent": "minimax"})
+    run.COMMANDS["run"](session, {})
+    time.sleep(1.0)  # a few steps played
+    start = time.monotonic()
+    session.close()
+    steps = session.interp.trace.total
+    assert time.monotonic() - start < 5 and not session.interp.done
+    time.sleep(0.5)
+    assert session.interp.trace.total == steps  # nothing runs on
+
+
 def test_a_call_killed_for_another_is_computed_again():
     """Giving up one call kills its pool; the other call under way there is handed to a new pool
     and still answered (not lost to another page's going away)."""
