@@ -193,7 +193,7 @@ async def run(fn, *args, budget: float = BUDGET_S, gone=None):
     if future in done:
         try:
             return future.result()
-        except BrokenProcessPool:  # killed meanwhile, or shut down (Ctrl-C) before it began
+        except (BrokenProcessPool, asyncio.CancelledError):  # killed meanwhile, or shut down (Ctrl-C) before it began
             raise InputError("refused: the worker stopped (killed, or out of memory) before it finished") from None
     future.cancel()
     give_up(call)
