@@ -401,7 +401,9 @@ def test_a_run_whose_page_closed_stops_before_its_next_state():
     out: list = []
     session = run.RunSession(ROOT / "programs" / "game.hila", out.append, backend="dry", settings={"opponent": "minimax"})
     run.COMMANDS["run"](session, {})
-    time.sleep(1.0)  # a few steps played
+    end = time.monotonic() + 60
+    while session.interp.trace.total < 2 and time.monotonic() < end:  # a step played, the game going on
+        time.sleep(0.005)
     start = time.monotonic()
     session.close()
     steps = session.interp.trace.total
