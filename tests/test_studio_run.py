@@ -188,7 +188,7 @@ def test_one_session_protocol_for_a_run_and_a_recording(tmp_path):
     rec = tmp_path / "g.hilarec"
     assert main(["exec", str(ROOT / "programs" / "game.hila"), "--backend", "dry", "--opponent", "minimax",
                  "--record", str(rec), "--out", str(tmp_path / "o")]) == 0
-    replay = ReplaySession(rec, out.append)
+    replay = ReplaySession(tmp_path, "g.hilarec", out.append)
     with pytest.raises(InputError, match="a recording takes no answers"):
         COMMANDS["answer"](replay, {"text": "5"})
     COMMANDS["view"](replay, {"azimuth": 90})  # a recording has no 3-D view: nothing to turn

@@ -42,7 +42,7 @@ from ..core.errors import InputError
 from ..osila.demofile import lift  # the 45-degree lift rule, shared with the seeded pointer model
 from . import camera, files, schema, worker
 from .save import _names, learned, recorded_pen, save  # noqa: F401 - save: called by the tests as the page saves
-from .page import Page, read_json, studio_of, template_json
+from .page import gone, Page, read_json, studio_of, template_json
 from .schema import query
 from .security import inside, opened
 from ..evaluation import lasa as data
@@ -251,14 +251,14 @@ async def _scene_image(request: Request) -> Response:
 
 
 async def _demonstration(request: Request) -> Response:
-    return JSONResponse(await worker.run(demonstration, await read_json(request)))
+    return JSONResponse(await worker.run(demonstration, await read_json(request), gone=gone(request)))
 
 
 async def _save(request: Request) -> Response:
     doc, folder = await read_json(request), studio_of(request).folder
     overwrite = bool(doc.get("overwrite"))
     files.refuse_existing(folder, _names(doc), overwrite)  # 409 before the work
-    texts, answer = await worker.run(learned, folder, doc)  # the learning off the event loop, in its budget
+    texts, answer = await worker.run(learned, folder, doc, gone=gone(request))  # off the event loop, in its budget
     await run_in_threadpool(lambda: files.write(folder, texts, overwrite=overwrite))
     return JSONResponse(answer)
 

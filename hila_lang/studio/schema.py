@@ -47,6 +47,12 @@ MAX_NAME = 255
 MAX_TEXT = 1_000_000
 #: steps asked of a run in one message, and a recording scrubbed to
 MAX_STEPS = 1_000_000
+#: bytes of one JSON body or socket message.  The largest the limits above let through is a
+#: program of MAX_TEXT non-ASCII characters sent to be checked (each escaped as \\uXXXX: 6.0 MB);
+#: a demonstration of MAX_SAMPLES samples is 4.2 MB (parsed in 0.17 s and checked in 0.17 s at
+#: load 7).  A bigger body is refused before it is parsed; a body under it is parsed and checked
+#: in a thread (:func:`.page.read_json`), so other requests are answered meanwhile
+MAX_JSON = 8 * 1024 * 1024
 
 
 class Shape:
