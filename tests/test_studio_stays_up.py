@@ -274,6 +274,32 @@ def test_a_recording_swapped_for_a_link_after_its_check_is_not_read(tmp_path, mo
         files.read_recording(folder, "mine.hilarec")
 
 
+def test_a_template_swapped_for_a_link_after_its_check_is_not_imported(tmp_path, monkeypatch):
+    """Before: the studio's template loader checked an import's path (inside FOLDER), then read it
+    by name: swapped for a link in between, the program got the template outside the folder."""
+    from hila_lang.osila.template import load_template, save_template
+    from hila_lang.studio.security import folder_templates
+
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    shipped = load_template(Path(__file__).resolve().parents[1] / "primitives" / "circle.yaml")
+    save_template(shipped, folder / "mine.yaml")
+    secret = shipped.__class__(**{**shipped.__dict__, "icps": {"secret_" + k: v for k, v in shipped.icps.items()}})
+    save_template(secret, tmp_path / "secret.yaml")
+    loader = folder_templates(folder)
+    found = loader.find("mine", False, str(folder / "game.hila"))
+    assert found is not None and loader.load(found).icps.keys() == shipped.icps.keys()  # read as it is
+    loader = folder_templates(folder)  # nothing remembered
+    swap = _Swap(monkeypatch, folder, "mine.yaml", tmp_path / "secret.yaml")
+    try:
+        got = loader.load(found)
+    except Exception as exc:  # the link refused
+        assert "symbolic link" in str(exc)
+    else:
+        assert not any(k.startswith("secret_") for k in got.icps)
+    assert swap.done
+
+
 # ----------------------------------------------------------------------------- 4. a page that goes away
 
 
