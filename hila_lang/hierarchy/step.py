@@ -4,7 +4,7 @@ begin exactly at the hand (:func:`hila_step`).
 The interpreter runs every ``run`` state through it; :func:`hila_lang.hierarchy.generate.generate`
 (``hila imitate``, ``hila eval --hila``) runs every step of a sequence through it, so the same step
 makes the same path in every command.  Also here: named constraints (:class:`Constraint`), a
-surface's points, and the reasons a step is blocked.
+surface's points, the reasons a step is blocked, and a step's free end (:func:`free_tail`).
 """
 
 from __future__ import annotations
@@ -250,6 +250,31 @@ def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: A
         raise explain_blocked(exc, template, icps, obstacles, options) from None
     given = {k: v for k, v in options.items() if k != "pin"}
     return Step(np.asarray(res.path, dtype=float), icps, START in icps, res, options=given, notes=notes)
+
+
+def free_tail(template: Template, icps: Pairs) -> int | None:
+    """Where a step's free end begins: the index of the first waypoint of the longest tail of
+    ``template.path`` (T, D) whose template points all lie nearer the path's last point than
+    any bound ICP's template point (``icps.src``, the hand's ``start`` included); None when the
+    end is bound -- ``"end"`` among ``icps``, or a bound ICP at the last point (within the
+    distortion threshold's default, 1 % of the path's size).
+
+    No bound ICP places these waypoints: the demonstration alone says where they go (e.g. a
+    retract run with ``hand = none``), so the engine may pull them into the arm's reach
+    (:meth:`hila_lang.engine.run.RunExecutor.move`); a waypoint a bound ICP places never is.
+    """
+    if END in icps.names or not len(icps):
+        return None
+    path = np.asarray(template.path, dtype=float)
+    size = float(np.linalg.norm(path.max(0) - path.min(0)))
+    to_end = np.linalg.norm(path - path[-1], axis=1)
+    to_bound = np.linalg.norm(path[:, None, :] - icps.src[None, :, :], axis=2).min(axis=1)
+    if to_bound[-1] <= 0.01 * size:
+        return None
+    k = len(path)
+    while k > 0 and to_end[k - 1] < to_bound[k - 1]:
+        k -= 1
+    return k if k < len(path) else None
 
 
 def three_d(task_icps: Mapping[str, Any], hand: Any) -> bool:
