@@ -169,3 +169,23 @@ def test_a_bound_end_out_of_reach_is_still_the_located_error(tmp_path, capsys):
     assert err.splitlines()[0].startswith("p.hila:6:5: error: cannot reach the target home = (-0.400, -0.700, 1.000) "
                                           "of 'away.back': it is 0.8")
     assert "pulled" not in out
+
+
+def test_check_notes_a_free_end_before_the_run_and_not_a_placed_one(tmp_path, capsys):
+    _away_template(tmp_path)
+    text = ("import away\npoint p = (0.30, -0.05, 0.65)\nmain {\n    run away.reach(object = p, home = none)\n"
+            "    run away.back(object = p, home = none)\n}\n")
+    code, out, err = _run(tmp_path, capsys, text, "check")
+    assert code == 0 and err.splitlines() == [
+        "p.hila:5:5: note: the end of 'away.back' is free (home = none; 'end' not bound): waypoints 11-20 of 20 go "
+        "where the demonstration went, ending 1.033 m from the nearest bound ICP ('object'), wherever the bound "
+        "points are; where that leaves the arm's reach the run pulls them in and says so in the trace; bind 'end' to "
+        "say where it ends"]  # the reach ends at the object it binds: placed, no note
+    code, _, err = _run(tmp_path, capsys, text.replace("back(object = p, home = none)", "back(object = p, home = p)"),
+                        "check")
+    assert code == 0 and err == ""  # its end bound (home): placed
+    # the shipped game: its retract's end is free (hand = none), its reach and its mark are placed
+    code = cli.main(["check", "programs/game.hila"])
+    err = capsys.readouterr().err
+    assert code == 0 and len(err.splitlines()) == 1 and err.startswith("programs/game.hila:47:5: note: the end of "
+                                                                       "'circle.retract' is free (hand = none;")

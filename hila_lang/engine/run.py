@@ -26,7 +26,9 @@ reach bound and IK, what the robot knows of its arm; the arm did not move) at a 
 free tail (:func:`hila_lang.hierarchy.step.free_tail`), :meth:`RunExecutor.move` shrinks the
 whole free tail towards the last waypoint the bound ICPs place (the tail's shape kept, its length
 times :data:`PULL` at each try) and asks again, at most :data:`PULLS` times; the trace says so (``note: the free end ... pulled``).  A
-waypoint a bound ICP places is never moved: out of reach, it stays the located error.
+waypoint a bound ICP places is never moved: out of reach, it stays the located error; nor is a
+pen-down path (what it draws is the mark).  ``hila check`` warns of a free end before the run
+(:meth:`hila_lang.language.checker._Checker.free_end`).
 """
 
 from __future__ import annotations
@@ -177,7 +179,7 @@ class RunExecutor(Executor):
                 if tail is None:
                     tail = free_tail(t, step.icps) if len(path) == len(t.path) else None
                 k = None if point is None else int(np.argmin(np.linalg.norm(path - point, axis=1)))
-                if k is None or tail is None or k < max(tail, 1) or pulls == PULLS:
+                if k is None or tail is None or k < max(tail, 1) or pulls == PULLS or st.pen_down:
                     raise first from None
                 pulls += 1
                 path = path.copy()
