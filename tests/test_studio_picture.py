@@ -9,11 +9,13 @@ error, never a crash.  Plain HTTP and websocket clients on a ``hila studio`` pro
 from __future__ import annotations
 
 import json
+import math
 import shutil
 
 import pytest
 
-from studio_support import ROOT, Studio
+from studio_support import click_at, ROOT, Studio
+from studio_support import browser, page  # noqa: F401 - the fixtures (Debian's chromium through Playwright)
 from test_studio_hardening import _ws, request
 from test_world_picture import photo_and_route
 
@@ -98,3 +100,51 @@ def test_a_route_drawn_on_an_uploaded_picture_runs_in_the_picture_world(studio, 
             reply = json.loads(ws.recv(timeout=300))
             assert reply.get("type") != "error", reply
         assert reply["done"] and reply["failed"] is None and reply["steps"] >= 3, reply
+
+
+@pytest.mark.slow  # a browser and a server
+def test_in_the_browser_a_route_drawn_on_an_upload_is_made_a_picture_scene(page, studio, tmp_path):
+    """As a person does it: upload the photo, draw a route on it with pointer moves (pen down
+    along a wave), place an ICP, save it, and press the button the upload offers."""
+    folder = studio.folder
+    shutil.copy(folder / "photo.png", tmp_path / "snap.png")  # the person's photo, from elsewhere
+    page.get_by_test_id("upload-picture").set_input_files(str(tmp_path / "snap.png"))
+    page.wait_for_function("window.hilaStudio.demo.scene.name === 'upload:snap.png' && window.hilaStudio.demo.image.complete")
+    box = page.get_by_test_id("demo-canvas").bounding_box()
+    w, h = box["width"], box["height"]
+
+    def at(u, v):  # a point of the picture, as fractions of its width and height
+        return box["x"] + u * w, box["y"] + v * h
+
+    for i in range(21):  # onto the picture, pen up (the reach)
+        page.mouse.move(*at(0.05 + 0.05 * i / 20, 0.1 + 0.2 * i / 20))
+        page.wait_for_timeout(16)
+    page.wait_for_timeout(150)
+    page.mouse.down()
+    for i in range(1, 61):  # the route: a wave across the picture, pen down
+        t = i / 60
+        page.mouse.move(*at(0.1 + 0.8 * t, 0.5 - 0.2 * math.cos(2 * math.pi * t)))
+        page.wait_for_timeout(16)
+    page.mouse.up()
+    page.wait_for_timeout(150)
+    for i in range(1, 21):  # away, pen up (the retract)
+        page.mouse.move(*at(0.9 + 0.05 * i / 20, 0.3 - 0.2 * i / 20))
+        page.wait_for_timeout(16)
+    page.get_by_test_id("demo-finish").click()
+    page.wait_for_function("window.hilaStudio.demo.path && window.hilaStudio.demo.path.length > 5", timeout=120000)
+    page.get_by_test_id("mode-icp").check()
+    click_at(page, "demo-canvas", 0.5 * w, 0.8 * h)
+    page.get_by_test_id("template-name").fill("wave")
+    page.get_by_test_id("save-template").click()
+    page.wait_for_function("window.hilaStudio.demo.saved !== undefined", timeout=120000)
+    button = page.get_by_test_id("picture-scene-picture")
+    assert button.is_visible()
+    page.screenshot(path=tmp_path / "picture-saved.png")
+    button.click()
+    page.wait_for_function("document.querySelector('[data-testid=save-status]').textContent.startsWith('wrote')",
+                           timeout=120000)
+    status = page.get_by_test_id("save-status").inner_text()
+    assert status.startswith("wrote wave_picture.yaml and wave_picture.hila; run it on page 3 (picture.image = snap.png)")
+    assert f"--set picture.image={folder.resolve() / 'snap.png'}" in status
+    page.screenshot(path=tmp_path / "picture-scene.png")
+    assert load_template(folder / "wave_picture.yaml").dim == 3
