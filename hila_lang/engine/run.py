@@ -25,10 +25,10 @@ When the back end refuses the move (:class:`~hila_lang.core.errors.UnreachableEr
 reach bound and IK, what the robot knows of its arm; the arm did not move) at a waypoint of that
 free tail (:func:`hila_lang.hierarchy.step.free_tail`), :meth:`RunExecutor.move` shrinks the
 whole free tail towards the last waypoint the bound ICPs place (the tail's shape kept, its length
-times :data:`PULL` at each try) and asks again, at most :data:`PULLS` times; the trace says so (``note: the free end ... pulled``).  A
-waypoint a bound ICP places is never moved: out of reach, it stays the located error; nor is a
-pen-down path (what it draws is the mark).  ``hila check`` warns of a free end before the run
-(:meth:`hila_lang.language.checker._Checker.free_end`).
+times :data:`PULL` at each try) and asks again, at most :data:`PULLS` times; the trace says so
+(``note: the free end ... pulled``).  A waypoint a bound ICP places is never moved: out of
+reach, it stays the located error; nor is a pen-down path (what it draws is the mark).  ``hila
+check`` notes a free end before the run (:meth:`hila_lang.language.checker._Checker.free_end`).
 """
 
 from __future__ import annotations
@@ -192,8 +192,8 @@ class RunExecutor(Executor):
         return executed, path, (
             f"the free end of '{st.ref}' (waypoints {tail + 1}-{len(path)} of {len(path)}, placed by no bound ICP: "
             f"{free}) left the arm's reach ({first.message.split('; the arm')[0]}); pulled into reach in {pulls} "
-            f"step(s) of {PULL:g} (to {PULL ** pulls:.0%} of its length): it ends at {fmt_point(path[-1])}, {moved * 1000:.1f} mm from "
-            f"{fmt_point(step.path[-1])} where the demonstration went")
+            f"step(s) of {PULL:g} (to {PULL ** pulls:.0%} of its length): it ends at {fmt_point(path[-1])}, "
+            f"{moved * 1000:.1f} mm from {fmt_point(step.path[-1])} where the demonstration went")
 
     def explain(self, st, title: str) -> list[str]:
         """What OSILA will do in run state ``st`` (:func:`hila_lang.hierarchy.explain.explain_run`)."""
