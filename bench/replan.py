@@ -75,12 +75,14 @@ class SheetWorld:
     scene = None
     snapshots = None
 
-    def __init__(self, case: str, seed: int, latency: float, noise: float) -> None:
+    def __init__(self, case: str, seed: int, latency: float, noise: float, slide: float = SLIDE,
+                 turn: float = SLIDE_TURN, seconds: float = SLIDE_SECONDS) -> None:
         self.grid = Grid.game()
+        self.slide, self.seconds = slide, seconds
         self.rng = np.random.default_rng([seed, 34])
         self.case, self.latency, self.noise = case, latency, noise
         self.angle = self.rng.uniform(0.0, 2.0 * math.pi)
-        self.turn = math.radians(SLIDE_TURN) * (1.0 if self.rng.uniform() < 0.5 else -1.0)
+        self.turn = math.radians(turn) * (1.0 if self.rng.uniform() < 0.5 else -1.0)
         self.fraction = self.rng.uniform(0.2, 0.6)
         self.noise_rng = np.random.default_rng([seed, 34, 1])
         local = cell_corners(self.grid, CELL)
@@ -102,8 +104,8 @@ class SheetWorld:
             return (0.0, 0.0, 0.0)
         if self.case == "jump":
             return (JUMP * math.cos(self.angle), JUMP * math.sin(self.angle), 0.0)
-        w = float(minimum_jerk((t - self.start_at) / SLIDE_SECONDS))
-        return (w * SLIDE * math.cos(self.angle), w * SLIDE * math.sin(self.angle), w * self.turn)
+        w = float(minimum_jerk((t - self.start_at) / self.seconds))
+        return (w * self.slide * math.cos(self.angle), w * self.slide * math.sin(self.angle), w * self.turn)
 
     def place(self, points: np.ndarray, pose: tuple) -> np.ndarray:
         """Sheet points as laid out, moved by ``pose`` (rotation about the cell's centre)."""
@@ -178,7 +180,7 @@ def run_program(case: str, seed: int, track: str, args, folder: Path):
     file = folder / f"bench{abs(hash(track)) % 10**8}.hila"
     file.write_text(PROGRAM.format(primitives=(ROOT / "primitives").as_posix(), track=track), encoding="utf-8")
     checked, fsm = load_program(file)
-    world = SheetWorld(case, seed, args.latency, args.noise)
+    world = SheetWorld(case, seed, args.latency, args.noise, args.slide, args.turn, args.seconds)
     grid = world.grid
     backend = DryBackend(cell_corners(grid, CELL)["tl"] + np.array([-0.03, -0.08, 0.12]), surface_z=grid.surface_z)
     world.pen = backend.hand_position
@@ -196,7 +198,7 @@ def run_dmp(case: str, seed: int, plan: np.ndarray, args) -> SheetWorld:
     """The DMP control: learned from ``plan``, its goal moved every 100 ms with the perceived sheet."""
     from movement_primitives.dmp import DMP
 
-    world = SheetWorld(case, seed, args.latency, args.noise)
+    world = SheetWorld(case, seed, args.latency, args.noise, args.slide, args.turn, args.seconds)
     dt = DryStream(None).dt  # the dry clock's control step
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(plan, axis=0), axis=1))])
     duration = arc[-1] / 0.05  # the dry pen's speed with the pen down
@@ -246,6 +248,9 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=10, help="seeds per case (0..N-1)")
     ap.add_argument("--latency", type=float, default=0.1, help="how old what the robot sees is, seconds")
     ap.add_argument("--noise", type=float, default=0.001, help="error of the perceived sheet pose, metres per axis")
+    ap.add_argument("--slide", type=float, default=SLIDE, help="how far the sheet slides, metres (slide case)")
+    ap.add_argument("--turn", type=float, default=SLIDE_TURN, help="how far it turns meanwhile, degrees (slide case)")
+    ap.add_argument("--seconds", type=float, default=SLIDE_SECONDS, help="how long the slide takes, seconds")
     ap.add_argument("--blend", type=float, default=0.005, help="the re-warp's blend, metres (the language's default)")
     args = ap.parse_args()
     clock = time.perf_counter()
@@ -262,7 +267,8 @@ def main() -> None:
                 for every, name in ((100, "rewarp100"), (50, "rewarp50")):
                     track = f" track board.cell5 every {every} ms blend {args.blend * 1000:g} mm{lift}"
                     results[(case, name)].append(score(run_program(case, seed, track, args, folder)[0], plan))
-    print(f"sheet moved while the pen draws: {args.seeds} seeds per case, latency {args.latency * 1000:g} ms, "
+    print(f"sheet moved while the pen draws: {args.seeds} seeds per case (slide {args.slide * 1000:g} mm and "
+          f"{args.turn:g} degrees in {args.seconds:g} s; jump {JUMP * 1000:g} mm), latency {args.latency * 1000:g} ms, "
           f"pose noise {args.noise * 1000:g} mm per axis, blend {args.blend * 1000:g} mm (medians over the seeds; "
           f"{time.perf_counter() - clock:.0f} s)")
     print(f"{'case':6} {'controller':10} {'closure mm':>10} {'max mm':>8} {'rms mm':>8} {'> 2 mm':>7} "

@@ -18,7 +18,10 @@ clock:
    in the plan to their perceived ones (:func:`motion`, least squares) places them all, so one
    point seen a little off does not bend the warp and one not seen moves with the rest (a
    deformation of the object itself is not followed; two objects that move apart are two
-   tracked runs).  The step's ``start`` (where the hand was when it began: the first ink of a
+   tracked runs).  The points a look gives are where the scene *was* (a look is ``latency`` old,
+   and its plan is drawn until the next look): :class:`Prediction` carries moving points over
+   that time along their motion estimated from the last looks, averages still ones, and takes a
+   knock as seen.  The step's ``start`` (where the hand was when it began: the first ink of a
    stroke) moves with them, so the shape is re-warped whole in the moved scene and not pulled
    back to where the sheet was;
 3. the rest of the new plan, from the template point the arm has not reached yet, replaces the
@@ -62,6 +65,15 @@ BLEND_SPACING = 0.0005
 #: the rest is told from those seen (in the picture world, with the arm in view, some looks found 1-3
 #: of 15 features, and the similarity of 1-3 points, a few mm off each, turned the route by 11 cm)
 MIN_SEEN = 0.5
+#: the looks whose perceived points the motion is estimated from: those of the last this many
+#: seconds (at least 3 looks; see :class:`Prediction`, and docs/language.md for the measurement);
+#: 0: no prediction, each look taken as it is
+PREDICT_WINDOW = 0.3
+#: the looks' scatter is told from at least this many windows (one window of 3-4 looks leaves 1-2
+#: degrees of freedom: its scatter alone was a third of the true one in the bench's first looks)
+PREDICT_WINDOWS = 3
+#: the estimated speed must exceed this many of its standard errors to be used
+PREDICT_Z = 2.0
 
 
 @dataclass
@@ -101,16 +113,19 @@ class Replan:
     points: dict = field(default_factory=dict)
     tail: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     of: int = 0  # the template's points
+    ahead: float = 0.0  # seconds the looked-at points were carried ahead along their motion (:class:`Prediction`)
 
     def text(self) -> str:
         lift = "; the pen lifted, carried and put down where its ink stopped" if self.lifted else ""
+        if self.ahead > 0:
+            lift = f"; the moving points carried {self.ahead * 1000:g} ms ahead" + lift
         return (f"re-plan at {self.t:.3f} s: {self.which} moved {self.moved * 1000:.1f} mm; warped again from point "
                 f"{self.stamp} of {self.of}, blended over {self.blend * 1000:g} mm{lift}; {len(self.tail)} new points "
                 f"from {fmt_point(self.tail[0])}")
 
     def to_dict(self) -> dict:
         return {"t": self.t, "stamp": self.stamp, "index": self.index, "moved": self.moved, "which": self.which,
-                "blend": self.blend, "lifted": self.lifted, "of": self.of,
+                "blend": self.blend, "lifted": self.lifted, "of": self.of, "ahead": self.ahead,
                 "points": {k: np.asarray(v, dtype=float).tolist() for k, v in self.points.items()},
                 "tail": np.asarray(self.tail, dtype=float).tolist()}
 
@@ -118,7 +133,7 @@ class Replan:
     def from_dict(cls, d: dict) -> "Replan":
         return cls(float(d["t"]), int(d["stamp"]), int(d["index"]), float(d["moved"]), str(d["which"]),
                    float(d["blend"]), bool(d["lifted"]), {k: np.asarray(v, dtype=float) for k, v in d["points"].items()},
-                   np.asarray(d["tail"], dtype=float).reshape(-1, 3), int(d.get("of", 0)))
+                   np.asarray(d["tail"], dtype=float).reshape(-1, 3), int(d.get("of", 0)), float(d.get("ahead", 0.0)))
 
 
 @dataclass
@@ -243,6 +258,132 @@ def _moved(plan: dict, now: dict, names) -> tuple[float, str]:
     return best, which
 
 
+class Prediction:
+    """Where the tracked points are while the new plan is drawn, from where the robot saw them.
+
+    A look shows the points as they were ``latency`` seconds before (the world's senses' known
+    delay, its ``tracking.latency``; 0 when it perceives at once), and the plan made from it is
+    drawn until the next look, ``every`` seconds on: a sheet that keeps moving is, on average over
+    that time, ``latency + every / 2`` further on than seen (the *horizon*).  Each look's points
+    are placed by the similarity of their moves (one object), and kept with the time they were
+    seen at.  The noise of the looks is in mind: a least-squares line through each point's places
+    over the looks of the last :data:`PREDICT_WINDOW` seconds (at least 3) leaves residuals, and
+    their variance, pooled over the step (the median over its windows, from
+    :data:`PREDICT_WINDOWS` on: a window with a start, a stop or a knock in it fits badly and does
+    not set it), is one look's scatter -- hence the standard error of a line's velocity.
+
+    - **moving**: the window's speed exceeds :data:`PREDICT_Z` standard errors: the last look's
+      points are carried over the horizon along the window's velocity (a constant velocity of each
+      point: a turn followed to first order);
+    - **still**: it does not.  The looks since the window first said so (one look taken as moving
+      between still ones, a false alarm of the noise, does not end it) are one run; through them
+      a line again: when its (longer, so more sensitive) speed exceeds ``PREDICT_Z`` standard
+      errors the points drift slowly and are carried over the horizon along it from the line's
+      place at the last look; otherwise they stand where the run's looks average (the noise
+      averaged out rather than followed, and the prediction gone when the motion stops);
+    - **knock**: a look farther from where the window's line put it than 2 * ``PREDICT_Z`` of its
+      standard errors (or than the clause's ``lift above``): the looks before say nothing of what
+      follows; they are forgotten and this look is taken as it is.
+
+    Until the scatter is known (the first :data:`PREDICT_WINDOWS` windows) and for the first two
+    looks after a knock, a look is taken as it is (as without prediction).  Points that do not
+    move are never moved: their lines are flat and their average is where they are.
+
+    Parameters
+    ----------
+    origin : ndarray, shape (K, 3)
+        The tracked points the step's first plan was warped onto (the ones it has).
+    latency, every : float
+        Seconds: how old a look is, and between two looks.
+    lift : float or None
+        The clause's ``lift above`` (metres): a look this far off is a knock whatever the scatter.
+    """
+
+    def __init__(self, origin: np.ndarray, latency: float, every: float, lift: float | None = None) -> None:
+        self.origin = np.asarray(origin, dtype=float)
+        self.latency, self.every, self.lift = float(latency), float(every), lift
+        self.horizon = self.latency + 0.5 * self.every
+        self.looks: list[tuple[float, np.ndarray]] = []  # (when the points were as seen, the points (K, 3))
+        self.scatters: list[float] = []  # each window's residual variance of one look, metres^2 per point
+        self.fit: tuple | None = None  # the last window's line: (mean time, mean points, velocity, n, spread)
+        self.still_since = 0.0  # when the run of still looks began (seen time)
+        self.moving = 0  # looks in a row taken as moving
+        self.carried = 0.0  # seconds the last look's points were carried ahead (0: not)
+        self.state = "unknown"  # "moving", "still", "knock" or "unknown": what the last look was taken as
+
+    def noise(self) -> float | None:
+        """One look's scatter (metres^2 per point), or None before :data:`PREDICT_WINDOWS` windows."""
+        return float(np.median(self.scatters)) if len(self.scatters) >= PREDICT_WINDOWS else None
+
+    def line(self, since: float) -> tuple:
+        """The least-squares line through the looks seen since ``since`` (at least the last 3):
+        (mean time, mean points (K, 3), velocity (K, 3), looks, spread of their times, residual
+        variance of one look per point)."""
+        recent = [(t, p) for t, p in self.looks if t >= since - 1e-9]
+        if len(recent) < 3:
+            recent = self.looks[-3:]
+        t = np.array([r[0] for r in recent])
+        P = np.stack([r[1] for r in recent])  # (n, K, 3)
+        tm, Pm = float(t.mean()), P.mean(0)
+        dt = t - tm
+        spread = float((dt ** 2).sum())
+        v = np.einsum("n,nkd->kd", dt, P - Pm) / max(spread, 1e-18)
+        residual = P - Pm - dt[:, None, None] * v
+        scatter = float((residual ** 2).sum()) / (P.shape[1] * (len(t) - 2))
+        return tm, Pm, v, len(t), spread, scatter
+
+    def _knock(self, when: float, here: np.ndarray) -> bool:
+        """Whether ``here`` (seen at ``when``) is off the last window's line by more than its noise."""
+        noise = self.noise()
+        if self.fit is None or noise is None:
+            return False
+        tm, Pm, v, n, spread = self.fit
+        lag = when - tm
+        off = float(((here - Pm - lag * v) ** 2).sum()) / len(here)
+        return off > (2 * PREDICT_Z) ** 2 * noise * (1.0 + 1.0 / n + lag ** 2 / spread) or \
+            (self.lift is not None and off > self.lift ** 2)
+
+    def add(self, t: float, kept: np.ndarray, seen: np.ndarray) -> tuple[np.ndarray, str]:
+        """Take a look at ``t`` seconds (the clock) that saw origin points ``kept`` (mask (K,)) at
+        ``seen`` (M, 3): all K points where they are taken to be (see the class docstring), and
+        what the look was taken as."""
+        here = motion(self.origin[kept], seen)(self.origin)
+        when = t - self.latency
+        self.carried = 0.0
+        knock = self._knock(when, here)
+        if knock:
+            self.looks, self.fit = [], None
+        self.looks.append((when, here))
+        if len(self.looks) < 3:
+            self.fit, self.state = None, "knock" if knock or self.state == "knock" else "unknown"
+            return here, self.state
+        tm, Pm, v, n, spread, scatter = self.line(when - PREDICT_WINDOW)
+        self.scatters.append(scatter)
+        noise = self.noise()
+        self.fit = (tm, Pm, v, n, spread)
+        if noise is None:
+            self.state = "unknown"
+            return here, self.state
+        if _significant(v, spread, noise):
+            self.state, self.moving, self.carried = "moving", self.moving + 1, self.horizon
+            return here + self.horizon * v, self.state
+        if self.state not in ("still", "moving") or self.moving > 1:
+            self.still_since = when - PREDICT_WINDOW
+        self.state, self.moving = "still", 0
+        tm, Pm, v, n, spread, _ = self.line(self.still_since)
+        if _significant(v, spread, noise):
+            self.carried = self.horizon
+            return Pm + (when - tm + self.horizon) * v, self.state
+        return Pm, self.state
+
+
+def _significant(v: np.ndarray, spread: float, noise: float) -> bool:
+    """Whether velocity ``v`` (K, 3) of a line through looks whose times spread ``spread`` (s^2)
+    is more than :data:`PREDICT_Z` standard errors of it (one look's scatter ``noise``, m^2)."""
+    speed2 = float((v ** 2).sum()) / len(v)
+    return speed2 > 0.0 and speed2 > PREDICT_Z ** 2 * noise / spread
+
+
 class _Follower:
     """The state of one streamed run (see :func:`follow`)."""
 
@@ -267,12 +408,18 @@ class _Follower:
         self.replans: list[Replan] = []
         self.last = (np.asarray(ctx.backend.hand_position(), dtype=float), 0.0)  # pen down, and its point, at the look before
         self.air: tuple | None = None  # a lifted pen: (waypoint where it is put down, that point, its template point)
+        world = getattr(ctx.world, "tracking", None)
+        self.has = [n for n in self.names if self.plan.get(n) is not None]
+        self.predict = None if not self.has or PREDICT_WINDOW <= 0 else Prediction(
+            np.array([self.plan[n] for n in self.has]), float(getattr(world, "latency", 0.0) or 0.0),
+            self.spec.every, self.spec.lift)
+        self.ahead = 0.0  # how far ahead (seconds) the points of the last look were carried
 
     def look(self, world, progress) -> None:
         """One tick of a tracked run: look, compare, warp again if the tracked points moved."""
         spec = self.spec
         world.look()
-        now = self.seen(self.run.scene_binding(self.st))
+        now = self.predicted(progress.t, self.seen(self.run.scene_binding(self.st)))
         here = np.asarray(self.backend.hand_position(), dtype=float)
         k = int(progress.index)
         stamp = float(self.stamps[k]) if k < len(self.stamps) else float(self.T)
@@ -283,6 +430,19 @@ class _Follower:
             self.replan(progress, now, here, k, stamp, moved, which)
         if self.air is None:
             self.last = (here, stamp)
+
+    def predicted(self, t: float, now: dict) -> dict:
+        """The tracked points of a look at ``t`` (:meth:`seen`) carried to where they will be
+        while the plan made from it is drawn (:class:`Prediction`); as seen when no motion is told."""
+        self.ahead = 0.0
+        if self.predict is None:
+            return now
+        kept = np.array([now.get(n) is not None for n in self.has])
+        if not kept.any():
+            return now
+        placed, _ = self.predict.add(t, kept, np.array([now[n] for n, k in zip(self.has, kept) if k]))
+        self.ahead = self.predict.carried
+        return {**now, **dict(zip(self.has, placed))}
 
     def seen(self, binding: dict) -> dict:
         """The tracked ICPs in ``binding`` (the bindings evaluated at a look) that the robot follows:
@@ -319,7 +479,8 @@ class _Follower:
         reach = 2.0 * moved + spec.blend + float(np.linalg.norm(here - self.last[0]))
         under = float(np.linalg.norm(move(self.last[0]) - self.last[0]))  # how far the scene moved under the pen
         up = np.array([0.0, 0.0, LIFT_HEIGHT])
-        lifted = self.air is not None or (self.pen and spec.lift is not None and under > spec.lift)
+        knock = self.predict is None or self.predict.state != "moving"  # a motion followed is no knock
+        lifted = self.air is not None or (self.pen and spec.lift is not None and under > spec.lift and knock)
         if lifted:  # carried over (up first, unless up already), put down where the ink stopped, moved along
             down, near = (move(self.air[1]), self.air[2]) if self.air is not None else (move(self.last[0]), self.last[1])
             at = nearest_stamp(new, down, near, reach)
@@ -336,7 +497,7 @@ class _Follower:
         self.stamps = np.concatenate([self.stamps[:k], tail_stamps])
         self.replans.append(Replan(progress.t, int(np.floor(at)), k, moved, which, spec.blend, bool(lifted),
                                    {n: np.asarray(now[n], dtype=float) for n in names if now.get(n) is not None},
-                                   tail, self.T))
+                                   tail, self.T, self.ahead))
         self.binding = task
         self.plan = {n: now.get(n) for n in names}
 

@@ -173,6 +173,10 @@ class Tracking(Protocol):
     #: the scene moves while the robot moves (e.g. ``board.slide``): every step on a streaming back
     #: end is then streamed, tracked or not, so that the world's clock runs
     moving: bool
+    # A world may also say ``latency`` (float, seconds): how old what a look shows is, its senses'
+    # known delay (a camera's exposure and transfer, measured once); missing: 0 (hila's simulated
+    # eyes render at the look).  :class:`hila_lang.engine.tracking.Prediction` carries moving
+    # points over it.
 
     def begin(self, state: str, pen_down: bool, seconds: float) -> None:
         """A step starts moving the arm for a planned ``seconds``."""
