@@ -41,20 +41,22 @@ from ..session.runner import finish, prepare
 from ..session.view3d import render
 from . import files
 from .page import JSONSocket, opened_in_thread, Page, plugins, read_json, studio_env, studio_of
+from .photoscene import offer_pictures, picture_file
 from .security import inside
 
 
 def analyse(path: Path, text: str, folder: Path | None = None) -> dict:
     """The program ``text`` (as if at ``path``) for the page: ``problems`` as ``hila lsp`` locates
     them (0-based ``line``, ``character``, ...), the ``settings`` its world declares, and what the
-    world's studio view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
+    world's studio view offers: ``offered`` ({setting: {value: label}}; with the folder's pictures,
+    :func:`.photoscene.offer_pictures`) and ``hint``; ``image``: the setting naming a picture (or None)."""
     doc = Document(str(path), env=studio_env(folder))  # imports only inside the studio's folder (issue 32)
     problems = [dict(line=p.line, character=p.character, end_line=p.end_line, end_character=p.end_character,
                      message=p.message, severity=p.severity) for p in doc.analyse(text)]
     world = doc.world()
     view = (world.studio if world is not None else None) or StudioView()
     return dict(problems=problems, settings=[s.name for s in world.settings] if world is not None else [],
-                offered={k: dict(v) for k, v in view.settings.items()}, hint=view.hint)
+                offered=offer_pictures(view, folder, text), hint=view.hint, image=view.picture_setting or None)
 
 
 class LineInput(io.TextIOBase):
@@ -316,8 +318,9 @@ class RunSocket(JSONSocket):
         """A run of the program ``name`` (read once) with the given settings its world declares."""
         given = doc.get("settings") or {}  # a JSON object: the door's shape (schema.RUN) saw to it
         text, path = files.read_program(self.folder, name), inside(self.folder, name)  # path: its name and its imports' folder
-        known = analyse(path, text, self.folder)["settings"]
-        settings = {str(k): str(v) for k, v in given.items() if k in known and v}
+        found = analyse(path, text, self.folder)
+        settings = {str(k): str(v) for k, v in given.items() if k in found["settings"] and v}
+        picture_file(self.folder, settings, found["image"])
         return RunSession(path, self.emit, backend=doc.get("backend") or None, settings=settings, folder=self.folder,
                           seed=int(doc.get("seed", 0)), robot=str(doc.get("robot") or "") or None, text=text)
 
