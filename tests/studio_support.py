@@ -7,6 +7,8 @@ page on it, loaded, that must end without a script error)."""
 
 from __future__ import annotations
 
+import http.client
+import json
 import os
 import shutil
 import signal
@@ -46,6 +48,20 @@ class Studio:
             self.proc.kill()
             self.proc.wait()
         return self.proc.returncode
+
+
+def request(s: Studio, method: str, path: str, body=None, headers=None, timeout: float = 60):
+    """(status, the answer as JSON, or its text) of one request to the studio ``s`` with its token."""
+    conn = http.client.HTTPConnection("127.0.0.1", s.port, timeout=timeout)
+    sep = "&" if "?" in path else "?"
+    conn.request(method, f"{path}{sep}token={s.token}", body=body,
+                 headers={"Host": f"127.0.0.1:{s.port}", **(headers or {})})
+    r = conn.getresponse()
+    text = r.read().decode("utf-8", "replace")
+    try:
+        return r.status, json.loads(text)
+    except ValueError:
+        return r.status, text
 
 
 def chromium_or_skip():

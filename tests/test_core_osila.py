@@ -587,3 +587,45 @@ def test_an_obstacle_over_an_icp_the_path_passes_through_is_a_contradiction():
         imitate(path, src, dst, obstacles=[[*dst[1], 0.05]])
     route = imitate(path, src, dst, obstacles=[[*dst[3], 0.05]])  # the corner below: not on the path
     assert np.linalg.norm(route - dst[3], axis=1).min() >= 0.05
+
+
+def test_tps_kernel_without_zeros_equals_the_masked_formula_bit_for_bit():
+    """``tps.kernel`` in 2-D skips the mask where no distance is 0 (the path off the pairs); its
+    values are r² log r exactly as the masked formula gives them, -0.0 of underflowing r² included,
+    and with a zero present the zero is 0."""
+    from hila_lang.osila import tps
+
+    rng = np.random.default_rng(7)
+    r = np.abs(rng.normal(size=(500, 9))) * np.exp(rng.uniform(-400, 5, (500, 9)))  # r² underflows too
+    r[3, 4] = 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        want = np.where(r > 0, r * r * np.log(r), 0.0)
+    got = tps.kernel(r, 2)
+    np.testing.assert_array_equal(got, want)
+    assert np.array_equal(np.signbit(got), np.signbit(want)) and np.signbit(got).any()
+    r[10, 2] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        want = np.where(r > 0, r * r * np.log(r), 0.0)
+    np.testing.assert_array_equal(tps.kernel(r, 2), want)
+    assert tps.kernel(r, 2)[10, 2] == 0.0
+    assert tps.kernel(r, 3) is r
+
+
+def test_max_abs_row_sum_equals_numpys_bit_for_bit():
+    """The amplification's max_t Σ_k |L_tk| sums only the rows that can hold the maximum (one
+    matrix-vector product finds them); it is ``np.abs(L).sum(1).max()`` exactly, near ties
+    (rows that are permutations of each other: the same sum up to the order) and non-finite
+    values included."""
+    from hila_lang.osila.tps import _max_abs_row_sum
+
+    rng = np.random.default_rng(11)
+    for it in range(300):
+        T, K = int(rng.integers(1, 2000)), int(rng.integers(1, 200))
+        L = rng.normal(size=(T, K)) * np.exp(rng.normal(0, 3, (T, K)))
+        if it % 3 == 0:
+            for i in range(1, T // 2):
+                L[i] = rng.permutation(L[0])
+        if it % 50 == 1:
+            L[rng.integers(0, T), rng.integers(0, K)] = np.inf if it % 100 == 1 else np.nan
+        want, got = float(np.abs(L).sum(1).max()), _max_abs_row_sum(L)
+        assert got == want or (np.isnan(got) and np.isnan(want)), (T, K, got, want)

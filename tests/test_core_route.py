@@ -211,3 +211,29 @@ def test_pruned_kernel_breaks_exact_ties_as_the_scan(monkeypatch, seed):
     scan = min_energy_route(centres, offsets, distortion, blocked, pinned=[0])
     np.testing.assert_array_equal(compiled[0], scan[0])
     assert compiled[1] == scan[1]
+
+
+@pytest.mark.parametrize("dim,scale,seed", [(2, 1e-7, 0), (3, 1e-7, 1), (2, 1e-4, 2), (3, 3e-3, 3), (2, 0.05, 4)])
+def test_kernel_equals_full_scan_for_narrow_and_wide_balls(monkeypatch, dim, scale, seed):
+    # OSILA's default ball on a clean path is tiny (2 σ of its noise): every candidate's G is far
+    # below the differences of the costs, the case where the kernel takes the cheapest previous
+    # candidate's way without a scan (route.py); across ball sizes from that to a wide one, and
+    # with pins and blocked candidates, the route and energy are the numpy scan's bit for bit
+    from hila_lang.osila import route
+
+    if route._compiled_route() is None:
+        pytest.skip("numba is not available")
+    rng = np.random.default_rng(seed)
+    T = 1000
+    t = np.linspace(0, 2 * np.pi, T)
+    centres = np.column_stack([np.cos(t) * (1 + 0.3 * np.sin(3 * t)), np.sin(t), 0.2 * np.sin(2 * t)][:dim])
+    centres += rng.normal(0, scale / 10, centres.shape)
+    offsets = ball_offsets(dim, scale)
+    blocked = rng.random((T, len(offsets))) < 0.05 if seed % 2 else None
+    pinned = [0, T // 2, T - 1]
+    compiled = min_energy_route(centres, offsets, float(seed % 2), blocked, pinned=pinned)
+    assert len(np.unique(compiled[0])) > 3  # the route does use the ball
+    monkeypatch.setattr(route, "_compiled_route", lambda: None)
+    scan = min_energy_route(centres, offsets, float(seed % 2), blocked, pinned=pinned)
+    np.testing.assert_array_equal(compiled[0], scan[0])
+    assert compiled[1] == scan[1]

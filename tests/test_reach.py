@@ -115,3 +115,77 @@ def test_check_refuses_a_via_waypoint_out_of_reach(tmp_path, capsys):
     code, _, err = _run(tmp_path, capsys, text, "check")
     assert code == 2 and err.splitlines()[0].startswith(
         "p.hila:5:52: error: the 'via' waypoint is (1.000, 1.000, 1.000), which the arm cannot reach: it is 1.483 m")
+
+
+def _away_template(folder) -> None:
+    """``away.yaml``: reach from ``home`` to ``object``, then a retract that heads back to ``home``,
+    which lies 0.87 m from the arm's base: beyond the reach bound (0.776 m)."""
+    from hila_lang.osila.template import save_template, Segment, Template
+
+    home, obj = np.array([-0.4, -0.7, 1.0]), np.array([0.34, -0.1, 0.6])
+    s = np.linspace(0.0, 1.0, 20)[:, None]
+    lift = np.column_stack([np.zeros((20, 2)), 0.05 * np.sin(np.pi * s[:, 0])])
+    there = home + s * (obj - home) + lift
+    back = obj + s * (home - obj) + lift
+    save_template(Template(name="away", path=np.vstack([there, back]), icps={"home": home, "object": obj},
+                           segments=[Segment("reach", 0, 20, False), Segment("back", 20, 40, False)],
+                           units="m"), folder / "away.yaml")
+
+
+def test_a_free_end_out_of_reach_is_pulled_into_reach_and_said(tmp_path, capsys):
+    """The retract's end is free (home = none): its demonstrated end is 0.87 m from the arm's
+    base; the run pulls the free part in, says so in the trace, and ends; the waypoints the bound
+    ICPs place are moved as planned."""
+    _away_template(tmp_path)
+    text = ("import away\npoint p = (0.30, -0.05, 0.65)\nmain {\n    run away.reach(object = p, home = none)\n"
+            "    run away.back(object = p, home = none)\n}\n")
+    code, out, err = _run(tmp_path, capsys, text, "exec")
+    assert code == 0, err
+    line = next(x for x in out.splitlines() if "run away.back" in x)
+    assert "note: the free end of 'away.back' (waypoints" in line and "home = none, end unbound" in line
+    assert "pulled into reach in" in line and "where the demonstration went" in line
+    end = np.array([float(v) for v in line.split(" -> (")[1].split(")")[0].split(",")])
+    assert reach.beyond(end) <= 0  # it ends inside the bound
+    from hila_lang.engine.run import PULL
+
+    from hila_lang.hierarchy.step import free_tail, hila_step
+    from hila_lang.osila.template import load_template
+
+    sub = load_template(tmp_path / "away.yaml").sub("back")
+    planned = hila_step(sub, {"object": np.array([0.30, -0.05, 0.65]), "home": None}, np.array([0.30, -0.05, 0.65]))
+    tail = free_tail(sub, planned.icps)
+    assert 0 < tail < len(sub.path)  # the start and the object place the first waypoints
+    assert reach.beyond(planned.path[-1]) > 0  # as demonstrated, it would leave the bound
+    pulls = int(line.split("pulled into reach in ")[1].split(" ")[0])
+    assert 1 <= pulls and f"to {PULL ** pulls:.0%} of its length" in line
+
+
+def test_a_bound_end_out_of_reach_is_still_the_located_error(tmp_path, capsys):
+    _away_template(tmp_path)
+    text = ("import away\npoint p = (0.30, -0.05, 0.65)\nmain {\n    run away.reach(object = p, home = none)\n"
+            "    let far = (-0.4, -0.7, 1.0)\n    run away.back(object = p, home = far)\n}\n")
+    code, out, err = _run(tmp_path, capsys, text, "exec")
+    assert code == 1
+    assert err.splitlines()[0].startswith("p.hila:6:5: error: cannot reach the target home = (-0.400, -0.700, 1.000) "
+                                          "of 'away.back': it is 0.8")
+    assert "pulled" not in out
+
+
+def test_check_notes_a_free_end_before_the_run_and_not_a_placed_one(tmp_path, capsys):
+    _away_template(tmp_path)
+    text = ("import away\npoint p = (0.30, -0.05, 0.65)\nmain {\n    run away.reach(object = p, home = none)\n"
+            "    run away.back(object = p, home = none)\n}\n")
+    code, out, err = _run(tmp_path, capsys, text, "check")
+    assert code == 0 and err.splitlines() == [
+        "p.hila:5:5: note: the end of 'away.back' is free (home = none; 'end' not bound): waypoints 11-20 of 20 go "
+        "where the demonstration went, ending 1.033 m from the nearest bound ICP ('object'), wherever the bound "
+        "points are; where that leaves the arm's reach the run pulls them in and says so in the trace; bind 'end' to "
+        "say where it ends"]  # the reach ends at the object it binds: placed, no note
+    code, _, err = _run(tmp_path, capsys, text.replace("back(object = p, home = none)", "back(object = p, home = p)"),
+                        "check")
+    assert code == 0 and err == ""  # its end bound (home): placed
+    # the shipped game: its retract's end is free (hand = none), its reach and its mark are placed
+    code = cli.main(["check", "programs/game.hila"])
+    err = capsys.readouterr().err
+    assert code == 0 and len(err.splitlines()) == 1 and err.startswith("programs/game.hila:47:5: note: the end of "
+                                                                       "'circle.retract' is free (hand = none;")

@@ -142,7 +142,8 @@ def test_an_uploaded_picture_is_scaled_to_fit_and_the_scene_list_shows_scenes_on
     H = np.array(doc["H"])
     centre = H @ [1000 * demonstrate.SHEET_M_PER_PX, 750 * demonstrate.SHEET_M_PER_PX, 1.0]
     assert np.allclose(centre[:2] / centre[2], [doc["width"] / 2, doc["height"] / 2], atol=0.5)
-    assert doc["picture"] == dict(file="photo.png", width=2000, height=1500, m_per_px=demonstrate.SHEET_M_PER_PX)
+    assert doc["picture"] == dict(file="photo.png", width=2000, height=1500, m_per_px=demonstrate.SHEET_M_PER_PX,
+                                 worlds=demonstrate.picture_worlds())  # the worlds that take it as a scene
     names = [s["name"] for s in demonstrate.scenes(tmp_path)]
     assert "upload:photo.png" in names and not any("eye.png" in n for n in names) and names[0] == "blank"
 

@@ -20,7 +20,7 @@ import time
 import numpy as np
 import pytest
 
-from studio_support import Studio
+from studio_support import request, Studio
 from studio_support import browser  # noqa: F401 - the fixture (Debian's chromium through Playwright)
 
 pytest.importorskip("starlette")
@@ -47,19 +47,6 @@ def studio(tmp_path_factory):
     s = Studio(folder)
     yield s
     s.stop()
-
-
-def request(s, method, path, body=None, headers=None):
-    conn = http.client.HTTPConnection("127.0.0.1", s.port, timeout=60)
-    sep = "&" if "?" in path else "?"
-    conn.request(method, f"{path}{sep}token={s.token}", body=body,
-                 headers={"Host": f"127.0.0.1:{s.port}", **(headers or {})})
-    r = conn.getresponse()
-    text = r.read().decode("utf-8", "replace")
-    try:
-        return r.status, json.loads(text)
-    except ValueError:
-        return r.status, text
 
 
 # ----------------------------------------------------------------------------- saves

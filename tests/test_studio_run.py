@@ -146,7 +146,8 @@ def test_the_plug_ins_are_the_pages_menus(monkeypatch):
 def test_checking_says_what_the_programs_world_offers():
     game = ROOT / "programs" / "game.hila"
     doc = analyse(game, game.read_text())
-    assert doc["problems"] == [] and "opponent" in doc["settings"]
+    assert [p["severity"] for p in doc["problems"]] == ["note"] and "opponent" in doc["settings"]
+    assert doc["problems"][0]["message"].startswith("the end of 'circle.retract' is free")  # said, not a problem
     assert doc["offered"] == {"opponent": {"human": "you (click a cell)", "minimax": "minimax", "random": "random"}}
     assert "crosses" in doc["hint"]
     abc = ROOT / "programs" / "abc.hila"
@@ -188,7 +189,7 @@ def test_one_session_protocol_for_a_run_and_a_recording(tmp_path):
     rec = tmp_path / "g.hilarec"
     assert main(["exec", str(ROOT / "programs" / "game.hila"), "--backend", "dry", "--opponent", "minimax",
                  "--record", str(rec), "--out", str(tmp_path / "o")]) == 0
-    replay = ReplaySession(rec, out.append)
+    replay = ReplaySession(tmp_path, "g.hilarec", out.append)
     with pytest.raises(InputError, match="a recording takes no answers"):
         COMMANDS["answer"](replay, {"text": "5"})
     COMMANDS["view"](replay, {"azimuth": 90})  # a recording has no 3-D view: nothing to turn

@@ -557,8 +557,8 @@ class OutputFolder:
         self.owned = set(owned)
         self.written: list[str] = []
         self.run = f"{time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}/{os.getpid()}/{secrets.token_hex(3)}"
-        self._staging = folder / f"{_STAGING}{os.getpid()}-{secrets.token_hex(3)}"
-        _remove_stale_staging(folder)
+        self._staging = folder / staging_name()
+        remove_stale_staging(folder)
 
     def file(self, name: str) -> Path:
         """Where to write ``name`` (in the staging folder), recorded as written by this run."""
@@ -612,16 +612,62 @@ class OutputFolder:
         return names
 
 
-def _remove_stale_staging(folder: Path) -> None:
-    """Remove the staging folders of runs whose process is gone (killed while writing)."""
-    for entry in folder.glob(f"{_STAGING}*"):
-        try:
-            pid = int(entry.name[len(_STAGING):].split("-")[0])
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            shutil.rmtree(entry, ignore_errors=True)
-        except (ValueError, PermissionError):  # not ours to judge
+def staging_name() -> str:
+    """A fresh name for a staging folder of this process (``.hila-staging-<pid>-<random>``):
+    what :func:`remove_stale_staging` recognises once the process is gone."""
+    return f"{_STAGING}{os.getpid()}-{secrets.token_hex(6)}"
+
+
+_STAGING_NAME = re.compile(re.escape(_STAGING) + r"(\d+)-[0-9a-f]{1,64}")
+
+
+def remove_stale_staging(folder: Path) -> list[str]:
+    """Remove the staging folders in ``folder`` (not below) that a hila process killed while
+    writing left behind; returns their names.
+
+    Only hila's own are touched, each identified safely: the name is exactly
+    :func:`staging_name`'s, it is a folder (not a link) that this user owns, the process it names
+    is gone (a live one may be writing in it: a studio or a run beside this one), and it holds
+    only regular files (hila stages files, never folders).  Its files are removed relative to the
+    folder opened without following links, so a link swapped in meanwhile removes nothing else."""
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        match = _STAGING_NAME.fullmatch(name)
+        if match is None:
             continue
+        try:
+            os.kill(int(match.group(1)), 0)
+            continue  # its process is alive (or the number is another live process's): not stale
+        except ProcessLookupError:
+            pass
+        except (OverflowError, PermissionError):  # not a pid, or another user's process: not ours
+            continue
+        try:
+            fd = os.open(Path(folder) / name, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+        except OSError:
+            continue  # a link, a file, or gone meanwhile
+        try:
+            st = os.fstat(fd)
+            entries = os.listdir(fd)
+            kinds = [os.stat(e, dir_fd=fd, follow_symlinks=False).st_mode for e in entries]
+            if st.st_uid != os.getuid() or not all(stat.S_ISREG(k) for k in kinds):
+                continue
+            for entry in entries:
+                os.unlink(entry, dir_fd=fd)
+        except OSError:
+            continue
+        finally:
+            os.close(fd)
+        try:
+            os.rmdir(Path(folder) / name)
+            removed.append(name)
+        except OSError:
+            pass
+    return removed
 
 
 def output_folder(out, name: str) -> Path:

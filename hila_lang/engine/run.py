@@ -16,6 +16,19 @@ met.  A run with a ``track`` clause (or any run while the world's scene moves du
 streamed instead of moved in one go: :func:`hila_lang.engine.tracking.follow` keeps its tracked
 ICPs live and warps the rest of the step again when they move; each re-plan is a line of its
 trace text and a :class:`~hila_lang.engine.tracking.Replan` in ``TraceEntry.replans``.
+
+**A free end is pulled into reach.**  Where no bound ICP places a step's end (its ``end``
+unbound and the ICP it heads for bound to ``none``, e.g. game.hila's final ``run
+circle.retract(last.*, hand = none)``), the end goes where the demonstration went, which need not
+be where this arm reaches (a drawn retract that heads towards the robot, run from a near cell).
+When the back end refuses the move (:class:`~hila_lang.core.errors.UnreachableError`: its own
+reach bound and IK, what the robot knows of its arm; the arm did not move) at a waypoint of that
+free tail (:func:`hila_lang.hierarchy.step.free_tail`), :meth:`RunExecutor.move` shrinks the
+whole free tail towards the last waypoint the bound ICPs place (the tail's shape kept, its length
+times :data:`PULL` at each try) and asks again, at most :data:`PULLS` times; the trace says so
+(``note: the free end ... pulled``).  A waypoint a bound ICP places is never moved: out of
+reach, it stays the located error; nor is a pen-down path (what it draws is the mark).  ``hila
+check`` notes a free end before the run (:meth:`hila_lang.language.checker._Checker.free_end`).
 """
 
 from __future__ import annotations
@@ -24,7 +37,7 @@ import numpy as np
 
 from ..core.errors import HilaRuntimeError, UnreachableError
 from ..hierarchy.explain import explain_run, explain_step
-from ..hierarchy.step import bind, Constraint, hila_step
+from ..hierarchy.step import bind, Constraint, free_tail, hila_step
 from ..language import ast as A
 from ..language.fsm import RunState, State
 from .executors import executes, Executor
@@ -33,6 +46,9 @@ from .trace import fmt_point, fmt_value, met_text, TraceEntry
 from .tracking import follow, streams
 
 START, END = "start", "end"
+#: how much of its length a free tail keeps at each pull towards the last waypoint the bound ICPs
+#: place, and at most how many pulls (0.8 ** 20 = 1 %: the tail all but folded onto that waypoint)
+PULL, PULLS = 0.8, 20
 
 
 @executes(RunState)
@@ -117,14 +133,15 @@ class RunExecutor(Executor):
         binding = self.scene_binding(st)
         step = hila_step(t, binding, ctx.scene.hand(), constraints=self.constraints(st),
                          surface=self.surface(), **ctx.osila_options)
-        path, icps = step.path, step.icps
+        path, icps, notes = step.path, step.icps, list(step.notes)
         replans = None
         try:
             if streams(ctx, st):
                 followed = follow(self, st, t, step, binding)
                 path, executed, replans = followed.path, followed.executed, followed.replans
             else:
-                executed = ctx.backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+                executed, path, pulled = self.move(st, t, step)
+                notes = notes + ([pulled] if pulled else [])
         except UnreachableError as exc:  # told as the program's target, not a waypoint index
             # lazy: only this branch needs it
             from ..robot.reach import name_the_target
@@ -138,12 +155,45 @@ class RunExecutor(Executor):
         text = (f"run {st.ref} pen {'down' if st.pen_down else 'up'}: {len(path)} points "
                 f"{fmt_point(path[0])} -> {fmt_point(path[-1])}; icps "
                 + " ".join(f"{k}={fmt_point(v)}" for k, v in icps.items()) + met_text(step, executed))
-        text += "".join(f"; note: {note}" for note in step.notes)
+        text += "".join(f"; note: {note}" for note in notes)
         if st.track is not None:
             text += f"; tracked {', '.join(A.source_text(n) for n in st.track.names)}: {len(replans)} re-plan(s)"
             text += "".join("\n      " + r.text() for r in replans)
         return TraceEntry(n, st.name, "run", st.line, text, st.next, path=path, executed=executed,
                           icps=icps, pen_down=bool(st.pen_down), step_result=step, replans=replans)
+
+    def move(self, st, t, step) -> tuple:
+        """Move the back end along ``step.path``; a free end out of reach pulled in (module
+        docstring).  Returns ``(executed, path moved along, note or None)``; raises the back end's
+        first :class:`UnreachableError` when the waypoint refused is not in the free tail, or
+        the pulls do not bring it into reach."""
+        backend, path = self.ctx.backend, np.asarray(step.path, dtype=float)
+        first, tail, pulls = None, None, 0
+        while True:
+            try:
+                executed = backend.move(path, pen_down=bool(st.pen_down), label=st.name)
+                break
+            except UnreachableError as exc:
+                first = first or exc
+                point = getattr(exc, "point", None)
+                if tail is None:
+                    tail = free_tail(t, step.icps) if len(path) == len(t.path) else None
+                k = None if point is None else int(np.argmin(np.linalg.norm(path - point, axis=1)))
+                if k is None or tail is None or k < max(tail, 1) or pulls == PULLS or st.pen_down:
+                    raise first from None
+                pulls += 1
+                path = path.copy()
+                anchor = step.path[tail - 1]
+                path[tail:] = anchor + PULL ** pulls * (step.path[tail:] - anchor)
+        if first is None:
+            return executed, path, None
+        moved = float(np.linalg.norm(path[-1] - step.path[-1]))
+        free = ", ".join([f"{k} = none" for k in t.icps if k not in step.icps and k != END] + ["end unbound"])
+        return executed, path, (
+            f"the free end of '{st.ref}' (waypoints {tail + 1}-{len(path)} of {len(path)}, placed by no bound ICP: "
+            f"{free}) left the arm's reach ({first.message.split('; the arm')[0]}); pulled into reach in {pulls} "
+            f"step(s) of {PULL:g} (to {PULL ** pulls:.0%} of its length): it ends at {fmt_point(path[-1])}, "
+            f"{moved * 1000:.1f} mm from {fmt_point(step.path[-1])} where the demonstration went")
 
     def explain(self, st, title: str) -> list[str]:
         """What OSILA will do in run state ``st`` (:func:`hila_lang.hierarchy.explain.explain_run`)."""

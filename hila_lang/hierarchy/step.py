@@ -4,7 +4,7 @@ begin exactly at the hand (:func:`hila_step`).
 The interpreter runs every ``run`` state through it; :func:`hila_lang.hierarchy.generate.generate`
 (``hila imitate``, ``hila eval --hila``) runs every step of a sequence through it, so the same step
 makes the same path in every command.  Also here: named constraints (:class:`Constraint`), a
-surface's points, and the reasons a step is blocked.
+surface's points, the reasons a step is blocked, and a step's free end (:func:`free_tail`).
 """
 
 from __future__ import annotations
@@ -250,6 +250,39 @@ def _step(template: Template, task_icps: Mapping[str, Any], hand: Any, forced: A
         raise explain_blocked(exc, template, icps, obstacles, options) from None
     given = {k: v for k, v in options.items() if k != "pin"}
     return Step(np.asarray(res.path, dtype=float), icps, START in icps, res, options=given, notes=notes)
+
+
+#: a step's end is free when it lies farther than this fraction of its path's extent (from its
+#: first point) from every bound ICP (:func:`free_tail`): the checker's measure of an ICP the path
+#: never comes near (:data:`hila_lang.language.checker.REMOTE_ICP`).  The shipped circle's reach
+#: ends 0.10 of its extent from a corner, its retract 0.88 (and a person's drawn retracts 0.8-0.9)
+FREE_END = 0.5
+
+
+def free_tail(template: Template, icps: Pairs) -> int | None:
+    """Where a step's free end begins, or None when its end is bound.
+
+    The end is bound when ``"end"`` is among ``icps``, or a bound ICP's template point
+    (``icps.src``, the hand's ``start`` included) lies within :data:`FREE_END` of the path's
+    extent of the path's last point: the bound points place it.  Otherwise the free tail is the
+    longest tail of ``template.path`` (T, D) whose template points all lie nearer the last point
+    than any bound ICP's: no bound ICP places those waypoints, the demonstration alone says
+    where they go (e.g. game.hila's retract run with ``hand = none``), so the engine may pull them
+    into the arm's reach (:meth:`hila_lang.engine.run.RunExecutor.move`) and ``hila check`` warns.
+    Returns the tail's first index.
+    """
+    if END in icps.names or not len(icps):
+        return None
+    path = np.asarray(template.path, dtype=float)
+    extent = float(np.linalg.norm(path - path[0], axis=1).max())
+    to_end = np.linalg.norm(path - path[-1], axis=1)
+    to_bound = np.linalg.norm(path[:, None, :] - icps.src[None, :, :], axis=2).min(axis=1)
+    if extent == 0 or to_bound[-1] <= FREE_END * extent:
+        return None
+    k = len(path)
+    while k > 0 and to_end[k - 1] < to_bound[k - 1]:
+        k -= 1
+    return k
 
 
 def three_d(task_icps: Mapping[str, Any], hand: Any) -> bool:

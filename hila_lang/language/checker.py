@@ -44,7 +44,7 @@ REMOTE_ICP = 0.5
 
 
 class Diagnostic(str):
-    """A warning: the text ``hila check`` prints (``FILE:LINE:COL: warning: MESSAGE``), with its
+    """A warning (or a note): the text ``hila check`` prints (``FILE:LINE:COL: warning: MESSAGE``), with its
     parts kept for tools: ``code`` (a stable name, e.g. ``unused-task``), ``message``, ``pos``
     (the node's :class:`~hila_lang.language.ast.Pos`, start and end) and ``severity``."""
 
@@ -344,11 +344,45 @@ class _Checker(A.Visitor):
         if s.track is not None:
             self.track(s, defined)
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
+        if not unbound:
+            self.free_end(s, sub, covered, bool(spread))
         if unbound:
             raise self.error(
                 f"unbound ICP{'s' if len(unbound) > 1 else ''} {', '.join(repr(u) for u in unbound)} of '{s.ref}'",
                 s.pos, f"bind {'them' if len(unbound) > 1 else 'it'}, e.g. {unbound[0]} = POINT, "
                 f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
+
+    def free_end(self, s: A.RunStmt, sub, covered: dict, spread: bool) -> None:
+        """A note (``template-geometry``, severity ``note``: the program may mean it, as the shipped
+        game.hila's retract does) when a pen-up run leaves its end free: no bound ICP
+        places the last waypoints (:func:`hila_lang.hierarchy.step.free_tail`), so where it ends
+        follows the demonstration, wherever the bound points are; the engine pulls that part into
+        the arm's reach when it leaves it (:meth:`hila_lang.engine.run.RunExecutor.move`)."""
+        # lazy: loads numpy, which importing this module does not
+        import numpy as np
+
+        from ..hierarchy.step import free_tail
+        from ..osila.pairs import Pairs
+
+        if s.pen == "down" or any(seg.contact for seg in sub.segments):
+            return
+        free = {k for k, b in covered.items() if isinstance(b.value, A.NoneLit)}
+        bound = [k for k in sub.icps if k not in free and (k in covered or (k == START) or
+                                                         (spread and k != END and "." not in k))]
+        src = np.array([sub.icps[k] for k in bound], dtype=float).reshape(len(bound), sub.dim)
+        tail = free_tail(sub, Pairs(tuple(bound), src, src))
+        if tail is None or not bound:
+            return
+        path = np.asarray(sub.path, float)
+        gap = np.linalg.norm(src - path[-1], axis=1)
+        nearest = bound[int(np.argmin(gap))]
+        said = ", ".join(f"{k} = none" for k in sorted(free)) or "nothing bound there"
+        self.warnings.append(Diagnostic(
+            "template-geometry",
+            f"the end of '{s.ref}' is free ({said}; 'end' not bound): waypoints {tail + 1}-{len(path)} of "
+            f"{len(path)} go where the demonstration went, ending {gap.min():.3f} {sub.units} from the nearest "
+            f"bound ICP ('{nearest}'), wherever the bound points are; where that leaves the arm's reach the run "
+            f"pulls them in and says so in the trace; bind 'end' to say where it ends", self.p.file, s.pos, "note"))
 
     def remote_icp(self, s: A.RunStmt, b: A.Binding) -> None:
         """A warning (``template-geometry``) when ``b`` binds an ICP that the (sub-)template's path

@@ -51,7 +51,7 @@ MAX_CHARACTERS = 256_000
 
 @dataclass
 class Problem:
-    """A diagnostic: 0-based start and end (line, character), ``severity`` "error" or "warning",
+    """A diagnostic: 0-based start and end (line, character), ``severity`` "error", "warning" or "note",
     ``code``: a stable name (``syntax``, ``check``, ``too-large``, or the checker's warning code)."""
 
     line: int

@@ -66,7 +66,8 @@ class HilaServer(LanguageServer):
             T.Diagnostic(
                 range=T.Range(T.Position(p.line, p.character), T.Position(p.end_line, p.end_character)),
                 message=p.message, source="hila", code=p.code,
-                severity=T.DiagnosticSeverity.Error if p.severity == "error" else T.DiagnosticSeverity.Warning)
+                severity={"error": T.DiagnosticSeverity.Error, "note": T.DiagnosticSeverity.Information}.get(
+                    p.severity, T.DiagnosticSeverity.Warning))
             for p in doc.problems]
         self.text_document_publish_diagnostics(
             T.PublishDiagnosticsParams(uri=uri, diagnostics=diagnostics, version=text_doc.version))

@@ -20,6 +20,7 @@ One line each:
 - ``timing``        which part of the template passes an ICP that lies on its path
 - ``robust``        many noisy ICP pairs: outliers rejected before the warp
 - ``tps``           the thin plate spline warp fitted on paired ICPs
+- ``tps_loops``     the TPS's compiled loops: distances, rank, the choice systems
 - ``fallback``      similarity and translation warps when TPS cannot be trusted
 - ``pathwarp``      the path bent along itself (Laplacian coordinates kept) where pairs hold its ends
 - ``saddle``        the warp's two systems kept as Cholesky factors: Rippa's leave-one-out errors, solves

@@ -359,7 +359,8 @@ def adjust(
             for ob in obstacles:
                 blocked |= ((cand - ob[:-1]) ** 2).sum(-1) < (ob[-1] + margin) ** 2
         choice, energy = min_energy_route(mapped, offsets, distortion, blocked, pinned=pinned)
-        route = mapped + offsets[choice]
+        route = offsets.take(choice, axis=0)  # offsets[choice], 2 us instead of 11 at T = 1000
+        route += mapped  # (the same sums as mapped + offsets[choice])
         for t, q in exact_pins:
             route[t] = q  # the warp meets it up to rounding; make it exact
         if not len(forced) and not len(obstacles):

@@ -39,7 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tps import _choice_inverses, _complete, _dist, _tps_system, kernel
+from .saddle import _complete
+from .tps import _choice_inverses, _dist, _tps_system, kernel
 
 #: plan adjustment borders the last round's inverses (False: a fresh factorisation every round;
 #: ``bench/osila.py`` sets it to compare the two in one run)

@@ -205,7 +205,8 @@ def anchored(on: np.ndarray, src: np.ndarray) -> bool:
     """True when the first and the last point of the path ``on`` (T, D) are both among the
     template points ``src`` (K, D) (within :data:`.tps.MERGE_TOL` of the extent): the path warp
     applies (module docstring, When).  O(K)."""
-    return bool((_dist(on[[0, -1]], src).min(1) <= _tol(on, src)).all())
+    ends = on.take([0, len(on) - 1], axis=0)  # on[[0, -1]] (take: a fraction of fancy indexing's cost)
+    return bool((_dist(ends, src).min(1) <= _tol(on, src)).all())
 
 
 def fit_path(on: np.ndarray, src: np.ndarray, dst: np.ndarray, exact: np.ndarray | None, smoothing: float = 0.0,

@@ -411,12 +411,12 @@ def screen(src: np.ndarray, dst: np.ndarray, method: str = "auto", seed: int = 0
     method = DEFAULT if method == "auto" else method
     if method not in METHODS:
         raise ValueError(f"expected reject as one of {', '.join(METHODS)}, got {method!r}")
+    if method == "none" or K < MIN_PAIRS:  # (the floor is not asked: nothing is screened)
+        e = loo_errors(src, dst, fast) if K >= MIN_PAIRS else None
+        return Pairs(K, np.arange(K), residual=None if e is None else float(np.sqrt((e**2).mean())))
     if K > 1:
         floor = max(floor, FLOOR * float(np.ptp(dst, axis=0).max()))
     keep = np.ones(K, bool)
-    if method == "none" or K < MIN_PAIRS:
-        e = loo_errors(src, dst, fast) if K >= MIN_PAIRS else None
-        return Pairs(K, np.arange(K), residual=None if e is None else float(np.sqrt((e**2).mean())))
     memo: dict[bytes, np.ndarray | None] = {}  # the same set of pairs is checked up to three times
 
     def errors(idx: np.ndarray) -> np.ndarray | None:

@@ -17,11 +17,15 @@ O(T·M²) work in all.  Two implementations compute exactly the same sums in the
 they return the same route, ties included:
 
 - a compiled kernel (:func:`_route_kernel`, numba via :mod:`hila_lang.core.jit`) for paths of at least
-  :data:`hila_lang.core.jit.MIN_STAMPS` stamps: about 0.15 ms for T = 1000 and M = 17 candidates.
-  Its minimum over the previous candidates skips those that cannot win (visiting them by
-  increasing offset distance, stopping once the cheapest previous cost plus that distance is no
-  better: exact, rounding is monotone), and its work array comes from numpy: on the
-  ``bench/osila.py`` paths 2 ms instead of 4.7 ms at T = 10000, M = 29;
+  :data:`hila_lang.core.jit.MIN_STAMPS` stamps: about 0.09 ms for T = 1000 and M = 17 candidates
+  in a ball of 1 % of the path's size, 0.05 ms in OSILA's default ball on a clean path (0.17 ms
+  for both before issue 38's second pass).  Its minimum over the previous candidates skips those
+  that cannot win, exactly (rounding is monotone): where the cheapest previous candidate's way
+  costs no more than the second cheapest previous cost, it is the minimum (the usual case in a
+  narrow ball, whose distances are tiny against the costs' differences); otherwise it visits the
+  candidates by increasing offset distance, stopping once the cheapest previous cost plus that
+  distance is no better.  Its work array comes from numpy: on the ``bench/osila.py`` paths 2 ms
+  instead of 4.7 ms at T = 10000, M = 29;
 - numpy (:func:`_route_numpy`): T - 1 short vectorised steps, for shorter paths and when numba
   is missing or ``HILA_JIT=0`` (about 20× slower on long paths).
 
@@ -122,9 +126,18 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
     nxt = np.empty(M)
     lows = np.empty(T)  # min_i W[t, i]
     for t in range(T - 1):
+        # the lowest W[t, i] (the first such i) and the second lowest
+        first = 0
         low = W[t, 0]
+        low2 = np.inf
         for i in range(1, M):
-            low = W[t, i] if W[t, i] < low else low
+            w = W[t, i]
+            if w < low:
+                low2 = low
+                low = w
+                first = i
+            elif w < low2:
+                low2 = w
         lows[t] = low
         # min_i W[t, i] + G[i, j], visiting i by increasing G[i, j] (i = j first: W[t, j] + 0):
         # once low + G[i, j] >= the best so far, no later i can be smaller (W[t, i] >= low, G
@@ -134,9 +147,21 @@ def _route_kernel(centres, offsets, base, extra, pinned, choice, W):  # pragma: 
         for j in range(M):
             nxt[j] = W[t, j]
             more[j] = low + gap[j] < W[t, j]
+        # the cheapest previous candidate's way: no other can beat it where it costs no more than
+        # the second lowest W[t, i] (W[t, i] + G >= W[t, i] >= low2, G >= 0).  The usual case
+        # when the ball is narrow against a step (OSILA's default ball on a clean path: G ~
+        # threshold² is tiny against the differences of W, and the scan below, which stops on G,
+        # would visit every candidate); not tried at a stamp where even its nearest other
+        # candidate costs more than low2 (a wide ball)
+        narrow = low + gap[first] <= low2
         for j in range(M):
             if not more[j]:
                 continue
+            if narrow:
+                best = W[t, first] + G[first, j]
+                if best <= low2:
+                    nxt[j] = best
+                    continue
             best = nxt[j]
             for k in range(1, M):
                 g = gs[j, k]

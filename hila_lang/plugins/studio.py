@@ -16,6 +16,13 @@ The studio names no world: every world-specific thing on its pages comes from he
   ``StudioView.outcome`` names ``callable(world) -> str``.
 - The **settings** the Run page offers for the world (``StudioView.settings``: setting name ->
   {value: label}), e.g. who plays the opponent.
+- A **picture hook** (``StudioView.picture_hook``): a route a person drew on their own uploaded
+  picture (a 2-D template in the picture's plane, x right and y up from its bottom-left corner,
+  :data:`hila_lang.studio.demonstrate.SHEET_M_PER_PX` metres a pixel) made a scene of the world:
+  ``callable(picture, route, template) -> program text`` writes the world's template for it to
+  ``template`` and returns a program that runs it; the run names the picture with the world's
+  setting ``StudioView.picture_setting`` (the picture world's ``picture.image``), which the Run
+  page offers with the pictures of the studio's folder.
 
 Declaring a view imports nothing heavy: the callables are ``"module:callable"`` strings, loaded
 when the studio needs them (:meth:`StudioView.load`).
@@ -103,6 +110,12 @@ class StudioView:
         (the first value is the menu's default).
     hint : str
         One line the Run page shows under its buttons for a program in this world.
+    picture_hook : str or None
+        ``"module:callable"``: ``callable(picture: Path, route: Path, template: Path) -> str``, the
+        picture hook (module docstring); an :class:`~hila_lang.core.errors.InputError` for a route
+        that does not fit the world.  None: the world takes no person's picture.
+    picture_setting : str
+        The world's setting that names the picture a run prints on its scene (with ``picture_hook``).
     """
 
     scene: str | None = None
@@ -111,8 +124,10 @@ class StudioView:
     outcome: str | None = None
     settings: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     hint: str = ""
+    picture_hook: str | None = None
+    picture_setting: str = ""
 
     def load(self, attr: str):
-        """The callable ``attr`` (``"scene"``, ``"board"`` or ``"outcome"``) names, imported now."""
+        """The callable ``attr`` (``"scene"``, ``"board"``, ``"outcome"`` or ``"picture_hook"``) names, imported now."""
         module, _, name = getattr(self, attr).partition(":")
         return getattr(importlib.import_module(module), name)

@@ -36,8 +36,11 @@ HISTORY = Path(os.path.expanduser("~")) / ".hila_history"
 class Repl(cmd.Cmd):
     prompt = "(hila) "
 
-    def __init__(self, interp: Interpreter, stdin=None, stdout=None) -> None:
+    def __init__(self, interp: Interpreter, stdin=None, stdout=None, load=None) -> None:
+        """``load(file) -> (checked, fsm)``: how ``reload`` reads the program again (default: the
+        process's environment, :meth:`Environment.load`; the studio's reads inside its folder)."""
         stdin = stdin or sys.stdin
+        self.load = load or (lambda file: Environment.default().load(file))
         stdout = stdout or sys.stdout
         super().__init__(stdin=stdin, stdout=stdout)
         self.interp = interp
@@ -287,7 +290,7 @@ class Repl(cmd.Cmd):
         old one keeps running."""
         file = self.interp.fsm.file
         try:
-            checked, fsm = Environment.default().load(file)
+            checked, fsm = self.load(file)
         except HilaError as exc:
             self.say(str(exc))
             self.say(f"reload failed: the program as it was keeps running (at {self.interp.current})")

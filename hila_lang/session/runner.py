@@ -30,11 +30,14 @@ from .runout import run_outputs
 
 
 def prepare(path, options: RunOptions, backend: str | None = None, *,
-            step_limit: int | None = DEFAULT_STEP_LIMIT, env: Environment | None = None) -> Interpreter:
+            step_limit: int | None = DEFAULT_STEP_LIMIT, env: Environment | None = None,
+            text: str | None = None) -> Interpreter:
     """Program + world + back end -> a ready :class:`Interpreter` (at its start state);
     ``step_limit`` bounds each run (:data:`~hila_lang.language.limits.DEFAULT_STEP_LIMIT`);
-    ``env`` (default: the process's) finds its templates (the studio's keeps them in its folder)."""
-    checked, fsm = (env or Environment.default()).load(path, settings=options.settings, backend=backend)
+    ``env`` (default: the process's) finds its templates (the studio's keeps them in its folder);
+    ``text``: the program's text, already read (the studio reads it once, inside its folder), so
+    ``path`` only names it and places its imports."""
+    checked, fsm = (env or Environment.default()).load(path, text, settings=options.settings, backend=backend)
     if options.robot is None:
         # lazy: only this branch needs it
         from ..robot.spec import resolve

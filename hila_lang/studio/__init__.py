@@ -12,6 +12,7 @@ Modules, one line each:
 - ``worker``       heavy work in worker processes: a time budget, killed past it or by Ctrl-C
 - ``save``         a demonstration saved as a template: learned as ``hila learn`` does, written as one transaction
 - ``demonstrate``  page 1: scenes to draw on, pointer samples -> a timed path, saved as ``hila learn`` does
+- ``photoscene``   page 1's uploaded picture made a world's scene: a route drawn on it, the world's template and program
 - ``camera``       page 1's Camera scene: webcam frames (or an uploaded video) tracked as ``hila learn --sheet`` does
 - ``imitate``      page 2: OSILA redrawn while the person drags ICPs, with ``hila explain``'s reason
 - ``run``          page 3: a program checked as typed, run (or a recording replayed) and watched

@@ -22,10 +22,13 @@ Saving (:func:`save`) writes the demonstration as ``NAME.demo.csv`` and its ICPs
 learn NAME.demo.csv --icps NAME.icps.yaml ...`` writes.  Cuts the person dragged away from the
 method's replace its segments afterwards (the description says so).
 
+A route drawn on an uploaded picture is made a world's scene by :mod:`.photoscene`.
+
 Routes: ``GET /api/scenes``, ``GET /api/scene?name=``, ``GET /api/scene-image?name=``, ``POST
 /api/demonstration`` (samples -> path, times, speed and proposed cuts), ``POST /api/save``, ``GET
-/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``; and the Camera
-scene's (:mod:`.camera`: a pen on the printed sheet before the webcam).
+/api/open?kind=&name=`` (a template, CSV or LASA shape to edit), ``GET /api/lasa``; the Camera
+scene's (:mod:`.camera`: a pen on the printed sheet before the webcam) and ``POST
+/api/picture-scene`` (:mod:`.photoscene`).
 """
 
 from __future__ import annotations
@@ -40,9 +43,10 @@ from starlette.routing import Route
 
 from ..core.errors import InputError
 from ..osila.demofile import lift  # the 45-degree lift rule, shared with the seeded pointer model
-from . import camera, files, schema, worker
+from . import camera, files, photoscene, schema, worker
+from .photoscene import pictures, picture_worlds
 from .save import _names, learned, recorded_pen, save  # noqa: F401 - save: called by the tests as the page saves
-from .page import Page, read_json, studio_of, template_json
+from .page import gone, Page, read_json, studio_of, template_json
 from .schema import query
 from .security import inside, opened
 from ..evaluation import lasa as data
@@ -58,7 +62,6 @@ SHEET_SIZE = (840, 600)
 #: an uploaded picture is shown no larger than this (width, height; pixels): the sheet's width and a
 #: height that leaves the cuts and Save on a 1000-pixel-high window
 SHOWN_MAX = (840, 640)
-PICTURES = (".png", ".jpg", ".jpeg")
 
 
 def _sheet_H(height: int) -> np.ndarray:
@@ -71,13 +74,11 @@ def scenes(folder: Path | None = None) -> list[dict]:
     """What the page offers to draw on: ``[{name, label}]``, a blank sheet, every world's scene, the
     Camera scene (:mod:`.camera`) and the pictures in ``folder`` itself (where an upload goes) --
     not those in its subfolders, which are what runs wrote (a game's eye.png, top.png, ...)."""
-    pictures = [] if folder is None else [
-        dict(name=f"upload:{f}", label=f"picture {f}") for f in files.listing(folder)
-        if "/" not in f and f.lower().endswith(PICTURES)]
     return [dict(name="blank", label="blank sheet")] + [
         dict(name=f"world:{info.name}", label=info.studio.scene_label or info.name)
         for info in registry.declarations("world") if info.studio is not None and info.studio.scene] + [
-        dict(name="camera", label="camera: a pen on the printed sheet")] + pictures
+        dict(name="camera", label="camera: a pen on the printed sheet")] + [
+        dict(name=f"upload:{f}", label=f"picture {f}") for f in pictures(folder)]
 
 
 def _world_scene(name: str):
@@ -116,7 +117,8 @@ def scene(name: str, folder: Path) -> dict:
         H = np.diag([f, f, 1.0]) @ _sheet_H(h)
         return dict(name=name, image=f"/api/raw?path={name[7:]}", width=max(1, round(w * f)),
                     height=max(1, round(h * f)), H=H.tolist(), z=None, features=[], lift=None,
-                    picture=dict(file=name[len("upload:"):], width=w, height=h, m_per_px=SHEET_M_PER_PX))
+                    picture=dict(file=name[len("upload:"):], width=w, height=h, m_per_px=SHEET_M_PER_PX,
+                                 worlds=picture_worlds()))
     raise InputError(f"unknown scene {name!r}; expected blank, camera, world:NAME or upload:FILE")
 
 
@@ -251,14 +253,14 @@ async def _scene_image(request: Request) -> Response:
 
 
 async def _demonstration(request: Request) -> Response:
-    return JSONResponse(await worker.run(demonstration, await read_json(request)))
+    return JSONResponse(await worker.run(demonstration, await read_json(request), gone=gone(request)))
 
 
 async def _save(request: Request) -> Response:
     doc, folder = await read_json(request), studio_of(request).folder
     overwrite = bool(doc.get("overwrite"))
     files.refuse_existing(folder, _names(doc), overwrite)  # 409 before the work
-    texts, answer = await worker.run(learned, folder, doc)  # the learning off the event loop, in its budget
+    texts, answer = await worker.run(learned, folder, doc, gone=gone(request))  # off the event loop, in its budget
     await run_in_threadpool(lambda: files.write(folder, texts, overwrite=overwrite))
     return JSONResponse(answer)
 
@@ -281,4 +283,5 @@ PAGE = Page("demo", "1 Demonstrate", "demonstrate.js", routes=[
     Route("/api/open", _open),
     Route("/api/lasa", _lasa),
     *camera.ROUTES,  # the Camera scene (studio/camera.py, static/camera.js)
+    *photoscene.ROUTES,  # a route drawn on an uploaded picture made a world's scene (studio/photoscene.py)
 ])

@@ -17,6 +17,7 @@ locks; a name that exists is replaced only with ``overwrite`` (else :class:`Exis
 
 from __future__ import annotations
 
+import contextlib
 import os
 import secrets
 import stat
@@ -28,7 +29,9 @@ from starlette.responses import JSONResponse, PlainTextResponse, Response
 from starlette.routing import Route
 
 from ..core.errors import InputError
-from ..core.fileio import read_bytes
+from ..core.fileio import read_bytes, remove_stale_staging, staging_name
+from ..language.source import read_source
+from ..session.recording import read_record
 from .page import read_body, studio_of
 from .schema import FILE_QUERY, query
 from .security import inside, open_folder, opened
@@ -72,7 +75,8 @@ class Transaction:
     """Every file one action writes, published together or not at all.
 
     ``stage(name, data)`` writes a file (fsynced) into a private staging folder
-    (``.hila-staging-*`` in FOLDER, so publishing is a rename on one file system).  Leaving the
+    (:func:`hila_lang.core.fileio.staging_name` in FOLDER, so publishing is a rename on one file
+    system; one a crash left behind is removed at the studio's next start: :func:`clean`).  Leaving the
     ``with`` block publishes:
     under the per-name locks of every name (taken in sorted order, so two saves of one name
     wait for each other and neither sees the other's half), each name is checked (it must not
@@ -85,7 +89,7 @@ class Transaction:
         self.folder, self.overwrite = folder.resolve(), bool(overwrite)
         self.staged: dict[str, str] = {}  # name -> staged file name
         self._root = os.open(self.folder, os.O_RDONLY | os.O_DIRECTORY)
-        self._stage_name = f".hila-staging-{secrets.token_hex(6)}"
+        self._stage_name = staging_name()  # .hila-staging-<pid>-<random>: removed at a start once its process is gone
         try:
             os.mkdir(self._stage_name, 0o700, dir_fd=self._root)
             self._stage = os.open(self._stage_name, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW,
@@ -196,6 +200,13 @@ def refuse_existing(folder: Path, names, overwrite: bool) -> None:
         raise _exists(name)
 
 
+def clean(folder: Path) -> list[str]:
+    """Remove the staging folders a studio (or a run) killed while writing left in ``folder``
+    (:func:`hila_lang.core.fileio.remove_stale_staging`: only hila's own, of processes that are
+    gone); ``hila studio`` calls it as it starts.  Returns their names."""
+    return remove_stale_staging(folder)
+
+
 def write(folder: Path, contents: dict[str, str | bytes], *, overwrite: bool) -> list[str]:
     """Write each ``name -> text or bytes`` inside ``folder`` as one :class:`Transaction`;
     returns the names written."""
@@ -209,6 +220,29 @@ def read(folder: Path, name: str, what: str = "file") -> bytes:
     """The bytes of the file ``name`` in ``folder``, opened once (:func:`.security.opened`)."""
     with opened(folder, name, what) as path:
         return read_bytes(path, what)
+
+
+def read_program(folder: Path, name: str) -> str:
+    """The text of the program ``name`` in ``folder``: opened once (:func:`.security.opened`),
+    decoded as ``hila exec`` decodes a program."""
+    with opened(folder, name, "program") as file:
+        return read_source(file)
+
+
+def program_loader(folder: Path, env):
+    """``load(file) -> (checked, fsm)`` for the REPL's ``reload`` of a program in ``folder``: its
+    text read again through :func:`read_program`, its imports by ``env`` (the studio's)."""
+    return lambda file: env.load(file, read_program(folder, Path(file).relative_to(folder).as_posix()))
+
+
+def read_recording(folder: Path, name: str) -> tuple[dict, contextlib.ExitStack]:
+    """(the recording ``name`` in ``folder`` read (:func:`hila_lang.session.recording.read_record`),
+    what holds its file open): opened once without following a link, its eye images are read
+    later from that very file; closing the second closes it.  An error names the file."""
+    with contextlib.ExitStack() as stack:
+        file = stack.enter_context(opened(folder, name, "recording"))
+        record = read_record(file)
+        return record, stack.pop_all()
 
 
 async def files(request: Request) -> Response:

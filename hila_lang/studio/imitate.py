@@ -32,7 +32,7 @@ from ..hierarchy.step import Constraint, hila_step
 from ..osila.demofile import demo_csv
 from ..osila.template import load_template
 from . import schema, worker
-from .page import JSONSocket, Page, read_json, studio_of, template_json
+from .page import gone, JSONSocket, Page, read_json, studio_of, template_json
 from .schema import query
 from .security import inside
 
@@ -170,7 +170,7 @@ async def _export(request: Request) -> Response:
     doc = await read_json(request)
     name = str(doc.get("template", ""))
     t = studio_of(request).template(name)
-    result = await worker.run(imitate, t, doc)
+    result = await worker.run(imitate, t, doc, gone=gone(request))
     if "error" in result:
         raise InputError(result["error"])
     return JSONResponse({"csv": demo_csv(result["path"], t.times), "hila": snippet(t, doc, Path(name).stem)})
@@ -179,7 +179,7 @@ async def _export(request: Request) -> Response:
 async def _explain(request: Request) -> Response:
     doc = await read_json(request)
     t = studio_of(request).template(str(doc.get("template", "")))
-    return JSONResponse({"lines": await worker.run(explain, t, doc)})
+    return JSONResponse({"lines": await worker.run(explain, t, doc, gone=gone(request))})
 
 
 class ImitateSocket(JSONSocket):

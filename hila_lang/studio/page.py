@@ -7,20 +7,27 @@
 - :func:`plugins`: the back ends, robots and worlds the registry's plug-ins declare, for the
   pages' menus (an installed plug-in is there as it is for ``hila exec``).
 - :func:`read_json` / :func:`read_body`: the one door a request's body comes in by (bounded by
-  :data:`.security.MAX_UPLOAD`, checked by its route's shape, :data:`.schema.BODIES`).
+  :data:`.security.MAX_UPLOAD`, JSON by :data:`.schema.MAX_JSON`, checked by its route's shape,
+  :data:`.schema.BODIES`, in a thread: the event loop goes on answering).
 - :func:`problem`: what a failed request says (hila's message and hint; an OSError as the file
   and why; ``refused`` for a path or size the studio does not take).
 - :class:`JSONSocket`: a websocket of JSON objects, one answer per message, each checked by its
   socket's shape (:data:`.schema.SOCKETS`); a bad message (a binary frame too) or a failed one
   is answered with the reason and the socket goes on.
+- :func:`gone` / :func:`opened_in_thread`: a page that goes away (its request's connection or
+  its websocket closed) stops the work it asked for, instead of leaving it to run to its budget.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
+from starlette.concurrency import run_in_threadpool
 from starlette.endpoints import WebSocketEndpoint
 from starlette.requests import Request
 from starlette.websockets import WebSocket
@@ -100,13 +107,48 @@ def json_object(text: str | bytes) -> dict:
     return parse_json(text)
 
 
-async def read_json(request: Request) -> dict:
-    """The request's body as a JSON object (:func:`read_body`, :func:`json_object`), checked by
-    its route's shape (:data:`.schema.BODIES`; a bad field: 400 naming it)."""
+def checked_json(text: str | bytes, shape) -> dict:
+    """``text`` as a JSON object (:func:`json_object`) checked by ``shape``: a bad field is an
+    InputError naming it.  Called in a thread (:func:`read_json`, :class:`JSONSocket`): a large
+    body takes a fraction of a second, which the event loop does not wait for."""
     # lazy: loads numpy, which importing this module does not
-    from .schema import BODIES, check
+    from .schema import check, MAX_JSON
 
-    return check(BODIES[request.url.path], json_object(await read_body(request)))
+    if len(text) > MAX_JSON:
+        raise InputError(f"refused: the JSON is {len(text)} bytes; the studio takes at most {MAX_JSON} bytes of JSON "
+                         "in one request or message")
+    return check(shape, json_object(text))
+
+
+async def read_json(request: Request) -> dict:
+    """The request's body as a JSON object (:func:`read_body`, at most :data:`.schema.MAX_JSON`
+    bytes), checked by its route's shape (:data:`.schema.BODIES`; a bad field: 400 naming it),
+    parsed and checked in a thread (:func:`checked_json`)."""
+    # lazy: loads numpy, which importing this module does not
+    from .schema import BODIES, MAX_JSON
+
+    body = await read_body(request, MAX_JSON)
+    return await run_in_threadpool(checked_json, body, BODIES[request.url.path])
+
+
+async def gone(request: Request) -> None:
+    """Returns when the request's connection has closed (the page went away, or was reloaded):
+    after the body is read, the next message uvicorn gives is ``http.disconnect``, at the close.
+    :func:`.worker.run` stops the request's work then."""
+    while (await request.receive())["type"] != "http.disconnect":
+        pass
+
+
+async def opened_in_thread(make):
+    """``make()`` in a thread, awaited; when the await is cancelled meanwhile (the page went away)
+    what ``make`` returns is closed as soon as it is made (``.close()`` in a thread), not left running."""
+    task = asyncio.ensure_future(run_in_threadpool(make))
+    try:
+        return await asyncio.shield(task)
+    except asyncio.CancelledError:
+        task.add_done_callback(lambda f: f.cancelled() or f.exception() or threading.Thread(
+            target=f.result().close, daemon=True).start())
+        raise
 
 
 def problem(exc: BaseException) -> tuple[int, str]:
@@ -125,9 +167,40 @@ def problem(exc: BaseException) -> tuple[int, str]:
 class JSONSocket(WebSocketEndpoint):
     """A websocket of JSON objects: :meth:`on_message` answers each; a message that is not a
     JSON object, or whose answer fails, is answered by :meth:`on_error` with the reason
-    (:func:`problem`'s text), and the socket stays open."""
+    (:func:`problem`'s text), and the socket stays open.  Messages are answered one at a time
+    while the socket is still read, so a page that goes away cancels the answer under way (its
+    work in a worker is killed: :func:`.worker.run`) instead of leaving it to run to its budget."""
 
     encoding = "text"
+    #: messages read ahead of the one being answered (then reading waits)
+    READ_AHEAD = 4
+
+    async def dispatch(self) -> None:
+        websocket = WebSocket(self.scope, receive=self.receive, send=self.send)
+        await self.on_connect(websocket)
+        inbox: asyncio.Queue = asyncio.Queue(self.READ_AHEAD)
+
+        async def answer() -> None:
+            while True:
+                await self.on_receive(websocket, await inbox.get())
+
+        answering, close_code = asyncio.create_task(answer()), 1000
+        try:
+            while True:
+                message = await websocket.receive()
+                if message["type"] == "websocket.disconnect":
+                    close_code = int(message.get("code") or 1000)
+                    break
+                if message["type"] == "websocket.receive":
+                    await inbox.put(await self.decode(websocket, message))
+        except Exception:
+            close_code = 1011
+            raise
+        finally:
+            answering.cancel()  # the page went away: the answer under way (and its work) is stopped
+            with contextlib.suppress(asyncio.CancelledError):
+                await answering
+            await self.on_disconnect(websocket, close_code)
 
     async def decode(self, websocket: WebSocket, message) -> str | None:
         """A text frame's text; a binary frame is None (refused by :meth:`on_receive`)."""
@@ -135,14 +208,13 @@ class JSONSocket(WebSocketEndpoint):
 
     async def on_receive(self, websocket: WebSocket, data: str | None) -> None:
         # lazy: loads numpy, which importing this module does not
-        from .schema import SOCKETS, check
+        from .schema import SOCKETS
 
         doc: dict = {}
         try:
             if data is None:
                 raise InputError("refused: a binary frame; the studio's sockets take JSON text")
-            doc = json_object(data)
-            doc = check(SOCKETS[websocket.url.path], doc)  # the socket's shape (issue 32)
+            doc = await run_in_threadpool(checked_json, data, SOCKETS[websocket.url.path])  # the socket's shape
             await self.on_message(websocket, doc)
         except Exception as exc:  # noqa: BLE001 - said on the page (a bug as such), the socket goes on
             await self.on_error(websocket, doc, problem(exc)[1])

@@ -30,30 +30,33 @@ from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket
 
 from ..core.errors import HilaError, InputError, internal_error_message
-from ..core.fileio import png_bytes, read_text
+from ..core.fileio import png_bytes
 from ..lsp.analysis import Document
 from ..plugins import registry
 from ..plugins.options import RunOptions
 from ..plugins.studio import StudioView
-from ..session.recording import read_record
 from ..session.replay import ReplayEngine
 from ..session.repl import Repl
 from ..session.runner import finish, prepare
 from ..session.view3d import render
-from .page import JSONSocket, Page, plugins, read_json, studio_env, studio_of
+from . import files
+from .page import JSONSocket, opened_in_thread, Page, plugins, read_json, studio_env, studio_of
+from .photoscene import offer_pictures, picture_file
+from .security import inside
 
 
 def analyse(path: Path, text: str, folder: Path | None = None) -> dict:
     """The program ``text`` (as if at ``path``) for the page: ``problems`` as ``hila lsp`` locates
     them (0-based ``line``, ``character``, ...), the ``settings`` its world declares, and what the
-    world's studio view offers: ``offered`` ({setting: {value: label}}) and ``hint``."""
+    world's studio view offers: ``offered`` ({setting: {value: label}}; with the folder's pictures,
+    :func:`.photoscene.offer_pictures`) and ``hint``; ``image``: the setting naming a picture (or None)."""
     doc = Document(str(path), env=studio_env(folder))  # imports only inside the studio's folder (issue 32)
     problems = [dict(line=p.line, character=p.character, end_line=p.end_line, end_character=p.end_character,
                      message=p.message, severity=p.severity) for p in doc.analyse(text)]
     world = doc.world()
     view = (world.studio if world is not None else None) or StudioView()
     return dict(problems=problems, settings=[s.name for s in world.settings] if world is not None else [],
-                offered={k: dict(v) for k, v in view.settings.items()}, hint=view.hint)
+                offered=offer_pictures(view, folder, text), hint=view.hint, image=view.picture_setting or None)
 
 
 class LineInput(io.TextIOBase):
@@ -155,20 +158,21 @@ class Session:
 
 
 class RunSession(Session):
-    """A program run on a back end, stepped by the page's buttons."""
+    """A program run on a back end, stepped by the page's buttons (``text``: the program's, read once)."""
 
     def __init__(self, program: Path, emit, *, backend: str | None = None, settings: dict | None = None,
-                 seed: int = 0, robot: str | None = None, folder: Path | None = None) -> None:
+                 seed: int = 0, robot: str | None = None, folder: Path | None = None, text: str | None = None) -> None:
         super().__init__(emit)
         self.stdin, self.stdout = LineInput(lambda: self.emit(self.snapshot())), Output(emit)
         self._out = tempfile.TemporaryDirectory(prefix="hila-studio-")
         settings = dict(settings or {}, **({"robot": robot} if robot else {}))  # --robot NAME: the arm that runs
         self.options = RunOptions(seed=seed, out=Path(self._out.name), settings=settings, stdin=self.stdin,
                                   stdout=self.stdout)
-        self.interp = prepare(program, self.options, backend, env=studio_env(folder))
+        self.interp = prepare(program, self.options, backend, env=(env := studio_env(folder)), text=text)
         view = registry.world(self.interp.checked.world).studio
         self._board, self._outcome = (view.load(a) if view and getattr(view, a) else None for a in ("board", "outcome"))
-        self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout)
+        reload = None if folder is None else files.program_loader(folder, env)  # read again as at the start
+        self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=self.stdout, load=reload)
         self.interp.observers.append(self._observe)
         self.last_eye = self.robot = None  # base64 PNGs: the left eye's last image, the 3-D view
         self.azimuth = 35.0
@@ -188,7 +192,6 @@ class RunSession(Session):
 
     def _view(self, entry=None) -> None:
         """The 3-D view now, with the last run state's planned and executed paths."""
-
         entry = entry or self.interp.last_run
         try:
             rgb = render(self.interp.backend, self.azimuth, None if entry is None else entry.path,
@@ -226,20 +229,19 @@ class RunSession(Session):
         self.command(line)
 
     def close(self) -> None:
-
-        if self.stdin.waiting:
-            self.stdin.put("q")
+        self.stop()  # a run under way stops before its next state (the page went away)
         with self._lock, contextlib.suppress(HilaError):
             finish(self.interp)
         self._out.cleanup()
 
 
 class ReplaySession(Session):
-    """A recording (``.hilarec``), scrubbed step by step without a simulator."""
+    """A recording (``.hilarec``), scrubbed step by step without a simulator; ``name`` in ``folder``
+    held open while the session lasts (:func:`.files.read_recording`)."""
 
-    def __init__(self, file: Path, emit) -> None:
+    def __init__(self, folder: Path, name: str, emit) -> None:
         super().__init__(emit)
-        self.record = read_record(file)
+        self.record, self._file = files.read_recording(folder, name)
         self.interp = ReplayEngine(self.record)
         self.repl = Repl(self.interp, stdin=io.StringIO(), stdout=Output(emit))
         self.length, self.program = len(self.record.get("steps", [])), self.record["program"].get("text")
@@ -258,6 +260,9 @@ class ReplaySession(Session):
                    None)  # the last eye image recorded up to step n
         return dict(length=len(steps), waiting=False, board=None, eye=eye, breakpoints=[], outcome=None,
                     entry=f"{steps[n - 1]['state']}: {steps[n - 1]['text']}" if n else "")
+
+    def close(self) -> None:
+        self._file.close()
 
 
 #: the page's messages to an open session: what each asks of it
@@ -296,9 +301,9 @@ class RunSocket(JSONSocket):
         cmd = doc.get("cmd")
         if cmd in ("start", "open"):
             await self._close()
-            path = studio_of(websocket).path(str(doc.get("path", "")))
-            opening = (lambda: self._start(path, doc)) if cmd == "start" else (lambda: ReplaySession(path, self.emit))
-            self.session = await run_in_threadpool(opening)
+            name = str(doc.get("path", ""))
+            opening = (lambda: self._start(name, doc)) if cmd == "start" else (lambda: ReplaySession(self.folder, name, self.emit))
+            self.session = await opened_in_thread(opening)  # the page gone meanwhile: closed, not left running
             self.emit(dict(type="fsm", graph=fsm_graph(self.session.interp.fsm), length=self.session.length,
                            program=self.session.program))
             self.emit(self.session.snapshot())
@@ -309,15 +314,15 @@ class RunSocket(JSONSocket):
         else:
             await run_in_threadpool(COMMANDS[cmd], self.session, doc)
 
-    def _start(self, path: Path, doc: dict) -> RunSession:
-        """A run of ``path`` with the given settings its world declares (not another program's)."""
-        given = doc.get("settings") or {}
-        if not isinstance(given, dict):
-            raise InputError(f"expected the settings as a JSON object, got {given!r}")
-        known = analyse(path, read_text(path, "program"), self.folder)["settings"]
-        settings = {str(k): str(v) for k, v in given.items() if k in known and v}
+    def _start(self, name: str, doc: dict) -> RunSession:
+        """A run of the program ``name`` (read once) with the given settings its world declares."""
+        given = doc.get("settings") or {}  # a JSON object: the door's shape (schema.RUN) saw to it
+        text, path = files.read_program(self.folder, name), inside(self.folder, name)  # path: its name and its imports' folder
+        found = analyse(path, text, self.folder)
+        settings = {str(k): str(v) for k, v in given.items() if k in found["settings"] and v}
+        picture_file(self.folder, settings, found["image"])
         return RunSession(path, self.emit, backend=doc.get("backend") or None, settings=settings, folder=self.folder,
-                          seed=int(doc.get("seed", 0)), robot=str(doc.get("robot") or "") or None)
+                          seed=int(doc.get("seed", 0)), robot=str(doc.get("robot") or "") or None, text=text)
 
     async def on_error(self, websocket: WebSocket, doc: dict, text: str) -> None:
         self.emit({"type": "error", "text": text})

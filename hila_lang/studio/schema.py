@@ -47,6 +47,12 @@ MAX_NAME = 255
 MAX_TEXT = 1_000_000
 #: steps asked of a run in one message, and a recording scrubbed to
 MAX_STEPS = 1_000_000
+#: bytes of one JSON body or socket message.  The largest the limits above let through is a
+#: program of MAX_TEXT non-ASCII characters sent to be checked (each escaped as \\uXXXX: 6.0 MB);
+#: a demonstration of MAX_SAMPLES samples is 4.2 MB (parsed in 0.17 s and checked in 0.17 s at
+#: load 7).  A bigger body is refused before it is parsed; a body under it is parsed and checked
+#: in a thread (:func:`.page.read_json`), so other requests are answered meanwhile
+MAX_JSON = 8 * 1024 * 1024
 
 
 class Shape:
@@ -309,6 +315,9 @@ SAVE = Obj(dict(name=Str(most=64), path=PATH, times=List(TIME, most=MAX_POINTS),
                 seed=SEED, cuts=List(Int(0, MAX_POINTS), most=MAX_SEGMENTS), pen=List(Either((Bool(), Int(0, 1))), most=MAX_POINTS),
                 overwrite=Bool()),
            required=("name", "path", "times", "icps"))
+#: POST /api/picture-scene: a route drawn on an uploaded picture made a world's scene (issue 30)
+PICTURE_SCENE = Obj(dict(template=NAME, image=NAME, world=Str(most=64), overwrite=Bool()),
+                    required=("template", "image"))
 #: POST /api/demonstration: pointer samples (or a path) -> the path and its proposed cuts
 DEMONSTRATION = Obj(dict(
     samples=List(Obj(dict(x=Num(), y=Num(), t=STAMP, down=Bool(), p=Num(0.0, 1.0)), required=("x", "y", "t")),
@@ -339,7 +348,7 @@ CAMERA = Obj(dict(op=Str(choices=("start", "frame", "stop")), ball=Str(most=32),
              required=("op",))
 
 #: each route's body shape (:func:`.page.read_json` checks a body by its route's)
-BODIES = {"/api/save": SAVE, "/api/demonstration": DEMONSTRATION, "/api/imitate/export": IMITATE,
+BODIES = {"/api/save": SAVE, "/api/picture-scene": PICTURE_SCENE, "/api/demonstration": DEMONSTRATION, "/api/imitate/export": IMITATE,
           "/api/imitate/explain": IMITATE, "/api/check": CHECK}
 #: each websocket's message shape (:class:`.page.JSONSocket` checks every message)
 SOCKETS = {"/ws/imitate": IMITATE, "/ws/run": RUN, "/ws/camera": CAMERA}

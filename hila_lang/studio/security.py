@@ -285,9 +285,27 @@ def folder_templates(folder: Path):
             return next((c for c in self.candidates(source, is_path, program_file) if allowed(c) and c.is_file()), None)
 
         def load(self, path):
-            if not allowed(Path(path)):
-                raise InputError(f"refused: {Path(path).name!r} is not inside the studio's folder")
-            return super().load(path)
+            path = Path(path)
+            if not allowed(path):
+                raise InputError(f"refused: {path.name!r} is not inside the studio's folder")
+            try:
+                inside = path.relative_to(root).as_posix()
+            except ValueError:
+                return super().load(path)  # an installed template
+            # lazy: loads numpy, which importing this module does not
+            from ..osila.template import load_template
+
+            # a file in FOLDER is opened once, as every other read of the studio (issue 32): a
+            # link swapped in after the check above gives nothing from outside
+            with opened(root, inside, "template") as file:
+                st = os.stat(file)
+                stamp = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+                hit = self._cache.get(str(path))
+                if hit is not None and hit[0] == stamp:
+                    return hit[1]
+                template = load_template(file)
+            self._cache[str(path)] = (stamp, template)
+            return template
 
         __call__ = load
 

@@ -30,6 +30,7 @@ export const html = `
   <div class="toolbar">
     <label>Template name <input id="template-name" data-testid="template-name" value="swipe" size="14"></label>
     <button id="save-template" class="primary" data-testid="save-template">Save template</button>
+    <span id="picture-scene" data-testid="picture-scene"></span>
     <span id="save-status" data-testid="save-status" class="status"></span>
   </div>`;
 
@@ -52,7 +53,7 @@ async function loadScene(name) {
 }
 function clear() {
   D.samples = []; D.icps = {}; D.path = null; D.times = null; D.pen = null; D.cuts = []; D.speed = null; D.recording = false;
-  D.done = false; D.saved = undefined; $("icp-name").value = "p1"; draw(); drawSpeed(); guide();
+  D.done = false; D.saved = undefined; $("icp-name").value = "p1"; draw(); drawSpeed(); guide(); offerPictureScene();
 }
 // the line under Save: an error or a result until the next change, then what to do next
 function say(text) { $("save-status").textContent = text; $("save-status").dataset.kind = text.startsWith("error") ? "error" : "result"; }
@@ -236,8 +237,30 @@ async function save() {
       times: D.times, pen: D.pen, icps: D.icps, tags: tg, contact: contactTags(), method: $("seg-method").value, cuts: D.cuts,
       overwrite }));
     say(`saved ${r.template} (${r.segments.map((s) => s.tag + " " + s.start + "-" + s.stop).join(", ")}) = ${r.command}`);
-    D.saved = r; refreshFiles();
+    D.saved = r; refreshFiles(); offerPictureScene();
   } catch (err) { say("error: " + err.message); }
+}
+
+// a route saved on an uploaded picture: a button per world that takes the picture as its scene
+// (studio/photoscene.py writes NAME_WORLD.yaml and the program NAME_WORLD.hila that runs it)
+function offerPictureScene() {
+  const box = $("picture-scene"), picture = D.scene && D.scene.picture;
+  box.innerHTML = "";
+  if (!picture || !D.saved) return;
+  for (const world of picture.worlds || []) {
+    const b = document.createElement("button");
+    b.textContent = `Run it on this picture (${world} world)`; b.dataset.testid = "picture-scene-" + world;
+    b.addEventListener("click", async () => {
+      say(`learning the ${world} world's template on ${picture.file} (the robot looks at it)…`);
+      try {
+        const r = await askingToOverwrite((overwrite) => post("/api/picture-scene", { template: D.saved.template,
+          image: picture.file, world, overwrite }));
+        say(`wrote ${r.template} and ${r.program}; run it on page 3 (${Object.entries(r.settings).map(([k, v]) => k + " = " + v).join(", ")}) or: ${r.command}`);
+        refreshFiles();
+      } catch (err) { say("error: " + err.message); }
+    });
+    box.appendChild(b);
+  }
 }
 
 async function upload(e) {

@@ -171,7 +171,7 @@ function showProblems() {
   if (f) items.unshift(["error run-failed", `${f.line || "?"}: run failed in ${f.state}: ${f.message}`,
     f.line ? f.line - 1 : null]);
   ul.innerHTML = "";
-  if (!items.length) items.push(["ok", "no problems", null]);
+  if (!items.some(([cls]) => cls !== "note")) items.unshift(["ok", "no problems", null]);  // a note is not a problem
   for (const [cls, text, line] of items) { const li = document.createElement("li"); li.className = cls; li.textContent = text;
     if (cls.includes("run-failed")) li.dataset.testid = "run-problem";
     if (line != null) li.addEventListener("click", () => showLine(line));

@@ -6,6 +6,7 @@
 - :mod:`.demonstration` -- the demonstration and the template learned from it (``primitives/picture.yaml``)
 - :mod:`.tracking` -- the map moving while the robot draws, and the robot following it (``track``)
 - :mod:`.world` -- the ``picture`` world ``hila exec programs/picture.hila`` runs in
+- :mod:`.studio` -- in ``hila studio``: a route drawn on a person's uploaded picture made its scene
 
 :data:`WORLD` declares it (entry point ``hila.worlds: picture``); ``bench/picture.py`` scores
 the matching over seeded scenes (``docs/scene-matching.md``).
@@ -14,6 +15,7 @@ the matching over seeded scenes (``docs/scene-matching.md``).
 from ...plugins.names import Name, Names
 from ...plugins.registry import WorldInfo
 from ...plugins.settings import Setting, boolean, choice, number, text
+from ...plugins.studio import StudioView
 
 WORLD = WorldInfo(
     name="picture",
@@ -45,4 +47,6 @@ WORLD = WorldInfo(
     ]),
     default_backend="pybullet",  # its questions are all declared; its points (match.fNNN) are made as it runs
     tracking=True,  # the robot matches again while it draws (``track m``; :mod:`.tracking`)
+    studio=StudioView(picture_hook="hila_lang.worlds.picture.studio:picture_scene", picture_setting="picture.image",
+                      hint="the picture the route was drawn on: choose it as picture.image"),
 )

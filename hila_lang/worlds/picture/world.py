@@ -176,7 +176,9 @@ class PictureWorld:
                    if self.image is not None else "python -m hila_lang.worlds.picture.demonstration primitives/picture.yaml")
             raise error(f"the template '{ref}' was not learned from this world's demonstration on {on} (its ICPs "
                         f"are not the {len(mine)} features the robot sees there): it does not fit the picture world",
-                        hint=f"learn it on the sheet the robot sees: {how}")
+                        hint=f"learn it on the sheet the robot sees: {how}" + (
+                            "; a route drawn on your own picture (hila studio) runs with --set picture.image=FILE, "
+                            "the picture it was drawn on" if self.image is None else ""))
 
     # -- the end -----------------------------------------------------------------------------
     def _route_uv(self) -> np.ndarray:
