@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -122,12 +123,20 @@ def test_sigterm_to_eval_with_jobs_stops_its_workers(tmp_path):
 def test_sigterm_ends_a_repl_session_instead_of_going_on(tmp_path):
     """Ctrl-C at the REPL cancels the line; SIGTERM ends the session (the world saves)."""
     out = tmp_path / "game"
-    proc = _hila("repl", GAME, "--backend", "dry", "--out", out, stdin=subprocess.PIPE)
+    proc = _hila("repl", GAME, "--backend", "dry", "--out", out, stdin=subprocess.PIPE,
+                 env={**os.environ, "PYTHONUNBUFFERED": "1"})
     proc.stdin.write("break robot_move\n")  # a harmless command, then the session waits for more
     proc.stdin.flush()
-    time.sleep(3)
+    said: list[str] = []
+    reader = threading.Thread(target=lambda: said.extend(iter(proc.stdout.readline, "")), daemon=True)
+    reader.start()
+    # the signal once the session has answered the command (a fixed sleep was too short under load:
+    # the signal came while it was still starting)
+    assert _wait_for(lambda: any("no state matches" in line for line in said), timeout=120), "".join(said)
     proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
+    proc.wait(timeout=60)
+    reader.join(timeout=10)
+    err = proc.stderr.read()
     assert proc.returncode == 143 and "Traceback" not in err, err
     assert (out / "report.json").is_file()
 
