@@ -86,10 +86,26 @@ def test_the_fit_is_as_good_as_a_brute_force_search_over_turns_and_sizes():
     rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
     ink = _Ink(render([s @ rot.T * 0.8 for s in ref.strokes], 0.001, 0.003), 0.001)
     fitted = ink.distance(ref)
-    brute = min(ink._cost(ink._gaps(ref, ink.rms * k, np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]),
-                                    ink.centre))
-                for a in np.radians(np.arange(0, 360, 2.0)) for k in np.linspace(0.9, 1.1, 11))
+    grid = [(ink.rms * k, np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]), ink.centre)
+            for a in np.radians(np.arange(0, 360, 2.0)) for k in np.linspace(0.9, 1.1, 11)]
+    brute = min(ink._cost(ink._gaps(ref, [fit])[0]) for fit in grid)
     assert fitted <= brute + 1e-9 and fitted < 0.5 * OWN_BELOW
+
+
+def test_fits_placed_together_are_placed_as_each_alone():
+    """The k-d tree queries of many fits are made at once (:meth:`_Ink._gaps`); each fit's
+    distances and nearest points must be those of the fit queried alone."""
+    ref = mark_of(learned("triangle", "careful", 2)).references[0]
+    ink = _Ink(render(cross_samples(1)[0], 0.001, 0.003), 0.001)
+    rng = np.random.default_rng(3)
+    fits = [(ink.rms * rng.uniform(0.5, 1.5), np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]),
+             ink.centre + rng.normal(0, 3, 2)) for a in rng.uniform(0, 2 * np.pi, 5)]
+    together = ink._gaps(ref, fits)
+    for fit, gaps in zip(fits, together):
+        (alone,) = ink._gaps(ref, [fit])
+        for a, b in zip(gaps, alone):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+        assert len(gaps[0]) == len(ref.dense) and len(gaps[1]) == len(ink.points)
 
 
 def test_a_mark_is_told_by_its_shape_not_by_being_no_cross():

@@ -141,3 +141,19 @@ def test_rotations_follow_one_convention(seed):
     np.testing.assert_allclose(one._turned(np.array([angle]))[0], rotation.from_axis_angle(axis, angle), atol=1e-12)
     np.testing.assert_allclose(one.forward(np.array([angle]))[0][:3, :3], rotation.from_axis_angle(axis, angle), atol=1e-12)
     np.testing.assert_allclose(rotation.about_z(y), Rz(y), atol=1e-12)
+
+
+def test_force_limits_read_the_urdf_once_and_give_each_joint_s_effort(monkeypatch):
+    """The arm's force limits come from one reading of the URDF (the game's start-up read it
+    once per joint: ten parses of the iCub's model), and are the chain's joints' efforts."""
+    from hila_lang.robot import spec as spec_module
+
+    robot = spec_module.resolve("icub")
+    robot.chain()  # the chain is cached; only the limits' own reading is counted
+    reads = []
+    real = spec_module.read
+    monkeypatch.setattr(spec_module, "read", lambda path: reads.append(path) or real(path))
+    forces = robot.force_limits()
+    assert len(reads) == 1
+    limits = robot.limits()
+    assert forces == [limits[n]["effort"] for n in robot.chain().names] and len(forces) == robot.chain().dof

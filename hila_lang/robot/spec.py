@@ -194,7 +194,8 @@ class RobotSpec:
 
     def force_limits(self) -> list[float]:
         """Force limits (N m) of the chain's joints, in chain order."""
-        return [self.limits()[n]["effort"] for n in self.chain().names]
+        limits = self.limits()  # once: it parses the URDF
+        return [limits[n]["effort"] for n in self.chain().names]
 
     # -- where -------------------------------------------------------------------------------
     def reach(self) -> tuple[tuple[float, float, float], float]:

@@ -215,13 +215,21 @@ class _Ink:
         self.size = float(np.sqrt(max(spread, 1.0)))
         self.rms = float(np.sqrt(max(spread - pen ** 2 / 12.0, 0.25 * spread, 1.0)))  # of the strokes' middles
 
-    def _gaps(self, ref: Reference, scale: float, rot: np.ndarray, shift: np.ndarray):
-        """(distances of the reference's points from the ink, of the ink's points from the
-        reference), pixels, with the reference placed by ``scale`` (pixels per unit), ``rot``, ``shift``."""
-        placed = ref.dense @ rot.T * scale + shift
-        to_ink, near_ink = self.tree.query(placed)
-        to_ref, near_ref = ref.tree.query((self.points - shift) @ rot / scale)
-        return to_ink, to_ref * scale, near_ink, near_ref
+    def _gaps(self, ref: Reference, fits: list) -> list:
+        """Per fit ``(scale, rot, shift)`` (the reference placed by ``scale`` pixels per unit,
+        ``rot``, ``shift``): (distances of the reference's points from the ink, of the ink's
+        points from the reference, pixels, and the nearest points both ways).  All the fits in
+        one query of each k-d tree: a query's own cost is most of a small one's."""
+        scales = np.array([float(f[0]) for f in fits])
+        rots = np.stack([f[1] for f in fits])
+        shifts = np.stack([np.asarray(f[2], float) for f in fits])
+        placed = ref.dense @ rots.transpose(0, 2, 1) * scales[:, None, None] + shifts[:, None, :]
+        to_ink, near_ink = self.tree.query(placed.reshape(-1, 2))
+        back = (self.points - shifts[:, None, :]) @ rots / scales[:, None, None]
+        to_ref, near_ref = ref.tree.query(back.reshape(-1, 2))
+        n, m = len(ref.dense), len(self.points)
+        return [(to_ink[i * n:(i + 1) * n], to_ref[i * m:(i + 1) * m] * scales[i],
+                 near_ink[i * n:(i + 1) * n], near_ref[i * m:(i + 1) * m]) for i in range(len(fits))]
 
     def _cost(self, gaps) -> float:
         to_ink, to_ref = gaps[0], gaps[1]
@@ -238,30 +246,28 @@ class _Ink:
             some = self.points[:: int(np.ceil(len(self.points) / FIT_POINTS))]
             self.points, self.tree = some, cKDTree(some)
         try:
-            starts = []
-            for turn in np.radians(np.arange(0.0, 360.0, TURN_STEP)):
-                c, s = math.cos(turn), math.sin(turn)
-                rot = np.array([[c, -s], [s, c]])
-                starts.append((self._cost(self._gaps(ref, self.rms, rot, self.centre)), self.rms, rot, self.centre))
+            turns = np.radians(np.arange(0.0, 360.0, TURN_STEP))
+            tried = [(self.rms, np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]]), self.centre)
+                     for t in turns]
+            starts = [(self._cost(g),) + fit for g, fit in zip(self._gaps(ref, tried), tried)]
             starts.sort(key=lambda x: x[0])
             fits = [starts[0][1:]]
-            for _, scale, rot, shift in starts[:3]:
-                for _ in range(ICP_ROUNDS):  # both ways' nearest points, then the best similarity for them
-                    gaps = self._gaps(ref, scale, rot, shift)
-                    source = np.vstack([ref.dense, ref.dense[gaps[3]]])
-                    target = np.vstack([self.points[gaps[2]], self.points])
-                    scale, rot, shift = _similarity(source, target)
-                fits.append((scale, rot, shift))
+            chains = [start[1:] for start in starts[:3]]
+            for _ in range(ICP_ROUNDS):  # both ways' nearest points, then the best similarity for them
+                chains = [_similarity(np.vstack([ref.dense, ref.dense[gaps[3]]]),
+                                      np.vstack([self.points[gaps[2]], self.points]))
+                          for gaps in self._gaps(ref, chains)]
+            fits.extend(chains)
         finally:
             self.points, self.tree = full
-        costs = [self._cost(self._gaps(ref, *fit)) for fit in fits]
+        costs = [self._cost(gaps) for gaps in self._gaps(ref, fits)]
         best = int(np.argmin(costs))
         scale, rot, shift = fits[best]
         for _ in range(2):  # the best fit, finished on all the ink
-            gaps = self._gaps(ref, scale, rot, shift)
+            (gaps,) = self._gaps(ref, [(scale, rot, shift)])
             scale, rot, shift = _similarity(np.vstack([ref.dense, ref.dense[gaps[3]]]),
                                             np.vstack([self.points[gaps[2]], self.points]))
-        return min(costs[best], self._cost(self._gaps(ref, scale, rot, shift)))
+        return min(costs[best], self._cost(self._gaps(ref, [(scale, rot, shift)])[0]))
 
 
 def _similarity(source: np.ndarray, target: np.ndarray):
