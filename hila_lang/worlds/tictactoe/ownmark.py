@@ -18,8 +18,9 @@ fraction of the ink's size (its RMS radius): the mean of how far the reference's
 from the ink (parts of the robot's mark not there) and of how far the ink lies from them (ink
 the robot's mark does not explain).  The fit: turns every :data:`TURN_STEP` degrees at the
 ink's own centre and size, then from the best three, :data:`ICP_ROUNDS` rounds of ICP (nearest
-points both ways, then the best similarity for them); distances come from k-d trees, so a
-comparison costs a few tens of milliseconds.  It never mirrors: a mark is read as drawn.
+points both ways, then the best similarity for them); distances come from k-d trees, one query
+of each tree for all the turns and one per round for the three ICP fits together, so a
+comparison costs about ten milliseconds.  It never mirrors: a mark is read as drawn.
 
 Deciding (:meth:`OwnMark.classify`): the robot's own mark when the distance is below
 :data:`OWN_BELOW`, the opponent's when above :data:`OTHER_ABOVE`, and *unclear* (``"?"``) in
