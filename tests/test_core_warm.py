@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -83,3 +84,14 @@ def test_the_background_process_fills_the_cache_a_later_run_loads(cache):
                          env={**os.environ, "NUMBA_CACHE_DIR": str(cache)})
     misses = eval(out.stdout)
     assert misses and set(misses) == {0}  # nothing compiled: everything loaded from the cache
+
+
+def test_the_warm_stamp_follows_every_module_that_holds_a_kernel():
+    """A module with a numba kernel missing from KERNEL_SOURCES would leave the stamp 'warm' after
+    its kernels changed (tps.py's loops moved to tps_loops.py: it was missing)."""
+    from hila_lang.core import jit as jit_module
+
+    package = Path(jit_module.__file__).resolve().parent.parent
+    holders = {p.relative_to(package).as_posix() for p in package.rglob("*.py")
+               if "# pragma: no cover - compiled by numba" in p.read_text(encoding="utf-8")}
+    assert holders and holders <= set(jit_module.KERNEL_SOURCES), sorted(holders - set(jit_module.KERNEL_SOURCES))

@@ -146,5 +146,7 @@ def test_in_the_browser_a_route_drawn_on_an_upload_is_made_a_picture_scene(page,
     status = page.get_by_test_id("save-status").inner_text()
     assert status.startswith("wrote wave_picture.yaml and wave_picture.hila; run it on page 3 (picture.image = snap.png)")
     assert f"--set picture.image={folder.resolve() / 'snap.png'}" in status
+    in_view = "e => { const r = e.getBoundingClientRect(); return r.top >= 0 && r.bottom <= window.innerHeight; }"
+    assert page.get_by_test_id("save-status").evaluate(in_view), "the answer is below the fold"
     page.screenshot(path=tmp_path / "picture-scene.png")
     assert load_template(folder / "wave_picture.yaml").dim == 3

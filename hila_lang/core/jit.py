@@ -132,7 +132,7 @@ def _build(func: Callable, warm: tuple[Any, ...]) -> Callable | None:
 
 #: the modules holding kernels, under ``hila_lang/``: the warm stamp hashes their sources' times
 #: and sizes (a new install or an edit writes them anew, and numba's cache is then stale too)
-KERNEL_SOURCES = ("osila/route.py", "osila/tps.py", "osila/robust.py", "metrics.py")
+KERNEL_SOURCES = ("osila/route.py", "osila/tps.py", "osila/tps_loops.py", "osila/robust.py", "metrics.py")
 #: a background compile older than this is taken for dead and may be started again, seconds
 STALE_LOCK_S = 1800.0
 

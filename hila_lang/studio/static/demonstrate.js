@@ -258,6 +258,7 @@ function offerPictureScene() {
         say(`wrote ${r.template} and ${r.program}; run it on page 3 (${Object.entries(r.settings).map(([k, v]) => k + " = " + v).join(", ")}) or: ${r.command}`);
         refreshFiles();
       } catch (err) { say("error: " + err.message); }
+      $("save-status").scrollIntoView({ block: "nearest" });  // the answer in view, not below the fold
     });
     box.appendChild(b);
   }
