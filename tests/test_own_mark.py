@@ -320,6 +320,7 @@ def test_a_route_drawn_on_a_photo_draws_in_the_tictactoe_world_instead_of_crashi
 # --------------------------------------------------------------------------- whole games with a person's mark
 
 
+@pytest.mark.slow  # a whole game through the robot's eyes: 6.7-7.2 s of CPU a case
 @pytest.mark.parametrize("mark, style, opponent, seed", [("triangle", "careful", "minimax", 0),
                                                          ("tick", "quick", "random", 1),
                                                          ("square", "shaky", "minimax", 2)])
