@@ -127,8 +127,8 @@ def demonstrated_path(sheet, route_uv=None) -> np.ndarray:
     return np.vstack([reach, route, lift])
 
 
-def learn(path_out: str, image=None, route=None) -> None:
-    """Write the template (module docstring); with ``image`` and ``route`` a person's own."""
+def learn(path_out: str, image=None, route=None) -> Template:
+    """Write the template (module docstring) and return it; with ``image`` and ``route`` a person's own."""
     if (image is None) != (route is None):
         raise InputError("a person's route needs both --image (the picture) and --route (what was drawn on it)")
     page, to_uv = page_of(image)
@@ -154,7 +154,7 @@ def learn(path_out: str, image=None, route=None) -> None:
                  + f" ICPs: the hand's start and {len(seen)} {'map ' if image is None else ''}features the robot's "
                  "eyes triangulated before the trace (f000...).")
     save_template(t, path_out)
-    print(f"wrote {path_out}: {len(path)} points, {len(icps)} ICPs")
+    return t
 
 
 def main(argv=None) -> int:
@@ -167,10 +167,11 @@ def main(argv=None) -> int:
                                                       "the picture's bottom-left, 0.25 mm a pixel (hila studio's)")
     args = parser.parse_args(argv)
     try:
-        learn(args.output, args.image, args.route)
+        t = learn(args.output, args.image, args.route)
     except HilaError as exc:
         print(str(exc), file=sys.stderr)
         return exc.exit_code
+    print(f"wrote {args.output}: {len(t.path)} points, {len(t.icps)} ICPs")
     return 0
 
 

@@ -11,8 +11,6 @@ the picture with ``--set picture.image=FILE``: the world prints it on the task's
 
 from __future__ import annotations
 
-import contextlib
-import io
 from pathlib import Path
 
 from .demonstration import learn
@@ -20,7 +18,7 @@ from .demonstration import learn
 #: the program the studio writes beside the world's template: ``{template}`` its import name,
 #: ``{picture}`` the picture file, ``{route}`` the route drawn on it
 PROGRAM = """\
-# {route} -- a route drawn on {picture} in hila studio -- retraced by the iCub on that picture
+# {route} -- a route drawn on {picture} in hila studio -- retraced by the robot on that picture
 # printed on a sheet that lies moved, turned and bent (--seed); the ICPs are the picture's features
 # as the robot's eyes saw them (the template {template}.yaml), found again by scene matching.
 #
@@ -40,6 +38,5 @@ def picture_scene(picture: Path, route: Path, template: Path) -> str:
     ``picture``) to ``template``; return the program that runs it (:data:`PROGRAM`).  An
     :class:`~hila_lang.core.errors.InputError` for a route that is not drawn on the picture
     (3-D, or leaving it) or a file that is not a picture."""
-    with contextlib.redirect_stdout(io.StringIO()):  # learn() says "wrote ..." on the command line
-        learn(str(template), str(picture), str(route))
+    learn(str(template), str(picture), str(route))
     return PROGRAM.format(template=Path(template).stem, picture=Path(picture).name, route=Path(route).name)
