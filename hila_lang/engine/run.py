@@ -179,7 +179,8 @@ class RunExecutor(Executor):
                 if tail is None:
                     tail = free_tail(t, step.icps) if len(path) == len(t.path) else None
                 k = None if point is None else int(np.argmin(np.linalg.norm(path - point, axis=1)))
-                if k is None or tail is None or k < max(tail, 1) or pulls == PULLS or st.pen_down:
+                # not tail: none, or 0 (no waypoint the bound ICPs place to pull towards)
+                if k is None or not tail or k < tail or pulls == PULLS or st.pen_down:
                     raise first from None
                 pulls += 1
                 path = path.copy()
