@@ -179,7 +179,8 @@ class RunExecutor(Executor):
                 if tail is None:
                     tail = free_tail(t, step.icps) if len(path) == len(t.path) else None
                 k = None if point is None else int(np.argmin(np.linalg.norm(path - point, axis=1)))
-                if k is None or tail is None or k < max(tail, 1) or pulls == PULLS or st.pen_down:
+                # not tail: none, or 0 (no waypoint the bound ICPs place to pull towards)
+                if k is None or not tail or k < tail or pulls == PULLS or st.pen_down:
                     raise first from None
                 pulls += 1
                 path = path.copy()
@@ -191,7 +192,7 @@ class RunExecutor(Executor):
         free = ", ".join([f"{k} = none" for k in t.icps if k not in step.icps and k != END] + ["end unbound"])
         return executed, path, (
             f"the free end of '{st.ref}' (waypoints {tail + 1}-{len(path)} of {len(path)}, placed by no bound ICP: "
-            f"{free}) left the arm's reach ({first.message.split('; the arm')[0]}); pulled into reach in {pulls} "
+            f"{free}) left the arm's reach (cannot reach {fmt_point(first.point)} m: {first.reason}); pulled into reach in {pulls} "
             f"step(s) of {PULL:g} (to {PULL ** pulls:.0%} of its length): it ends at {fmt_point(path[-1])}, "
             f"{moved * 1000:.1f} mm from {fmt_point(step.path[-1])} where the demonstration went")
 

@@ -344,13 +344,12 @@ class _Checker(A.Visitor):
         if s.track is not None:
             self.track(s, defined)
         unbound = [k for k in icps if k not in covered and k not in (START, END) and not spread]
-        if not unbound:
-            self.free_end(s, sub, covered, bool(spread))
         if unbound:
             raise self.error(
                 f"unbound ICP{'s' if len(unbound) > 1 else ''} {', '.join(repr(u) for u in unbound)} of '{s.ref}'",
                 s.pos, f"bind {'them' if len(unbound) > 1 else 'it'}, e.g. {unbound[0]} = POINT, "
                 f"or leave {'them' if len(unbound) > 1 else 'it'} out on purpose with {unbound[0]} = none")
+        self.free_end(s, sub, covered, bool(spread))
 
     def free_end(self, s: A.RunStmt, sub, covered: dict, spread: bool) -> None:
         """A note (``template-geometry``, severity ``note``: the program may mean it, as the shipped
@@ -370,8 +369,8 @@ class _Checker(A.Visitor):
         bound = [k for k in sub.icps if k not in free and (k in covered or (k == START) or
                                                          (spread and k != END and "." not in k))]
         src = np.array([sub.icps[k] for k in bound], dtype=float).reshape(len(bound), sub.dim)
-        tail = free_tail(sub, Pairs(tuple(bound), src, src))
-        if tail is None or not bound:
+        tail = free_tail(sub, Pairs(tuple(bound), src, src))  # None when nothing is bound
+        if tail is None:
             return
         path = np.asarray(sub.path, float)
         gap = np.linalg.norm(src - path[-1], axis=1)
