@@ -179,7 +179,7 @@ def test_check_notes_a_free_end_before_the_run_and_not_a_placed_one(tmp_path, ca
     assert code == 0 and err.splitlines() == [
         "p.hila:5:5: note: the end of 'away.back' is free (home = none; 'end' not bound): waypoints 11-20 of 20 go "
         "where the demonstration went, ending 1.033 m from the nearest bound ICP ('object'), wherever the bound "
-        "points are; where that leaves the arm's reach the run pulls them in and says so in the trace; bind 'end' to "
+        "points are; where that leaves the arm's reach a run made in one move (no track, a still scene) pulls them in and says so in the trace; bind 'end' to "
         "say where it ends"]  # the reach ends at the object it binds: placed, no note
     code, _, err = _run(tmp_path, capsys, text.replace("back(object = p, home = none)", "back(object = p, home = p)"),
                         "check")

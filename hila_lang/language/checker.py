@@ -380,8 +380,8 @@ class _Checker(A.Visitor):
             "template-geometry",
             f"the end of '{s.ref}' is free ({said}; 'end' not bound): waypoints {tail + 1}-{len(path)} of "
             f"{len(path)} go where the demonstration went, ending {gap.min():.3f} {sub.units} from the nearest "
-            f"bound ICP ('{nearest}'), wherever the bound points are; where that leaves the arm's reach the run "
-            f"pulls them in and says so in the trace; bind 'end' to say where it ends", self.p.file, s.pos, "note"))
+            f"bound ICP ('{nearest}'), wherever the bound points are; where that leaves the arm's reach a run made in "
+            f"one move (no track, a still scene) pulls them in and says so in the trace; bind 'end' to say where it ends", self.p.file, s.pos, "note"))
 
     def remote_icp(self, s: A.RunStmt, b: A.Binding) -> None:
         """A warning (``template-geometry``) when ``b`` binds an ICP that the (sub-)template's path
