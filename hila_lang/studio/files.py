@@ -39,14 +39,15 @@ from .security import inside, open_folder, opened
 LISTED = (".yaml", ".hila", ".csv", ".hilarec", ".png", ".jpg", ".jpeg")
 
 
-def listing(folder: Path) -> list[str]:
-    """The files a page may open, relative to ``folder``, sorted, at most 2000."""
+def listing(folder: Path, depth: int = 3) -> list[str]:
+    """The files a page may open, relative to ``folder``, sorted, at most 2000, at most ``depth``
+    folders down (``depth=1``: ``folder`` itself, its subfolders not walked)."""
     found = []
-    for p in sorted(folder.rglob("*")):
+    for p in sorted(folder.glob("*") if depth == 1 else folder.rglob("*")):
         rel = p.relative_to(folder)
         if any(part.startswith(".") for part in rel.parts) or not p.is_file() or p.suffix.lower() not in LISTED:
             continue
-        if len(rel.parts) > 3:
+        if len(rel.parts) > depth:
             continue
         try:
             inside(folder, rel.as_posix())

@@ -35,8 +35,9 @@ PICTURES = (".png", ".jpg", ".jpeg")
 
 def pictures(folder: Path | None) -> list[str]:
     """The pictures in ``folder`` itself (where an upload goes), not in its subfolders (what runs
-    wrote: a game's eye.png, ...)."""
-    return [] if folder is None else [f for f in files.listing(folder) if "/" not in f and f.lower().endswith(PICTURES)]
+    wrote: a game's eye.png, ...): the subfolders are not walked (this runs at each check of a
+    picture world's program), and a deep folder's 2000-file cap hides none of them."""
+    return [] if folder is None else [f for f in files.listing(folder, depth=1) if f.lower().endswith(PICTURES)]
 
 
 def picture_worlds() -> list[str]:
