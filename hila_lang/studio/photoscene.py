@@ -64,8 +64,8 @@ def _picture_texts(world: str, route: tuple[str, bytes], picture: tuple[str, byt
             program = registry.world(world).studio.load("picture_hook")(copies[1], copies[0], out)
         except HilaError as exc:  # said of the studio's files (the page shows the message), not the copies
             names = {str(copies[0]): route[0], str(copies[1]): picture[0]}
-            for copy, name in names.items():
-                exc.message = exc.message.replace(copy, name)
+            for copy, shown in names.items():
+                exc.message = exc.message.replace(copy, shown)
             if exc.file is not None:
                 exc.message, exc.file = f"{names.get(str(exc.file), exc.file)}: {exc.message}", None
             exc.args = (exc.message,)
