@@ -55,6 +55,20 @@ def test_what_does_not_fit_the_picture_world_is_refused_with_its_reason(studio):
     assert not (studio.folder / "route_picture.hila").exists() and not (studio.folder / "circle_picture.yaml").exists()
 
 
+def test_the_pictures_offered_are_the_folders_own_without_walking_its_subfolders(tmp_path):
+    """An upload goes to the folder itself: its pictures are offered however many files its
+    subfolders hold (the 2000-file cap of the whole listing once hid them)."""
+    from hila_lang.studio.photoscene import pictures
+
+    (tmp_path / "runs").mkdir()
+    for i in range(2001):
+        (tmp_path / "runs" / f"{i:04}.csv").write_text("")
+    (tmp_path / "runs" / "eye.png").write_text("")
+    for name in ("snap.png", "b.JPG", ".hidden.png", "notes.csv"):
+        (tmp_path / name).write_text("")
+    assert pictures(tmp_path) == ["b.JPG", "snap.png"]
+
+
 @pytest.mark.slow
 def test_a_route_drawn_on_an_uploaded_picture_runs_in_the_picture_world(studio, tmp_path, capsys):
     """Measured (seed 1, this picture and route): the drawn route's median error 2.0-2.6 mm on the

@@ -31,6 +31,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from ..core.errors import HilaError
+from ..core.fileio import remove_stale_staging
 from . import demonstrate, files, imitate, run, worker
 from .page import problem, Studio
 from .security import cookie_name, Guard, MAX_UPLOAD, new_token
@@ -142,7 +143,7 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
 
     _Server = _server_class()
     token = token or new_token()
-    for name in files.clean(folder):  # a studio killed during a save left it: nothing of it was published
+    for name in remove_stale_staging(folder):  # a studio killed during a save left it: nothing of it was published
         print(f"hila studio: removed {name}, the staging folder of a studio stopped during a save", file=sys.stderr)
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     # SO_REUSEADDR: a restart on the same --port right after requests binds at once (without it the

@@ -29,7 +29,7 @@ from starlette.responses import JSONResponse, PlainTextResponse, Response
 from starlette.routing import Route
 
 from ..core.errors import InputError
-from ..core.fileio import read_bytes, remove_stale_staging, staging_name
+from ..core.fileio import read_bytes, staging_name
 from ..language.source import read_source
 from ..session.recording import read_record
 from .page import read_body, studio_of
@@ -39,14 +39,15 @@ from .security import inside, open_folder, opened
 LISTED = (".yaml", ".hila", ".csv", ".hilarec", ".png", ".jpg", ".jpeg")
 
 
-def listing(folder: Path) -> list[str]:
-    """The files a page may open, relative to ``folder``, sorted, at most 2000."""
+def listing(folder: Path, depth: int = 3) -> list[str]:
+    """The files a page may open, relative to ``folder``, sorted, at most 2000, at most ``depth``
+    folders down (``depth=1``: ``folder`` itself, its subfolders not walked)."""
     found = []
-    for p in sorted(folder.rglob("*")):
+    for p in sorted(folder.glob("*") if depth == 1 else folder.rglob("*")):
         rel = p.relative_to(folder)
         if any(part.startswith(".") for part in rel.parts) or not p.is_file() or p.suffix.lower() not in LISTED:
             continue
-        if len(rel.parts) > 3:
+        if len(rel.parts) > depth:
             continue
         try:
             inside(folder, rel.as_posix())
@@ -76,7 +77,8 @@ class Transaction:
 
     ``stage(name, data)`` writes a file (fsynced) into a private staging folder
     (:func:`hila_lang.core.fileio.staging_name` in FOLDER, so publishing is a rename on one file
-    system; one a crash left behind is removed at the studio's next start: :func:`clean`).  Leaving the
+    system; one a crash left behind is removed at the studio's next start:
+    :func:`hila_lang.core.fileio.remove_stale_staging`).  Leaving the
     ``with`` block publishes:
     under the per-name locks of every name (taken in sorted order, so two saves of one name
     wait for each other and neither sees the other's half), each name is checked (it must not
@@ -198,13 +200,6 @@ def refuse_existing(folder: Path, names, overwrite: bool) -> None:
         finally:
             os.close(dfd)
         raise _exists(name)
-
-
-def clean(folder: Path) -> list[str]:
-    """Remove the staging folders a studio (or a run) killed while writing left in ``folder``
-    (:func:`hila_lang.core.fileio.remove_stale_staging`: only hila's own, of processes that are
-    gone); ``hila studio`` calls it as it starts.  Returns their names."""
-    return remove_stale_staging(folder)
 
 
 def write(folder: Path, contents: dict[str, str | bytes], *, overwrite: bool) -> list[str]:

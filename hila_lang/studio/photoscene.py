@@ -35,8 +35,9 @@ PICTURES = (".png", ".jpg", ".jpeg")
 
 def pictures(folder: Path | None) -> list[str]:
     """The pictures in ``folder`` itself (where an upload goes), not in its subfolders (what runs
-    wrote: a game's eye.png, ...)."""
-    return [] if folder is None else [f for f in files.listing(folder) if "/" not in f and f.lower().endswith(PICTURES)]
+    wrote: a game's eye.png, ...): the subfolders are not walked (this runs at each check of a
+    picture world's program), and a deep folder's 2000-file cap hides none of them."""
+    return [] if folder is None else [f for f in files.listing(folder, depth=1) if f.lower().endswith(PICTURES)]
 
 
 def picture_worlds() -> list[str]:
@@ -63,8 +64,8 @@ def _picture_texts(world: str, route: tuple[str, bytes], picture: tuple[str, byt
             program = registry.world(world).studio.load("picture_hook")(copies[1], copies[0], out)
         except HilaError as exc:  # said of the studio's files (the page shows the message), not the copies
             names = {str(copies[0]): route[0], str(copies[1]): picture[0]}
-            for copy, name in names.items():
-                exc.message = exc.message.replace(copy, name)
+            for copy, shown in names.items():
+                exc.message = exc.message.replace(copy, shown)
             if exc.file is not None:
                 exc.message, exc.file = f"{names.get(str(exc.file), exc.file)}: {exc.message}", None
             exc.args = (exc.message,)
