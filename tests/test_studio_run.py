@@ -316,7 +316,9 @@ def test_the_robot_menu_runs_the_chosen_arm(page, studio, tmp_path):
     """The Run page's robot choice (issue 33), listed from the registry, reaches the run: the Panda
     moves, and the 3-D view shows it."""
     page.get_by_test_id("tab-run").click()
-    assert page.get_by_test_id("robot-choice").input_value() == "icub"  # the default robot first
+    # the list is filled from /api/plugins after the page loads: wait for it, then the default first
+    page.wait_for_function("document.querySelector('[data-testid=robot-choice]').options.length > 0")
+    assert page.get_by_test_id("robot-choice").input_value() == "icub"
     page.get_by_test_id("program-select").select_option("game.hila")
     page.get_by_test_id("backend").select_option("pybullet")
     page.get_by_test_id("robot-choice").select_option("panda")
