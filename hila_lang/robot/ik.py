@@ -30,6 +30,9 @@ from ..core.rotation import from_rpy, pose
 ORIENTATION_WEIGHT = 0.1
 
 
+_EYE3 = np.eye(3)
+
+
 def _skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrices (..., 3, 3) of vectors (..., 3): ``_skew(a) @ b == a x b``."""
     out = np.zeros(v.shape[:-1] + (3, 3))
@@ -130,6 +133,9 @@ class KinematicChain:
         k = _skew(self.axes)
         consts = {"_fixed": rot, "_sin": rot @ k, "_cos": rot @ k @ k, "_offset": self.origins[:, :3, 3],
                   "_origin_axes": np.einsum("nij,nj->ni", rot, self.axes) if self.dof else np.zeros((0, 3))}
+        # (n, 3, 2): each joint's offset and its axis in its origin's frame, side by side, so
+        # :meth:`forward` turns both with one stacked product
+        consts["_offset_axes"] = np.stack([consts["_offset"], consts["_origin_axes"]], axis=-1)
         for name, value in consts.items():
             object.__setattr__(self, name, value)
 
@@ -155,16 +161,30 @@ class KinematicChain:
             Each joint's unit axis, world frame.
         """
         turned = self._turned(np.asarray(q, dtype=float).reshape(self.dof))
-        before = np.empty((self.dof + 1, 3, 3))  # the rotation up to each joint's origin
-        before[0] = np.eye(3)
-        for i in range(self.dof):
-            before[i + 1] = before[i] @ turned[i]
-        positions = np.cumsum(np.einsum("nij,nj->ni", before[:-1], self._offset), axis=0)
-        world_axes = np.einsum("nij,nj->ni", before[:-1], self._origin_axes)
-        last = positions[-1] if self.dof else np.zeros(3)
+        n = self.dof
+        # the rotation up to each joint's origin: the running products turned[0] @ ... @ turned[i],
+        # by a prefix scan (4 stacked products for 10 joints instead of 10 single ones, 19 vs 36 us;
+        # the products grouped differently: equal to round-off, 2e-16)
+        before = np.empty((n + 1, 3, 3))
+        before[0] = _EYE3
+        before[1:] = turned
+        step = 1
+        while step < n:
+            before[1 + step:] = before[1:-step] @ before[1 + step:]
+            step *= 2
+        rotation = before[-1]
+        if not n:
+            world_T_tip = np.eye(4)
+            world_T_tip[:3, :3] = self.tip[:3, :3]
+            world_T_tip[:3, 3] = self.tip[:3, 3]
+            return world_T_tip, np.zeros((0, 3)), np.zeros((0, 3))
+        # each joint's offset and axis turned by the rotation before it: one product for both
+        both = np.matmul(before[:-1], self._offset_axes)
+        positions = np.cumsum(both[:, :, 0], axis=0)
+        world_axes = both[:, :, 1].copy()
         world_T_tip = np.eye(4)
-        world_T_tip[:3, :3] = before[-1] @ self.tip[:3, :3]
-        world_T_tip[:3, 3] = before[-1] @ self.tip[:3, 3] + last
+        world_T_tip[:3, :3] = rotation @ self.tip[:3, :3]
+        world_T_tip[:3, 3] = rotation @ self.tip[:3, 3] + positions[-1]
         return world_T_tip, positions, world_axes
 
     def tip_position(self, q: np.ndarray) -> np.ndarray:
@@ -190,8 +210,13 @@ class KinematicChain:
         Returns the Jacobian and the tip pose (4, 4).
         """
         pose, positions, world_axes = self.forward(q)
-        linear = _cross(world_axes, pose[:3, 3] - positions).T
-        return np.vstack([linear, world_axes.T]), pose
+        a, b = world_axes.T, (pose[:3, 3] - positions).T
+        jac = np.empty((6, self.dof))  # rows 0-2: the axes crossed with the arms (as _cross does)
+        np.subtract(a[1] * b[2], a[2] * b[1], out=jac[0])
+        np.subtract(a[2] * b[0], a[0] * b[2], out=jac[1])
+        np.subtract(a[0] * b[1], a[1] * b[0], out=jac[2])
+        jac[3:] = a
+        return jac, pose
 
 
 @dataclass(frozen=True)
@@ -258,40 +283,45 @@ def solve(
     q = np.clip(np.asarray(q0, dtype=float), lo, hi)
     w = np.ones(chain.dof) if weights is None else np.asarray(weights, dtype=float)
     rows = 3 if want is None else 6
-    eye = np.eye(rows)
+    ridge = damping**2 * np.eye(rows)
+    e = np.empty(rows)
     best = None
     for iteration in range(max_iterations + 1):
         jac, pose = chain.jacobian(q)
-        pos_err = target - pose[:3, 3]
-        err = np.linalg.norm(pos_err)
+        tip = pose[:3, 3]
+        pos_err = target - tip
+        err = math.sqrt(float(pos_err @ pos_err))  # np.linalg.norm's own arithmetic, without its overhead
+        e[:3] = pos_err
         if want is None:
-            tilt, e, jac = 0.0, pos_err, jac[:3]
+            tilt, jac = 0.0, jac[:3]
         else:
-            z = pose[:3, 2]
-            rot_err = _cross(z, want)  # rotation that turns z towards want (|.| = sin angle)
-            tilt = math.atan2(np.linalg.norm(rot_err), float(z @ want))
+            z0, z1, z2 = pose[0, 2], pose[1, 2], pose[2, 2]
+            w0, w1, w2 = want
+            # rotation that turns z towards want (|.| = sin angle), as _cross computes it
+            r0, r1, r2 = z1 * w2 - z2 * w1, z2 * w0 - z0 * w2, z0 * w1 - z1 * w0
+            tilt = math.atan2(math.sqrt(r0 * r0 + r1 * r1 + r2 * r2), z0 * w0 + z1 * w1 + z2 * w2)
             # angular rows projected on the plane normal to z: spinning about the pen is free
-            proj = np.eye(3) - np.outer(z, z)
-            e = np.concatenate([pos_err, ORIENTATION_WEIGHT * rot_err])
-            jac = np.vstack([jac[:3], ORIENTATION_WEIGHT * (proj @ jac[3:])])
+            z = pose[:3, 2]
+            jac[3:] = ORIENTATION_WEIGHT * ((_EYE3 - np.outer(z, z)) @ jac[3:])
+            e[3], e[4], e[5] = ORIENTATION_WEIGHT * r0, ORIENTATION_WEIGHT * r1, ORIENTATION_WEIGHT * r2
         if best is None or err + ORIENTATION_WEIGHT * tilt < best[0]:
-            best = (err + ORIENTATION_WEIGHT * tilt, q.copy(), pose[:3, 3].copy(), err, tilt, iteration)
+            best = (err + ORIENTATION_WEIGHT * tilt, q, tip.copy(), err, tilt, iteration)
         if err <= tolerance and tilt <= tilt_tolerance:
-            return IKResult(q, pose[:3, 3].copy(), err, tilt, iteration, True)
+            return IKResult(q, tip.copy(), err, tilt, iteration, True)
         if iteration == max_iterations:
             break
         free = w > 0
         for _ in range(2):  # drop joints pinned at a limit and pushed outwards, then re-solve
-            jw = jac * (w * free)
-            dq = (w * free) * (jac.T @ np.linalg.solve(jw @ jac.T + damping**2 * eye, e))
+            wf = w * free
+            dq = wf * (jac.T @ np.linalg.solve((jac * wf) @ jac.T + ridge, e))
             pinned = ((q <= lo + 1e-9) & (dq < 0)) | ((q >= hi - 1e-9) & (dq > 0))
-            if not np.any(pinned & free):
+            if not (pinned & free).any():
                 break
             free &= ~pinned
-        biggest = np.max(np.abs(dq))
+        biggest = np.abs(dq).max()
         if biggest > max_step:
             dq *= max_step / biggest
-        q = np.clip(q + dq, lo, hi)
+        q = np.clip(q + dq, lo, hi)  # a new array: ``best`` keeps the old one
     _, q_best, pos_best, err_best, tilt_best, it = best
     return IKResult(q_best, pos_best, err_best, tilt_best, it, False)
 
@@ -318,22 +348,23 @@ def aim(
     w = np.asarray(weights, dtype=float)
     target = np.asarray(target, dtype=float)
     angle = math.pi
+    ridge = 1e-4 * np.eye(3)
     for _ in range(iterations):
         jac, pose = chain.jacobian(q)
         jac = jac[3:]
         z = pose[:3, 2]
         d = target - pose[:3, 3]
-        d /= np.linalg.norm(d)
+        d /= math.sqrt(float(d @ d))  # np.linalg.norm's own arithmetic, without its overhead
         e = _cross(z, d)
-        angle = math.atan2(np.linalg.norm(e), float(z @ d))
+        angle = math.atan2(math.sqrt(float(e @ e)), float(z @ d))
         if angle <= tolerance:
             break
         free = w > 0
         for _ in range(2):  # drop joints pinned at a limit and pushed outwards, then re-solve
             wf = w * free
-            dq = wf * (jac.T @ np.linalg.solve((jac * wf) @ jac.T + 1e-4 * np.eye(3), e))
+            dq = wf * (jac.T @ np.linalg.solve((jac * wf) @ jac.T + ridge, e))
             pinned = ((q <= lo + 1e-9) & (dq < 0)) | ((q >= hi - 1e-9) & (dq > 0))
-            if not np.any(pinned & free):
+            if not (pinned & free).any():
                 break
             free &= ~pinned
         q = np.clip(q + np.clip(dq, -0.3, 0.3), lo, hi)
