@@ -203,3 +203,40 @@ def test_the_distance_to_the_grid_lines_is_the_obvious_one():
                 if dist < best:
                     best, best_kind = dist, axis
         assert dp == pytest.approx(best, abs=1e-15) and kp == best_kind
+
+
+def test_the_fit_step_is_the_weighted_least_squares_step():
+    """:meth:`SheetTracker._refine` (normal equations) against the obvious weighted least squares
+    (``lstsq`` of the point-to-line Jacobian, written out row by row), on seeded ink with the grid
+    moved; and on pixels near lines of one direction only, where the normal equations are
+    singular, the minimum-norm step (no move across the unseen direction)."""
+    known = Grid.game()
+    tracker = SheetTracker({c: cell_corners(known, c) for c in range(1, 10)}, known.surface_z)
+    rng = np.random.default_rng(3)
+    from dataclasses import replace
+
+    now = replace(known, grid_center=tuple(np.add(known.grid_center, (0.002, -0.001))),
+                  grid_rotation=known.grid_rotation + math.radians(0.7))
+    m = tracker._local(_ink_of(now, rng))
+    s = tracker.spacing
+    for phi, tau in ((0.0, np.zeros(2)), (0.004, np.array([0.001, -0.0015]))):
+        got_phi, got_tau = tracker._refine(m, phi, tau, GATE)
+        c, sn = math.cos(phi), math.sin(phi)
+        rows, rhs = [], []
+        for u, v in m:
+            p = np.array([c * u - sn * v + tau[0], sn * u + c * v + tau[1]])
+            d, kind = tracker.distances(p[None])
+            if d[0] >= GATE:
+                continue
+            axis = int(kind[0])
+            r = p[axis] - math.copysign(s / 2, p[axis]) if p[axis] != 0 else p[axis] + s / 2
+            q = p - tau
+            w = 1.0 / (1.0 + (r / (0.5 * GATE)) ** 2)
+            rows.append(w * np.array([-q[1] if axis == 0 else q[0], axis == 0, axis == 1], dtype=float))
+            rhs.append(-r * w)
+        want = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
+        assert got_phi - phi == pytest.approx(want[0], abs=1e-12)
+        np.testing.assert_allclose(got_tau - tau, want[1:], atol=1e-12)
+    one = np.column_stack([np.full(50, s / 2 + 0.0001), np.linspace(-s, s, 50)])  # lines along far only
+    got_phi, got_tau = tracker._refine(one, 0.0, np.zeros(2), GATE)
+    assert got_tau[0] == pytest.approx(-0.0001, abs=1e-12) and got_tau[1] == 0.0 and abs(got_phi) < 1e-12

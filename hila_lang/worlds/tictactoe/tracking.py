@@ -198,15 +198,26 @@ class SheetTracker:
             return phi, tau
         p, kind = p[use], kind[use]
         half = self.spacing / 2
-        # the signed offset across the nearest line and its normal (along the axis it is across)
-        across = np.where(kind == 0, p[:, 0], p[:, 1])
+        # the signed offset across the nearest line (along the axis it is across: its normal)
+        along = kind == 0
+        across = np.where(along, p[:, 0], p[:, 1])
         r = across - np.where(across > 0, half, -half)
-        normal = np.zeros((len(p), 2))
-        normal[np.arange(len(p)), kind] = 1.0
-        q = p - tau  # the turn acts before the shift: d(R(phi) m)/d(phi) = (-q_v, q_u)
-        J = np.column_stack([normal[:, 0] * -q[:, 1] + normal[:, 1] * q[:, 0], normal])
+        # the turn acts before the shift: d(R(phi) m)/d(phi) = (-q_v, q_u), q = p - tau, along the normal
         w = 1.0 / (1.0 + (r / (0.5 * GATE)) ** 2)  # Cauchy weights: a stray dark pixel near a line pulls little
-        step, *_ = np.linalg.lstsq(J * w[:, None], -r * w, rcond=None)
+        jw = np.empty((len(p), 3))
+        jw[:, 0] = np.where(along, tau[1] - p[:, 1], p[:, 0] - tau[0]) * w
+        jw[:, 1] = along * w
+        jw[:, 2] = ~along * w
+        # the weighted least-squares step through its 3 x 3 normal equations (a third of lstsq's
+        # time; the same step to 1e-15 m on the glances); lstsq when they are singular
+        # (the pixels near lines of one direction only)
+        normal, rhs = jw.T @ jw, jw.T @ (-r * w)
+        try:
+            step = np.linalg.solve(normal, rhs)
+        except np.linalg.LinAlgError:  # a column of zeros: LAPACK meets a zero pivot
+            step = None
+        if step is None or not np.isfinite(step).all():
+            step = np.linalg.lstsq(jw, -r * w, rcond=None)[0]
         return phi + float(step[0]), tau + step[1:]
 
     def glance(self, eyes) -> dict | None:
