@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import time
+from bisect import bisect_right
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -255,7 +256,7 @@ class Arm:
                 time.sleep(ahead)
         q = self.joint_positions()
         lower, upper = self._checked
-        if (q < lower).any() or (q > upper).any():
+        if ((q < lower) | (q > upper)).any():
             bad = int(np.argmax(np.maximum(lower - q, q - upper)))
             raise HilaRuntimeError(
                 f"joint {self.chain.names[bad]} left its limits during a move "
@@ -285,22 +286,23 @@ class Arm:
             joints.append(q)
             executed.append(tip)
 
+        arcs = arc.tolist()  # floats: bisect_right is searchsorted(side="right")
+
         def along(s):
-            i = min(int(np.searchsorted(arc, s, side="right")) - 1, len(arc) - 2)
-            frac = (s - arc[i]) / max(arc[i + 1] - arc[i], 1e-12)
+            i = min(bisect_right(arcs, s) - 1, len(arcs) - 2)
+            frac = (s - arcs[i]) / max(arcs[i + 1] - arcs[i], 1e-12)
             return i, qs[i] + frac * (qs[i + 1] - qs[i]), dense[i] + frac * (dense[i + 1] - dense[i])
 
         # PyBullet's position motor ends a step at (target + dt * target velocity): aim at the
         # previous sample's position with this sample's velocity to be at this sample's point
-        previous = 0.0
+        q_previous = along(0.0)[1] if len(arc) > 1 else None
         for s, v in times:
             if len(arc) > 1:
-                i, _, point = along(s)
-                _, q_target, _ = along(previous)
-                step(q_target, slopes[i] * v, point)
+                i, q_here, point = along(s)
+                step(q_previous, slopes[i] * v, point)
+                q_previous = q_here  # the next step aims at this sample's joints
             else:
                 step(qs[0], np.zeros(self.chain.dof), dense[0])
-            previous = s
         # settle: hold the last target until the tip is within 0.05 mm (at most 0.25 s)
         for _ in range(SETTLE_STEPS):
             if executed and np.linalg.norm(executed[-1] - final) < SETTLED:

@@ -57,6 +57,7 @@ class Body:
         names = self.arm_chain.names
         self.arm_joints = [self.joint[n] for n in names]
         self.forces = spec.force_limits()
+        self._gains: dict[tuple, tuple[list, list]] = {}  # (position gain, velocity gain, n) -> the lists :meth:`command` sends
         self.held: dict[str, float] = {}
         for name, index in self.joint.items():
             if name not in names and pb.getJointInfo(self.id, index, physicsClientId=c)[2] == pb.JOINT_REVOLUTE:
@@ -113,7 +114,9 @@ class Body:
     def command(self, q: np.ndarray, qd: np.ndarray, position_gain: float = 0.3, velocity_gain: float = 1.0) -> None:
         """Position targets ``q`` with velocity feed-forward ``qd`` for the arm."""
         pb = self.sim.pb
+        gains = self._gains.get((position_gain, velocity_gain, len(q)))
+        if gains is None:  # the same two lists at every control step: made once
+            gains = self._gains[(position_gain, velocity_gain, len(q))] = ([position_gain] * len(q), [velocity_gain] * len(q))
         pb.setJointMotorControlArray(
             self.id, self.arm_joints, pb.POSITION_CONTROL, targetPositions=q.tolist(), targetVelocities=qd.tolist(),
-            forces=self.forces, positionGains=[position_gain] * len(q), velocityGains=[velocity_gain] * len(q),
-            physicsClientId=self.sim.client)
+            forces=self.forces, positionGains=gains[0], velocityGains=gains[1], physicsClientId=self.sim.client)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import time
+from bisect import bisect_right
 
 import numpy as np
 
@@ -117,10 +118,10 @@ class ArmStream(_Stream):
         dense, origin, arc, qs = b.arm.plan(planned, label)
         speed = DRAW_SPEED if pen_down else TRAVEL_SPEED
         profile = trapezoid_profile(arc[-1], speed, ACCELERATION, self.dt)
-        self._run = {"path": planned, "dense": dense, "origin": np.asarray(origin), "arc": arc, "qs": qs,
+        self._run = {"path": planned, "dense": dense, "origin": np.asarray(origin), "arc": arc, "arcs": arc.tolist(), "qs": qs,
                      "profile": profile, "k": 0, "previous": 0.0, "s": 0.0, "v": 0.0, "speed": speed,
                      "pen_down": bool(pen_down), "label": label, "executed": [], "joints": [], "reference": [],
-                     "on_paper": [], "steps": 0, "clock": 0.0}
+                     "on_paper": [], "steps": 0, "clock": 0.0, "aimed": None}
         b.arm.pace_from_now()
         return len(profile) * self.dt
 
@@ -152,6 +153,7 @@ class ArmStream(_Stream):
         run["dense"] = np.vstack([dense[: i + 1], new_dense])
         run["origin"] = np.concatenate([run["origin"][: i + 1], [passed], passed + np.asarray(new_origin[1:])])
         run["arc"] = np.concatenate([arc[: i + 1], s + new_arc])
+        run["arcs"], run["aimed"] = run["arc"].tolist(), None  # the joints aimed at last step lay on the old tail
         unsolved = np.full((len(new_dense) - 1, qs.shape[1]), np.nan)
         run["qs"] = np.vstack([qs[: i + 1], q_here, unsolved])
         run["profile"] = profile_from(s, run["v"], float(run["arc"][-1] - s), run["speed"], ACCELERATION, self.dt)
@@ -183,8 +185,8 @@ class ArmStream(_Stream):
 
     @staticmethod
     def _segment(run, s: float) -> int:
-        arc = run["arc"]
-        return max(0, min(int(np.searchsorted(arc, s, side="right")) - 1, len(arc) - 2))
+        arcs = run["arcs"]  # the arc lengths as floats: bisect_right is searchsorted(side="right")
+        return max(0, min(bisect_right(arcs, s) - 1, len(arcs) - 2))
 
     def _index(self, run) -> int:
         """The first waypoint of the path not yet passed (``len(path)`` at its end)."""
@@ -196,10 +198,10 @@ class ArmStream(_Stream):
         """The joint angles at dense point ``j``, solved now if they were not (from the first
         unsolved point up to ``j``, each warm-started from the one before)."""
         qs = run["qs"]
-        if not np.isnan(qs[j, 0]):
+        if not math.isnan(qs[j, 0]):
             return qs[j]
         first = j
-        while np.isnan(qs[first - 1, 0]):
+        while math.isnan(qs[first - 1, 0]):
             first -= 1
         clock = time.perf_counter()
         for m in range(first, j + 1):
@@ -213,19 +215,25 @@ class ArmStream(_Stream):
         return qs[j]
 
     def _step(self, run, s: float, v: float, each_step) -> None:
-        arc, dense, qs = run["arc"], run["dense"], run["qs"]
+        arcs, dense, qs = run["arcs"], run["dense"], run["qs"]
         i = self._segment(run, s)
         self._solve(run, i + 1)
-        frac = (s - arc[i]) / max(arc[i + 1] - arc[i], 1e-12)
+        ds = arcs[i + 1] - arcs[i]
+        frac = (s - arcs[i]) / max(ds, 1e-12)
+        q_here = qs[i] + frac * (qs[i + 1] - qs[i])
         point = dense[i] + frac * (dense[i + 1] - dense[i])
-        ds = arc[i + 1] - arc[i]
         slope = (qs[i + 1] - qs[i]) / ds if ds > 0 else np.zeros(qs.shape[1])
-        # aim at the previous sample's joints with this sample's velocity (as Arm._execute does)
-        p = self._segment(run, run["previous"])
-        self._solve(run, p + 1)
-        pfrac = (run["previous"] - arc[p]) / max(arc[p + 1] - arc[p], 1e-12)
-        q_target = qs[p] + pfrac * (qs[p + 1] - qs[p])
-        run["previous"], run["s"], run["v"] = s, s, v
+        # aim at the previous sample's joints with this sample's velocity (as Arm._execute does):
+        # the joints this sample's point had at the last step, unless the tail was replaced since
+        aimed = run["aimed"]
+        if aimed is not None and aimed[0] == run["previous"]:
+            q_target = aimed[1]
+        else:
+            p = self._segment(run, run["previous"])
+            self._solve(run, p + 1)
+            pfrac = (run["previous"] - arcs[p]) / max(arcs[p + 1] - arcs[p], 1e-12)
+            q_target = qs[p] + pfrac * (qs[p + 1] - qs[p])
+        run["previous"], run["s"], run["v"], run["aimed"] = s, s, v, (s, q_here)
         self._control(run, q_target, slope * v, point, each_step)
 
     def _control(self, run, q_target, qd_target, point, each_step) -> None:
@@ -237,7 +245,7 @@ class ArmStream(_Stream):
         run["joints"].append(q)
         run["executed"].append(tip)
         surface = self.b.ink.surface  # the paper where it lies now: its ink moves with it
-        run["on_paper"].append(np.append(surface.to_local(tip), tip[2]))
+        run["on_paper"].append(surface.to_local(tip))  # (right, far); the height is the tip's
         run["steps"] += 1
         if each_step is not None:
             each_step(run["steps"] * self.dt)
@@ -252,7 +260,7 @@ class ArmStream(_Stream):
             local = np.array(run["on_paper"])
             surface = b.ink.surface
             trace.inked = b.ink.ink_trace(np.column_stack([surface.to_world(local[:, 0], local[:, 1])[:, :2],
-                                                           local[:, 2]]))
+                                                           executed[:, 2]]))
         b.traces.append(trace)
         if b.view is not None:
             b.view.show_eye(b.eyes.camera_image("left").rgb)

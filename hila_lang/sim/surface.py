@@ -102,6 +102,8 @@ class Surface:
             raise InputError(f"expected points of shape (..., 3), got {pts.shape}")
         r_axis, f_axis = self.axes()
         d = pts[..., :2] - np.asarray(self.center)
+        if d.ndim == 1:  # one point (a control step's pen tip): the same products, without np.stack
+            return np.array([d @ r_axis[:2], d @ f_axis[:2]])
         return np.stack([d @ r_axis[:2], d @ f_axis[:2]], axis=-1)
 
     def corners(self) -> np.ndarray:
