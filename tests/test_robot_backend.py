@@ -493,3 +493,30 @@ def test_an_eye_reading_a_region_gives_that_part_of_its_whole_image(robot):
         assert part.dist == whole.dist
     far_away = region + np.array([0.0, 0.0, -50.0])  # nothing of it in view: the whole image
     assert eyes.camera_image("left", region=far_away).rgb.shape == (240, 320, 3)
+
+
+def test_the_head_aims_the_same_whether_the_aim_is_kept_or_solved_again(robot):
+    """:meth:`Eyes.look_at` keeps an aim per (torso, point): a second look at the same point with
+    the torso unchanged sets the head exactly as a fresh solve does, a new point is solved."""
+    from hila_lang.robot import eyes as eyes_module
+
+    eyes = robot.eyes
+    original = eyes.target
+    point = np.array(GRID.grid_to_world(0.01, -0.02))
+    names = [n for n in eyes._gaze_chain.names if n in robot.body.held]
+    eyes.look_at(point)
+    first = robot.body.angles(names)
+    calls = []
+    solve = eyes_module.aim_gaze
+    eyes_module.aim_gaze = lambda *a: calls.append(a) or solve(*a)
+    try:
+        eyes.look_at(point + 0.0)  # kept: no solve, the same angles
+        assert calls == [] and robot.body.angles(names) == first
+        eyes._aims.clear()
+        eyes.look_at(point)  # solved again: the same angles bit for bit
+        assert len(calls) == 1 and robot.body.angles(names) == first
+        eyes.look_at(point + np.array([0.03, 0.0, 0.0]))  # another point: solved, another aim
+        assert len(calls) == 2 and robot.body.angles(names) != first
+    finally:
+        eyes_module.aim_gaze = solve
+        eyes.look_at(original)
