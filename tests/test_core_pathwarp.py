@@ -166,3 +166,25 @@ def test_explain_says_the_path_was_bent():
     path, task = hairpin()
     warp = choose_warp(path[[0, 100, 199]], task[[0, 100, 199]], on=path)
     assert warp_reason(warp, 2).startswith("the path bent along itself: all 3 pairs lie on the template's path")
+
+
+def test_a_short_paths_warp_does_not_start_the_compiled_kernels(monkeypatch):
+    """The path warp's merge of its few pairs uses the compiled distances only for a path of at
+    least ``MIN_STAMPS`` stamps (as :func:`fit_warp` does): a game's short strokes never pay
+    numba's start-up (0.45 s of CPU), and the warp is the same as with the kernel asked for."""
+    from hila_lang.core import jit
+    from hila_lang.osila import tps
+
+    t = np.linspace(0.0, 1.0, 60)
+    on = np.column_stack([t, np.sin(3 * t)])
+    src = on[[0, 20, 40, 59]]
+    dst = 1.1 * src + np.array([0.2, -0.1]) + np.random.default_rng(0).normal(0, 0.01, src.shape)
+    kernel = tps._dist_compiled()
+    asked = []
+    monkeypatch.setattr(tps, "_dist_compiled", lambda: asked.append(1) or kernel)
+    warp = choose_warp(src, dst, on=on)
+    assert len(on) < jit.MIN_STAMPS and asked == []
+    with jit.batch():  # every path on the kernels: the same warp, bit for bit
+        kernel_warp = choose_warp(src, dst, on=on)
+    assert asked and warp.kind == kernel_warp.kind == "path"
+    np.testing.assert_array_equal(warp.mapped, kernel_warp.mapped)

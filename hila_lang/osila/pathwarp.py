@@ -46,6 +46,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..core.jit import min_stamps
 from .fallback import fit_similarity
 from .tps import Warp, _dist, _solve, _tol, affine_rank, fit_warp, merge_pairs
 
@@ -193,7 +194,10 @@ def choose_warp(src: np.ndarray, dst: np.ndarray, smoothing: float = 0.0, *, exa
     of the path ``on`` (:func:`anchored`) and ``along`` allows it, else the spatial choice of
     :func:`.tps.fit_warp` (the same arguments)."""
     if on is not None and along and len(src) >= 2 and len(on) >= 3:
-        merged, to, flags = merge_pairs(src, dst, exact=exact, fast=True)
+        # the compiled distances only for a path long enough for the kernels (as fit_warp asks): a
+        # short path's few pairs do not pay numba's start-up (0.45 s of CPU, a third of a game's
+        # start-up) to save microseconds; bit for bit the same distances either way
+        merged, to, flags = merge_pairs(src, dst, exact=exact, fast=len(on) >= min_stamps())
         if anchored(on, merged):
             return fit_path(on, merged, to, flags, smoothing, max_amplification=max_amplification,
                             precision=precision)
