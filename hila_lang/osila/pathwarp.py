@@ -194,9 +194,8 @@ def choose_warp(src: np.ndarray, dst: np.ndarray, smoothing: float = 0.0, *, exa
     of the path ``on`` (:func:`anchored`) and ``along`` allows it, else the spatial choice of
     :func:`.tps.fit_warp` (the same arguments)."""
     if on is not None and along and len(src) >= 2 and len(on) >= 3:
-        # the compiled distances only for a path long enough for the kernels (as fit_warp asks): a
-        # short path's few pairs do not pay numba's start-up (0.45 s of CPU, a third of a game's
-        # start-up) to save microseconds; bit for bit the same distances either way
+        # the compiled distances only for a long path, as fit_warp: at K = 4-6 on a 25-point path numba's
+        # import and cache load (0.46 s, once a process) bought ~5 us a call (bit for bit the same)
         merged, to, flags = merge_pairs(src, dst, exact=exact, fast=len(on) >= min_stamps())
         if anchored(on, merged):
             return fit_path(on, merged, to, flags, smoothing, max_amplification=max_amplification,
