@@ -35,6 +35,10 @@ sums it up::
 
     game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> glances=<n>x<ms> images=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
 
+Beside the floor it prints where the in-process game's time went: the stepping loop, the IK, the
+rendering, the robot's looks at the board and its glances (each with the part spent taking eye
+images; the rest is the robot's processing of them), writing the outputs.
+
 ``wall`` is the median of the single games (all seeds play the same opening against minimax
 when the robot starts, so their counts are alike; the floor's counts come from seed 0).
 """
@@ -99,32 +103,60 @@ def startup_s(out: Path, k: int) -> float:
 
 def counted_game(seed: int, out: Path):
     """One in-process game (``hila exec``'s seed and opponent), left open for :class:`Probe`:
-    the interpreter and its counts (simulator steps, eye images, IK, loop and render times)."""
+    the interpreter and its counts (simulator steps, eye images, IK, loop and render times, and
+    the time spent in the robot's looks at the board and in its glances, each with the part of it
+    that went into eye images: what is left is their processing, above the floor)."""
     from hila_lang.plugins.options import RunOptions
     from hila_lang.session.runner import prepare
+    from hila_lang.worlds.tictactoe import player, tracking
 
     options = RunOptions(seed=seed, out=out, settings={"opponent": "minimax"}, stdin=io.StringIO(), stdout=io.StringIO())
     interp = prepare(PROGRAM, options, "pybullet")
     backend, glances = interp.backend, []
     eyes = backend.eyes
     camera_image = eyes.camera_image
+    timed = {"look": [0, 0.0, 0.0], "glance": [0, 0.0, 0.0]}  # calls, seconds, of them in eye images
+    inside = []  # the timed stage an eye image is taken for
 
     def counted(eye="left", **kw):  # a fovea glance (a region given) or a whole eye image
         if kw.get("region") is not None:  # where it looked and where the arm was: the probe's glances
             glances.append((eye, np.array(kw["region"]), backend.body.arm_angles()))
-        return camera_image(eye, **kw)
+        a = time.perf_counter()
+        try:
+            return camera_image(eye, **kw)
+        finally:
+            if inside:
+                timed[inside[-1]][2] += time.perf_counter() - a
 
+    def timing(name, func):
+        def run(*args, **kw):
+            inside.append(name)
+            a = time.perf_counter()
+            try:
+                return func(*args, **kw)
+            finally:
+                inside.pop()
+                timed[name][0] += 1
+                timed[name][1] += time.perf_counter() - a
+        return run
+
+    look_at_board, glance = player.look_at_board, tracking.SheetTracker.glance
     eyes.camera_image = counted
-    t0 = time.perf_counter()
-    interp.run()
-    in_game = time.perf_counter() - t0
-    eyes.camera_image = camera_image
+    player.look_at_board = timing("look", look_at_board)
+    tracking.SheetTracker.glance = timing("glance", glance)
+    try:
+        t0 = time.perf_counter()
+        interp.run()
+        in_game = time.perf_counter() - t0
+    finally:
+        eyes.camera_image = camera_image
+        player.look_at_board, tracking.SheetTracker.glance = look_at_board, glance
     stats = interp.backend.stats
     return interp, {"steps": stats["steps"], "glances": len(glances), "images": stats["renders"] - len(glances),
                     "glance_views": glances,
                     "in_game_s": in_game,
                     "ik_solves": stats["ik_solves"], "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"],
-                    "render_s": stats["render_seconds"]}
+                    "render_s": stats["render_seconds"], "timed": timed}
 
 
 class Probe:
@@ -230,8 +262,11 @@ def main(argv: list[str] | None = None) -> int:
               f"+ {counts['images']} whole images x {image * 1e3:.1f} ms = {floor:.2f} s (medians of "
               f"{len(probe.start)} samples, before, between and after the games); the in-process game spent "
               f"{counts['in_game_s']:.2f} s: stepping loop {counts['step_loop_s']:.2f} s, "
-              f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s; "
-              f"writing the outputs {counts['outputs_s']:.2f} s", flush=True)
+              f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s, "
+              + ", ".join(f"{n} {what} {s:.2f} s of which eye images {i:.2f} s"
+                          for what, (n, s, i) in (("looks at the board", counts["timed"]["look"]),
+                                                  ("glances", counts["timed"]["glance"])))
+              + f"; writing the outputs {counts['outputs_s']:.2f} s", flush=True)
         print(f"peak RSS of a game process: {peak:.0f} MB", flush=True)
         growth = float("nan")
         failed = 0
