@@ -21,6 +21,7 @@ One line each:
 - ``ast``          the program's frozen dataclasses, built while parsing
 - ``source``       reading program text; syntax errors with line and column, in words
 - ``transformer``  the grammar, its one parser (text -> AST while parsing) and the AST builder
+- ``parsecache``   the grammar's LALR tables, built once per installation and kept in the cache folder
 - ``loader``       templates by name, from the search path
 - ``environment``  THE front end: one grammar, one template loader and cache, the plug-in registry
 - ``checker``      names, ICP bindings, reachability; structured diagnostics

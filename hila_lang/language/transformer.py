@@ -15,6 +15,7 @@ from lark.exceptions import UnexpectedInput, VisitError
 from ..core.errors import HilaError, HilaSyntaxError
 from ..core.resources import grammar_path
 from . import ast as A
+from . import parsecache
 from .limits import MAX_NESTING
 from .source import source_line, syntax_error
 
@@ -446,6 +447,10 @@ def _value(child):
     return child.build(child.meta, child.children) if t is _Node else child
 
 
+#: how :func:`grammar` builds the parser (LALR, positions kept; a program or one expression)
+PARSER_OPTIONS = {"parser": "lalr", "start": ["start", "expr"], "propagate_positions": True, "maybe_placeholders": True}
+
+
 @functools.lru_cache(maxsize=1)
 def grammar():
     """THE lark parser of ``grammar/hila.lark`` (LALR, positions kept), loaded once per process:
@@ -461,8 +466,8 @@ def grammar():
                         hint="pip install --force-reinstall --no-deps 'lark>=1.1,<2'")
 
     streaming = Streaming()
-    lark = Lark.open(str(grammar_path()), parser="lalr", start=["start", "expr"], propagate_positions=True,
-                     maybe_placeholders=True, transformer=streaming)
+    # the LALR tables come from the cache folder after the first build (parsecache: 0.3 s a process)
+    lark = parsecache.build(grammar_path(), streaming, **PARSER_OPTIONS)
     streaming.learn(lark.rules)
     return lark
 

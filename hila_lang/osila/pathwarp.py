@@ -46,6 +46,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..core.jit import min_stamps
 from .fallback import fit_similarity
 from .tps import Warp, _dist, _solve, _tol, affine_rank, fit_warp, merge_pairs
 
@@ -193,7 +194,9 @@ def choose_warp(src: np.ndarray, dst: np.ndarray, smoothing: float = 0.0, *, exa
     of the path ``on`` (:func:`anchored`) and ``along`` allows it, else the spatial choice of
     :func:`.tps.fit_warp` (the same arguments)."""
     if on is not None and along and len(src) >= 2 and len(on) >= 3:
-        merged, to, flags = merge_pairs(src, dst, exact=exact, fast=True)
+        # the compiled distances only for a long path, as fit_warp: at K = 4-6 on a 25-point path numba's
+        # import and cache load (0.46 s, once a process) bought ~5 us a call (bit for bit the same)
+        merged, to, flags = merge_pairs(src, dst, exact=exact, fast=len(on) >= min_stamps())
         if anchored(on, merged):
             return fit_path(on, merged, to, flags, smoothing, max_amplification=max_amplification,
                             precision=precision)
