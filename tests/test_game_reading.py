@@ -152,3 +152,65 @@ def test_a_cross_spilling_over_a_line_in_dim_noisy_light_leaves_the_next_cell_em
                     for eye in ("left", "right")]
     for reading in readings:
         assert reading.marks == ["", "", "", "X", "", "", "", "", "X"]
+
+
+
+def test_marks_read_in_the_box_equal_the_whole_view_with_ink_beyond_the_grid():
+    """A top view twice the grid's size, the grid turned 15 degrees, a stroke from cell 1 out
+    past the grid's edge, a circle across cell 9's outer edge, ink far off the grid and a hidden
+    patch: the marks read in :func:`reading._box` equal those read in the whole view."""
+    cv2 = pytest.importorskip("cv2")
+    from hila_lang.worlds.tictactoe import reading as reading_mod
+
+    res, cell, turn = 0.001, 0.05, np.radians(15.0)
+    h, w = 320, 360
+    origin, centre = np.array([0.0, 0.32]), np.array([0.17, 0.15, 0.0])
+    far = np.array([np.cos(turn), np.sin(turn), 0.0])
+    right = np.array([far[1], -far[0], 0.0])
+
+    def pixel(u, v):  # grid coordinates (cells: u right from the left edge, v down from the far edge)
+        xy = centre[:2] + (u - 1.5) * cell * right[:2] + (1.5 - v) * cell * far[:2]
+        return np.array([(xy[0] - origin[0]) / res, (origin[1] - xy[1]) / res])
+
+    lines = {("a", k): (pixel(1.5 + k, 0), pixel(1.5 + k, 1) - pixel(1.5 + k, 0)) for k in (-0.5, 0.5)}
+    lines.update({("b", k): (pixel(0, 1.5 + k), pixel(1, 1.5 + k) - pixel(0, 1.5 + k)) for k in (-0.5, 0.5)})
+    lines = {key: (p, d / np.linalg.norm(d)) for key, (p, d) in lines.items()}
+    ink = np.zeros((h, w), np.uint8)
+    for u, v in ((1.5, 1.5), (2.75, 2.75), (0.5, 2.5)):  # circles in cells 5 and 7, one across cell 9's edge
+        cv2.circle(ink, tuple(int(c) for c in np.round(pixel(u, v))), 16, 1, 3)
+    cv2.line(ink, tuple(int(c) for c in pixel(0.7, 0.5)), tuple(int(c) for c in pixel(-0.3, 0.4)), 1, 3)  # out of cell 1
+    cv2.line(ink, (5, 300), (60, 310), 1, 3)  # far off the grid
+    seen = np.ones((h, w), bool)
+    seen[40:80, 200:260] = False
+    frame = (origin, res, centre, right, far, cell)
+    mark = ink.astype(bool)
+    rows, cols = box = reading_mod._box(frame, mark)
+    assert (rows.stop - rows.start) * (cols.stop - cols.start) < 0.8 * h * w
+    in_box = reading_mod._read_marks(mark, seen[box], frame, lines, circle_mark(), box)
+    whole = reading_mod._read_marks(mark, seen, frame, lines, circle_mark())
+    assert in_box == whole
+    assert in_box[0][0] == "X" and in_box[0][4] == "O" and in_box[0][6] == "O" and in_box[0][8] != "", in_box[0]
+
+
+@pytest.mark.parametrize("scene, eye", [("game", (0.05, 0.034, 0.95)), ("demonstration", (-0.10, 0.20, 0.80))])
+def test_marks_read_in_the_box_equal_the_marks_read_in_the_whole_view(scene, eye, monkeypatch):
+    """The marks are read in the part of the top view that holds the grid's cells and the ink
+    (:func:`reading._box`), not in all of it: the reading is the same bit for bit as in the
+    whole view -- marks, ink, occlusion, confidences, distances -- and the box is smaller."""
+    from hila_lang.worlds.tictactoe import reading as reading_mod
+
+    spec = getattr(Grid, scene)()
+    marks = ["X", "O", "", "", "O", "X", "", "X", "O"]
+    with DemonstrationScene(spec, marks=marks, seed=3, marker=False) as world:
+        image = eye_image(world, spec, eye)
+    boxes = []
+    box = reading_mod._box
+    monkeypatch.setattr(reading_mod, "_box", lambda frame, ink: boxes.append((box(frame, ink), ink.shape)) or boxes[-1][0])
+    in_box = read_board(image, spec.surface_z, own=circle_mark())
+    monkeypatch.setattr(reading_mod, "_box", lambda frame, ink: (slice(0, ink.shape[0]), slice(0, ink.shape[1])))
+    whole = read_board(image, spec.surface_z, own=circle_mark())
+    assert in_box.marks == marks
+    for name in ("marks", "ink", "occluded", "confidence", "distance", "contrast"):
+        assert getattr(in_box, name) == getattr(whole, name), name
+    (rows, cols), (h, w) = boxes[0]
+    assert (rows.stop - rows.start) * (cols.stop - cols.start) < 0.8 * h * w

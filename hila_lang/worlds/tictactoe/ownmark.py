@@ -261,11 +261,13 @@ class _Ink:
             fits.extend(chains)
         finally:
             self.points, self.tree = full
-        costs = [self._cost(gaps) for gaps in self._gaps(ref, fits)]
+        every = self._gaps(ref, fits)
+        costs = [self._cost(gaps) for gaps in every]
         best = int(np.argmin(costs))
-        scale, rot, shift = fits[best]
-        for _ in range(2):  # the best fit, finished on all the ink
-            (gaps,) = self._gaps(ref, [(scale, rot, shift)])
+        gaps = every[best]  # the best fit's nearest points, already found
+        for finish in range(2):  # the best fit, finished on all the ink
+            if finish:
+                (gaps,) = self._gaps(ref, [(scale, rot, shift)])
             scale, rot, shift = _similarity(np.vstack([ref.dense, ref.dense[gaps[3]]]),
                                             np.vstack([self.points[gaps[2]], self.points]))
         return min(costs[best], self._cost(self._gaps(ref, [(scale, rot, shift)])[0]))

@@ -321,14 +321,17 @@ def _grid_axes(pts: np.ndarray, min_sep: float = 10.0) -> tuple[np.ndarray, np.n
     q = pts - c
 
     def scores(alphas):
-        """Peakedness of both projections, for every angle at once."""
+        """Peakedness of both projections, for every angle at once (in place: no temporaries of
+        (P, A); the squared counts summed as integers, which float64 held exactly too)."""
         total = np.zeros(len(alphas))
         for shift in (0.0, np.pi / 2):
             proj = q @ np.array([np.cos(alphas + shift), np.sin(alphas + shift)])  # (P, A)
-            bins = np.round(proj - proj.min(axis=0)).astype(np.int64)
+            proj -= proj.min(axis=0)
+            bins = np.rint(proj, out=proj).astype(np.int64)  # np.round's own rounding (half to even)
             width = int(bins.max()) + 1
-            counts = np.bincount((bins + width * np.arange(len(alphas))).ravel(), minlength=width * len(alphas))
-            total += (counts.reshape(len(alphas), width).astype(float) ** 2).sum(axis=1)
+            bins += width * np.arange(len(alphas))
+            counts = np.bincount(bins.ravel(), minlength=width * len(alphas)).reshape(len(alphas), width)
+            total += (counts * counts).sum(axis=1)
         return total
 
     coarse = np.radians(np.arange(0.0, 90.0, 1.0))
@@ -402,7 +405,7 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
     import cv2
 
     top, origin, regions, hidden = rectify(image, float(surface_z), resolution, body=body)
-    paper_level = float(np.median(top[regions].mean(axis=1))) if regions.any() else 240.0
+    paper_level = sheet_level(top, regions) if regions.any() else 240.0  # np.median(top[regions].mean(axis=1)), by counting
     grid_ink, ink = _ink_masks(top, paper_level, resolution)
     n, labels = cv2.connectedComponents(regions.astype(np.uint8), connectivity=8)
     counts = np.bincount(labels[grid_ink & regions], minlength=n)
@@ -471,12 +474,13 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
         cc = c3 + (col - 1) * _vec3(right_vec) + (1 - row) * _vec3(far_vec)
         corners[idx + 1] = {name: cc + dr * _vec3(right_vec) + df * _vec3(far_vec)
                             for name, (dr, df) in _CORNER_STEPS.items()}
-    lo, hi, gray = _channels(top)
-    paperlike = (np.abs(gray - paper_level) < 0.175 * paper_level) & ((hi - lo) < 0.2 * paper_level)
-    seen = (paperlike | ink | grid_ink) & ~hidden
-    contrast = float((paper_level - np.median(gray[grid_ink])) / paper_level) if grid_ink.sum() > 20 else 0.0
     frame = (origin, resolution, c3, right_u, far_u, cell)
-    marks, fractions, occluded, confidence, distance = _read_marks(ink & ~grid_ink, seen, frame, lines, own)
+    box = _box(frame, ink | grid_ink)  # all that is read from here on lies in it
+    lo, hi, gray = _channels(top[box])
+    paperlike = (np.abs(gray - paper_level) < 0.175 * paper_level) & ((hi - lo) < 0.2 * paper_level)
+    seen = (paperlike | ink[box] | grid_ink[box]) & ~hidden[box]
+    contrast = float((paper_level - np.median(gray[grid_ink[box]])) / paper_level) if grid_ink.sum() > 20 else 0.0
+    marks, fractions, occluded, confidence, distance = _read_marks(ink & ~grid_ink, seen, frame, lines, own, box)
     return BoardReading(corners, marks, c3, far_u, right_u, cell, fractions, occluded, confidence, contrast,
                         distance)
 
@@ -486,19 +490,44 @@ def _vec3(v2: np.ndarray) -> np.ndarray:
     return np.array([v2[0], v2[1], 0.0])
 
 
-def _depth(k: int, labels: np.ndarray, stats: np.ndarray, near: np.ndarray) -> float:
+def _box(frame, ink: np.ndarray) -> tuple[slice, slice]:
+    """The part of the top view (rows, columns) that holds the grid's cells and every pixel of
+    ``ink`` (bool (h, w)): what the marks are read from.  The top view spans all the bright
+    region the camera saw, often twice the grid; the pixels outside this box hold neither a
+    cell nor ink, so every per-pixel measure of :func:`_read_marks` is the same without them."""
+    origin, res, centre, right, far, cell = frame
+    h, w = ink.shape
+    # the grid's outer corners (u, v in {0, 3}, see _read_marks) in top-view pixels, grown by 2 px
+    # (the corners are solved for here, the cells tested pixel by pixel there: rounding differs)
+    M = np.array([[right[0], right[1]], [far[0], far[1]]])
+    corners = np.array([[(u - 1.5) * cell, (1.5 - v) * cell] for u in (0, 3) for v in (0, 3)])
+    wxy = np.linalg.solve(M, corners.T).T  # (4, 2): the world offsets from the grid's centre
+    cols = (wxy[:, 0] + centre[0] - origin[0]) / res
+    rows = (origin[1] - centre[1] - wxy[:, 1]) / res
+    r0, r1 = math.floor(rows.min()) - 2, math.ceil(rows.max()) + 3
+    c0, c1 = math.floor(cols.min()) - 2, math.ceil(cols.max()) + 3
+    inked_rows, inked_cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    if len(inked_rows):
+        r0, r1 = min(r0, inked_rows[0]), max(r1, inked_rows[-1] + 1)
+        c0, c1 = min(c0, inked_cols[0]), max(c1, inked_cols[-1] + 1)
+    return slice(max(int(r0), 0), min(int(r1), h)), slice(max(int(c0), 0), min(int(c1), w))
+
+
+def _depth(k: int, labels: np.ndarray, stats: np.ndarray, near: np.ndarray, at=(0, 0)) -> float:
     """How far piece ``k`` reaches from the grid lines (``near``: each pixel's distance from the
-    nearest line), its convex hull included, so the inside of a circle counts."""
+    nearest line, its pixel (0, 0) at ``labels``' pixel ``at`` (row, column)), its convex hull
+    included, so the inside of a circle counts."""
     # lazy: loads cv2, which importing this module does not
     import cv2
 
     x0, y0, bw, bh = stats[k, :4]
     piece = (labels[y0:y0 + bh, x0:x0 + bw] == k).astype(np.uint8)
     cv2.fillConvexPoly(piece, cv2.convexHull(cv2.findNonZero(piece)), 1)
+    y0, x0 = y0 - at[0], x0 - at[1]
     return float(near[y0:y0 + bh, x0:x0 + bw][piece.astype(bool)].max())
 
 
-def _read_marks(mark, seen, frame, lines, own=None):
+def _read_marks(mark, seen, frame, lines, own=None, box=None):
     """Each cell's mark ("", "O", "X" or "?"), inked fraction, whether it is occluded, confidence
     and distance from the robot's own mark.
 
@@ -507,14 +536,16 @@ def _read_marks(mark, seen, frame, lines, own=None):
     cell size); ``lines`` the grid lines (point, direction) in top-view pixels.  A cell's mark is
     its largest piece of ink (the ink cut along the grid lines) whose centre is in the cell;
     what the mark is, all its pieces that are not spills over a line, compared with ``own``.
+    With ``box`` (rows, columns: :func:`_box`) ``seen`` is that part of the top view only, and
+    the per-pixel measures are taken there.
     """
     # lazy: loads cv2, which importing this module does not
     import cv2
 
     origin, res, centre, right, far, cell = frame
-    h, w = mark.shape
-    xs = np.arange(w, dtype=float)[None, :]
-    ys = np.arange(h, dtype=float)[:, None]
+    rows, cols = box or (slice(0, mark.shape[0]), slice(0, mark.shape[1]))
+    xs = np.arange(cols.start, cols.stop, dtype=float)[None, :]  # the top view's own pixel numbers
+    ys = np.arange(rows.start, rows.stop, dtype=float)[:, None]
     wx, wy = origin[0] + xs * res - centre[0], origin[1] - ys * res - centre[1]
     u = (wx * right[0] + wy * right[1]) / cell + 1.5   # column coordinate, 0..3 over the grid
     v = 1.5 - (wx * far[0] + wy * far[1]) / cell       # row coordinate, 0..3 over the grid
@@ -523,25 +554,29 @@ def _read_marks(mark, seen, frame, lines, own=None):
     inner = in_grid & ((u - np.floor(u) - 0.5) ** 2 + (v - np.floor(v) - 0.5) ** 2 < 0.46 ** 2)
     area = np.maximum(np.bincount(cell_of[inner], minlength=10), 1)
     hidden = np.bincount(cell_of[inner & ~seen], minlength=10) / area
-    inked = np.bincount(cell_of[inner & mark], minlength=10)  # diagnostics
+    inked = np.bincount(cell_of[inner & mark[rows, cols]], minlength=10)  # diagnostics
     # cut the ink along the grid's lines, so a mark over a line (a sloppy cross) and a mark in the
     # next cell that it touches stay apart; what spills over a line is a stub that hugs the line
-    near = np.full(mark.shape, np.inf)  # distance from the nearest grid line, pixels
+    near = np.full(cell_of.shape, np.inf)  # distance from the nearest grid line, pixels
     for (p, d) in lines.values():
         n = np.array([-d[1], d[0]])
         near = np.minimum(near, np.abs((xs - p[0]) * n[0] + (ys - p[1]) * n[1]))
     band = near < max(0.002 / res, 1.5)
-    count, labels, stats, cents = cv2.connectedComponentsWithStats((mark & ~band).astype(np.uint8), connectivity=8)
+    cut = np.zeros(mark.shape, np.uint8)  # the pieces are found in the whole view: labels as ever
+    cut[rows, cols] = mark[rows, cols] & ~band
+    count, labels, stats, cents = cv2.connectedComponentsWithStats(cut, connectivity=8)
+    h, w = mark.shape
+    at = (rows.start, cols.start)
     min_area, min_depth = MIN_MARK_AREA / res ** 2, MIN_MARK_DEPTH * cell / res
     biggest = np.zeros(10, dtype=int)  # cell -> its largest piece of ink that may be a mark (0: none)
     pieces: dict[int, list[int]] = {}  # cell -> the pieces of its mark (not spills, not specks)
     for k in range(1, count):
         cx, cy = (int(round(c)) for c in cents[k])
-        home = cell_of[min(max(cy, 0), h - 1), min(max(cx, 0), w - 1)]
+        home = cell_of[min(max(cy, 0), h - 1) - at[0], min(max(cx, 0), w - 1) - at[1]]
         if not home:
             continue
         size = stats[k, cv2.CC_STAT_AREA]
-        if size >= min_area and _depth(k, labels, stats, near) < min_depth:
+        if size >= min_area and _depth(k, labels, stats, near, at) < min_depth:
             continue  # a spill over a line from the next cell
         if size >= min_area:  # a piece of the mark; smaller specks (sensor noise in dim light) are not
             pieces.setdefault(int(home), []).append(k)
