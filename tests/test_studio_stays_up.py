@@ -520,3 +520,31 @@ def test_a_save_killed_halfway_leaves_nothing_after_the_next_start(tmp_path):
     finally:
         s.stop()
     assert f"removed {left[0]}" in s.proc.stderr.read()
+
+
+def test_every_lazy_scipy_or_opencv_import_is_made_before_the_studio_serves():
+    """The studio's threads (a check, a scene image, a run) import SciPy and OpenCV lazily; two
+    threads doing it for the first time at once can find each other's module half imported (a CI
+    run's page: "partially initialized module 'scipy._lib._testutils'").  ``serve`` imports
+    :data:`THREAD_IMPORTS` first: every package hila imports lazily must be among them (only
+    ``hila eval``'s statistics, never run by the studio, are left out)."""
+    import re
+
+    from hila_lang.studio import app
+
+    root = Path(__file__).resolve().parents[1] / "hila_lang"
+    lazy = set()
+    for path in root.rglob("*.py"):
+        for m in re.finditer(r"^[ \t]+(?:from\s+(scipy[\w.]*)\s+import|import\s+(cv2|scipy[\w.]*))", path.read_text(), re.M):
+            lazy.add(m.group(1) or m.group(2))
+    assert {"scipy.spatial", "cv2"} <= lazy  # the scan sees them
+    assert lazy - set(app.THREAD_IMPORTS) <= {"scipy.stats"}, lazy - set(app.THREAD_IMPORTS)
+    code = (f"import sys\nsys.path.insert(0, {str(root.parent)!r})\n"
+            "import threading, importlib\nfrom hila_lang.studio import app\napp.import_for_threads()\n"
+            "errors = []\nbarrier = threading.Barrier(len(app.THREAD_IMPORTS))\n"
+            "def go(name):\n    barrier.wait()\n    try:\n        importlib.import_module(name)\n"
+            "    except Exception as exc:\n        errors.append(repr(exc))\n"
+            "threads = [threading.Thread(target=go, args=(n,)) for n in app.THREAD_IMPORTS]\n"
+            "[t.start() for t in threads]; [t.join() for t in threads]\nprint(errors)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "[]", out.stdout + out.stderr

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import importlib
 import socket
 import sys
 import threading
@@ -133,6 +134,24 @@ def _server_class():
     return Server
 
 
+#: third-party packages the server's threads would otherwise import lazily (checking a program, a
+#: world's scene image, a run in PyBullet): imported once in the main thread before serving.  Two
+#: threads importing parts of SciPy (or OpenCV) for the first time at once can each find the
+#: other's module half imported (circular imports inside SciPy): a CI run's page failed with
+#: "cannot import name 'PytestTester' from partially initialized module 'scipy._lib._testutils'",
+#: and 8 threads importing these at once failed in 2 of 6 fresh processes here.
+THREAD_IMPORTS = ("scipy.sparse", "scipy.linalg", "scipy.spatial", "scipy.spatial.transform", "scipy.spatial.distance",
+                  "scipy.interpolate", "scipy.optimize", "scipy.ndimage", "scipy.signal", "cv2")
+
+
+def import_for_threads() -> None:
+    """Import :data:`THREAD_IMPORTS` now (in this thread); a package that is not installed is left
+    to the code that needs it (its own error names it)."""
+    for name in THREAD_IMPORTS:
+        with contextlib.suppress(ImportError):
+            importlib.import_module(name)
+
+
 def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str | None = None) -> int:
     """Bind 127.0.0.1:``port`` (0: a free one), print the URL line, serve until Ctrl-C.
 
@@ -167,6 +186,7 @@ def serve(folder: Path, port: int = 0, *, open_browser: bool = False, token: str
     config = uvicorn.Config(make_app(folder, token, port), log_level="warning", lifespan="off",
                             ws_max_size=MAX_UPLOAD, timeout_graceful_shutdown=SHUTDOWN_S)
     config.load()
+    import_for_threads()
     url = f"http://127.0.0.1:{port}/?token={token}"
     print(f"hila studio: {url}", flush=True)
     print(f"serving {folder.resolve()} (Ctrl-C to stop)", flush=True)
