@@ -17,8 +17,8 @@ simulator and renderer --
   sensor, :func:`hila_lang.robot.lens.sensor_window`), every other image (a look at the board,
   the output folder's pictures) is a whole eye image through the lens.
 
-``floor = start-up + steps x step + glances x glance + images x image``; ``ratio = wall / floor``
-(goal <= 1.5).  The unit costs are sampled before the single games, between them and after them
+``floor = start-up + steps x step + glances x glance + images x image`` per game; ``ratio = wall /
+floor`` (goal <= 1.5).  The unit costs are sampled before the single games, between them and after them
 (a start-up process, 5 x 1000 bare steps, 7 whole eye images and 7 of the game's fovea glances
 -- each with its eye, its fovea and the arm where it was -- each time, in the counted game's
 scene kept open), and their
@@ -39,8 +39,12 @@ Beside the floor it prints where the in-process game's time went: the stepping l
 rendering, the robot's looks at the board and its glances (each with the part spent taking eye
 images; the rest is the robot's processing of them), writing the outputs.
 
-``wall`` is the median of the single games (all seeds play the same opening against minimax
-when the robot starts, so their counts are alike; the floor's counts come from seed 0).
+Every single game is set against its own floor: the seeds' scenes differ, and so do their counts
+(seeds 0-2: 6442, 7466 and 5800 steps; 105, 110 and 105 glances), so each seed is also played
+once in process to count them (a floor counted on seed 0 alone made seed 1's game look 16 % of
+its steps slower than it was).  ``wall`` and ``floor`` in the last line are the medians over the
+seeds, ``ratio`` the median of the per-game ratios; ``steps``, ``glances`` and ``images`` are
+seed 0's counts (the line above prints each seed's).
 """
 
 from __future__ import annotations
@@ -49,7 +53,6 @@ import argparse
 import io
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -69,16 +72,34 @@ def rss_mb() -> float:
     return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
+#: ``python -m hila_lang ARGS`` that writes its own peak resident memory (VmHWM, kB) to a file as
+#: it exits.  The child's rusage cannot say it: Linux keeps a process's largest RSS across exec,
+#: and the child was forked from this process, which holds the counted games (448 MB read as a
+#: game's peak when a game's own was 264-319 MB).
+PEAK_CHILD = """
+import runpy, sys
+peak_file, sys.argv = sys.argv[1], ["hila", *sys.argv[2:]]
+try:
+    runpy.run_module("hila_lang", run_name="__main__", alter_sys=True)
+finally:
+    with open("/proc/self/status") as fh:
+        peak = next(line.split()[1] for line in fh if line.startswith("VmHWM:"))
+    with open(peak_file, "w") as fh:
+        fh.write(peak)
+"""
+
+
 def one_process_game(seed: int, opponent: str, out: Path) -> tuple[float, float, dict]:
     """Wall time (s), the child's peak RSS (MB) and the report of one ``hila exec`` run."""
     args = [str(PROGRAM), "--seed", str(seed), "--opponent", opponent, "--out", str(out), "--quiet"]
-    cmd = [sys.executable, "-m", "hila_lang", "exec", *args]
+    peak_file = out.parent / f"peak{seed}.txt"
+    cmd = [sys.executable, "-c", PEAK_CHILD, str(peak_file), "exec", *args]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise SystemExit(f"game failed (exit {proc.returncode}):\n{proc.stderr}")
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1e3  # KB -> MB (max over children)
+    peak = int(peak_file.read_text()) / 1e3  # kB -> MB
     return wall, peak, json.loads((out / "report.json").read_text())
 
 
@@ -159,6 +180,16 @@ def counted_game(seed: int, out: Path):
                     "render_s": stats["render_seconds"], "timed": timed}
 
 
+def seed_counts(seed: int, out: Path) -> tuple[int, int, int]:
+    """(simulator steps, fovea glances, whole eye images incl. the output folder's) of game ``seed``."""
+    from hila_lang.session.runner import finish
+
+    interp, counts = counted_game(seed, out)
+    renders = interp.backend.stats["renders"]
+    finish(interp)  # closes its back end
+    return counts["steps"], counts["glances"], counts["images"] + interp.backend.stats["renders"] - renders
+
+
 class Probe:
     """The floor's unit costs, sampled again and again in the counted game's scene: a start-up
     process, a bare ``stepSimulation`` (5 x 1000, the arm held), a whole eye image (7, the eyes
@@ -236,11 +267,15 @@ def main(argv: list[str] | None = None) -> int:
 
         interp, counts = counted_game(0, tmp / "counted")
         probe = Probe(interp, tmp, counts.pop("glance_views"))
+        # every game against its own floor: the seeds' scenes differ, and so do their counts
+        # (seeds 0-2: 6442, 7466, 5800 steps; 105, 110, 105 glances)
+        tallies = {seed: seed_counts(seed, tmp / f"counted{seed}") for seed in range(1, args.games)}
         probe.sample()
         walls, r_all = [], []
         peak = 0.0
         for seed in range(args.games):
-            wall, peak, report = one_process_game(seed, "minimax", tmp / f"g{seed}")
+            wall, game_peak, report = one_process_game(seed, "minimax", tmp / f"g{seed}")
+            peak = max(peak, game_peak)
             walls.append(wall)
             r_all += [m["r"] for m in report["marks"] if m["r"] is not None]
             print(f"game seed={seed}: wall {wall:.2f} s, result {report['result']}, "
@@ -254,9 +289,11 @@ def main(argv: list[str] | None = None) -> int:
         finish(interp)  # the output folder: its pictures are eye images too (eye.png) or top views
         counts["outputs_s"] = time.perf_counter() - a
         counts["images"] += interp.backend.stats["renders"] - renders
+        tallies[0] = (counts["steps"], counts["glances"], counts["images"])
         start, step, glance, image = probe.costs()
         counts.update(step_s=step, glance_s=glance, image_s=image)
-        floor = start + counts["steps"] * step + counts["glances"] * glance + counts["images"] * image
+        floors = {seed: start + n * step + g * glance + i * image for seed, (n, g, i) in tallies.items()}
+        floor = floors[0]
         print(f"floor: start-up {start:.2f} s + {counts['steps']} steps x {step * 1e3:.3f} ms "
               f"+ {counts['glances']} fovea glances x {glance * 1e3:.1f} ms "
               f"+ {counts['images']} whole images x {image * 1e3:.1f} ms = {floor:.2f} s (medians of "
@@ -281,9 +318,15 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"series game {k + 1:3d}: {wall:5.2f} s, RSS {rss:7.1f} MB, {report['result']}", flush=True)
             if len(rows) >= 3:  # growth after the first game (which loads everything)
                 growth = (rows[-1][1] - rows[1][1]) / (len(rows) - 2)
+        ratios = [w / floors[seed] for seed, w in enumerate(walls)]
+        for seed, w in enumerate(walls):
+            n, g, i = tallies[seed]
+            print(f"game seed={seed}: wall {w:.2f} s against its floor {floors[seed]:.2f} s ({n} steps, {g} glances, "
+                  f"{i} whole images): {ratios[seed]:.2f}")
         wall = float(np.median(walls))
         print(f"load average {os.getloadavg()[0]:.2f} at the end")
-        print(f"game wall={wall:.2f} floor={floor:.2f} ratio={wall / floor:.2f} startup={start:.2f} "
+        print(f"game wall={wall:.2f} floor={float(np.median(list(floors.values()))):.2f} ratio={float(np.median(ratios)):.2f} "
+              f"startup={start:.2f} "
               f"steps={counts['steps']}x{counts['step_s'] * 1e3:.3f}ms glances={counts['glances']}x"
               f"{counts['glance_s'] * 1e3:.1f}ms images={counts['images']}x"
               f"{counts['image_s'] * 1e3:.1f}ms peak={peak:.0f} series={args.series} failed={failed} "
