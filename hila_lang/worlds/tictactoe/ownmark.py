@@ -255,22 +255,22 @@ class _Ink:
             fits = [starts[0][1:]]
             chains = [start[1:] for start in starts[:3]]
             for _ in range(ICP_ROUNDS):  # both ways' nearest points, then the best similarity for them
-                chains = [_similarity(np.vstack([ref.dense, ref.dense[gaps[3]]]),
-                                      np.vstack([self.points[gaps[2]], self.points]))
-                          for gaps in self._gaps(ref, chains)]
+                chains = [self._refit(ref, gaps) for gaps in self._gaps(ref, chains)]
             fits.extend(chains)
         finally:
             self.points, self.tree = full
         every = self._gaps(ref, fits)
         costs = [self._cost(gaps) for gaps in every]
         best = int(np.argmin(costs))
-        gaps = every[best]  # the best fit's nearest points, already found
-        for finish in range(2):  # the best fit, finished on all the ink
-            if finish:
-                (gaps,) = self._gaps(ref, [(scale, rot, shift)])
-            scale, rot, shift = _similarity(np.vstack([ref.dense, ref.dense[gaps[3]]]),
-                                            np.vstack([self.points[gaps[2]], self.points]))
-        return min(costs[best], self._cost(self._gaps(ref, [(scale, rot, shift)])[0]))
+        # the best fit, finished on all the ink in two rounds (the first from its nearest points, already found)
+        fit = self._refit(ref, every[best])
+        fit = self._refit(ref, self._gaps(ref, [fit])[0])
+        return min(costs[best], self._cost(self._gaps(ref, [fit])[0]))
+
+    def _refit(self, ref: Reference, gaps) -> tuple:
+        """The similarity that lays ``ref`` best on the ink for the nearest points ``gaps`` (both
+        ways, :meth:`_gaps`): one ICP round."""
+        return _similarity(np.vstack([ref.dense, ref.dense[gaps[3]]]), np.vstack([self.points[gaps[2]], self.points]))
 
 
 def _similarity(source: np.ndarray, target: np.ndarray):
