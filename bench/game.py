@@ -180,14 +180,23 @@ def counted_game(seed: int, out: Path):
                     "render_s": stats["render_seconds"], "timed": timed}
 
 
-def seed_counts(seed: int, out: Path) -> tuple[int, int, int]:
-    """(simulator steps, fovea glances, whole eye images incl. the output folder's) of game ``seed``."""
+def finish_counted(interp, counts: dict) -> tuple[int, int, int]:
+    """Write the counted game's output folder (its pictures are eye images too, eye.png, or top
+    views; the back end is closed), adding them and the time it took to ``counts``; returns
+    (simulator steps, fovea glances, whole eye images)."""
     from hila_lang.session.runner import finish
 
-    interp, counts = counted_game(seed, out)
     renders = interp.backend.stats["renders"]
-    finish(interp)  # closes its back end
-    return counts["steps"], counts["glances"], counts["images"] + interp.backend.stats["renders"] - renders
+    a = time.perf_counter()
+    finish(interp)
+    counts["outputs_s"] = time.perf_counter() - a
+    counts["images"] += interp.backend.stats["renders"] - renders
+    return counts["steps"], counts["glances"], counts["images"]
+
+
+def seed_counts(seed: int, out: Path) -> tuple[int, int, int]:
+    """(simulator steps, fovea glances, whole eye images incl. the output folder's) of game ``seed``."""
+    return finish_counted(*counted_game(seed, out))
 
 
 class Probe:
@@ -263,8 +272,6 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         print(f"load average {os.getloadavg()[0]:.2f} at start ({os.cpu_count()} cores, shared)", flush=True)
-        from hila_lang.session.runner import finish
-
         interp, counts = counted_game(0, tmp / "counted")
         probe = Probe(interp, tmp, counts.pop("glance_views"))
         # every game against its own floor: the seeds' scenes differ, and so do their counts
@@ -284,12 +291,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"max {report['tracking_error_mm']['max']:.3f} mm, "
                   f"R min {min(m['r'] for m in report['marks']):.4f}", flush=True)
             probe.sample()
-        renders = interp.backend.stats["renders"]
-        a = time.perf_counter()
-        finish(interp)  # the output folder: its pictures are eye images too (eye.png) or top views
-        counts["outputs_s"] = time.perf_counter() - a
-        counts["images"] += interp.backend.stats["renders"] - renders
-        tallies[0] = (counts["steps"], counts["glances"], counts["images"])
+        tallies[0] = finish_counted(interp, counts)
         start, step, glance, image = probe.costs()
         counts.update(step_s=step, glance_s=glance, image_s=image)
         floors = {seed: start + n * step + g * glance + i * image for seed, (n, g, i) in tallies.items()}
