@@ -82,3 +82,17 @@ def test_processes_building_at_once_all_parse_and_leave_a_whole_file(cache, capl
     assert [p.returncode for p in procs] == [0, 0, 0, 0] and len(outs) == 1 and int(outs.pop()) > 0
     assert len(list(cache.glob("parser-*"))) == 1
     assert _parse_all(caplog)[2]  # loaded, not built again
+
+
+def test_a_file_system_without_locks_still_parses(cache, caplog, monkeypatch):
+    """``flock`` refused (ENOLCK on some network file systems): the parser is built and cached
+    without the lock, not a traceback."""
+    import fcntl
+
+    def refuse(*_):
+        raise OSError(37, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", refuse)
+    built, _, was_loaded = _parse_all(caplog)
+    assert built and not was_loaded
+    assert _parse_all(caplog)[2]  # and read from the cache the next time

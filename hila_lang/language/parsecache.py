@@ -65,16 +65,18 @@ def _locked(final: Path | None):
     """The cache folder's lock (``.lock`` beside ``final``, flock, exclusive) held while inside;
     nothing when there is no cache or no lock can be taken (then lark's own check of what it
     reads, which builds again from a file it cannot load, is what is left)."""
+    fh = None
     try:
         # lazy: POSIX only; elsewhere the cache is used without the lock
         import fcntl
 
-        fh = open(final.parent / ".lock", "a") if final is not None else None  # noqa: SIM115 - closed below
-    except (ImportError, OSError):
-        fh = None
-    if fh is None:
+        if final is not None:
+            fh = open(final.parent / ".lock", "a")  # noqa: SIM115 - closed below (which unlocks it)
+            fcntl.flock(fh, fcntl.LOCK_EX)
+    except (ImportError, OSError):  # no fcntl, a folder not writable, a file system without locks
+        pass
+    try:
         yield
-        return
-    with fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        yield
+    finally:
+        if fh is not None:
+            fh.close()
