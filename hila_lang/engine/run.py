@@ -85,6 +85,13 @@ class RunExecutor(Executor):
         icps = [k for k in t.icps if k not in (START, END)]
         out: dict[str, np.ndarray | None] = {}
         spread = None
+        seen: list[dict] = []  # the world's points, asked once for all of a group's names
+
+        def lookup(name: str):
+            if not seen:
+                seen.append(scene.world.points())
+            return scene.lookup(name, seen[0])
+
         for icp, expr in st.bindings:
             if icp == A.SPREAD:
                 spread = expr
@@ -94,12 +101,12 @@ class RunExecutor(Executor):
                 prefix = scene.reference(expr)
                 for k in t.icps:
                     if k.startswith(icp + "."):
-                        out[k] = scene.lookup(f"{prefix}.{k[len(icp) + 1:]}")
+                        out[k] = lookup(f"{prefix}.{k[len(icp) + 1:]}")
         if spread is not None:
             prefix = scene.reference(spread)
             for k in icps:
                 if k not in out:
-                    out[k] = scene.lookup(f"{prefix}.{k}")
+                    out[k] = lookup(f"{prefix}.{k}")
         return out
 
     def bind(self, st) -> dict[str, np.ndarray]:

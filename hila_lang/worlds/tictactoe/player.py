@@ -38,6 +38,7 @@ import numpy as np
 from ...core.errors import HilaRuntimeError
 from . import rules as ttt
 from .board import cell_at, cell_corners, cell_number, Grid
+from .ownmark import KeptReadings
 from .reading import read_board
 from .tracking import SheetTracker
 from .vision import look_at_board, Memory, Table, TABLE_PRIOR_BELOW_GAZE
@@ -98,6 +99,9 @@ class Player:
     mark : OwnMark or None
         Its own mark, as its program draws it (:class:`.ownmark.OwnMark`; the world sets it when
         the program is known); None: any mark it sees is the opponent's.
+    readings : KeptReadings or None
+        Its mark with the memory its looks read cells through (:class:`.ownmark.KeptReadings`:
+        a cell's sure reading kept while its ink stays the same); None before its first look.
     """
 
     def __init__(self, first: str, park: np.ndarray, *, eyes=None, hand: Hand | None = None,
@@ -113,6 +117,7 @@ class Player:
         self.own: list[int] = []
         self.choice: int | None = None
         self.mark = None
+        self.readings = None
         self._blind_board: ttt.Board = ttt.empty_board()
         self._since = 0
         self._stale = True
@@ -163,8 +168,10 @@ class Player:
         last = self.sightings[-1] if self.sightings else None
         memory = Memory(None if last is None else tuple(last["board"]), None if last is None else self._since)
 
+        if self.mark is not None and (self.readings is None or self.readings.mark is not self.mark):
+            self.readings = KeptReadings(self.mark)
         seen = look_at_board(self.eyes, self.hand, self.table, memory, self.lift_point(), self.aside_point(),
-                             read=partial(read_board, own=self.mark))
+                             read=partial(read_board, own=None if self.mark is None else self.readings))
         entry = {"look": len(self.sightings) + 1, "marks_made": self._since, "board": seen.board,
                  "corners": seen.corners, "center": seen.center, "views": seen.views, "arm": seen.arm,
                  "unsure": seen.unsure, "doubts": seen.doubts, "surface_z": seen.surface_z,

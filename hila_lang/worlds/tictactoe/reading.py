@@ -390,7 +390,9 @@ def read_board(image, surface_z: float, *, resolution: float = RESOLUTION, min_c
         The camera's own robot as capsules (points, radius), world frame, metres: what they
         cover is hidden, neither paper nor ink (:meth:`hila_lang.robot.eyes.Eyes.body_outline`).
     own : OwnMark, optional
-        The robot's own mark (:class:`.ownmark.OwnMark`); None: every mark is the opponent's.
+        The robot's own mark (:class:`.ownmark.OwnMark`, or :class:`.ownmark.KeptReadings`,
+        which keeps a cell's sure reading from one read to the next while its ink stays the
+        same); None: every mark is the opponent's.
 
     Returns
     -------
@@ -600,7 +602,7 @@ def _read_marks(mark, seen, frame, lines, own=None, box=None):
             x0, y0 = stats[ks, 0].min(), stats[ks, 1].min()
             x1, y1 = (stats[ks, 0] + stats[ks, 2]).max(), (stats[ks, 1] + stats[ks, 3]).max()
             ink = np.isin(labels[y0:y1, x0:x1], ks)
-            seen_as, conf, distance = own.classify(ink, res)
+            seen_as, conf, distance = own.classify(ink, res, place=cellno)
             marks.append(seen_as)
         distances.append(distance)
         h_frac = float(hidden[cellno])

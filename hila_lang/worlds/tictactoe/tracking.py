@@ -139,10 +139,11 @@ class SheetTracker:
         ys, xs = np.nonzero(grid_ink)
         return np.column_stack([origin[0] + xs * RESOLUTION, origin[1] - ys * RESOLUTION])
 
-    def register(self, xy: np.ndarray) -> tuple[float, np.ndarray, int, int] | None:
+    def register(self, xy: np.ndarray, search: bool = True) -> tuple[float, np.ndarray, int, int] | None:
         """The motion of the grid since :attr:`corners` that lays its lines on the ink ``xy``
         (N, 2): (turn, shift (2,) in the grid's frame, inliers, inliers of the weaker direction),
-        or None when too little of the grid is seen."""
+        or None when too little of the grid is seen.  Without ``search`` only near where the grid
+        was: None when too little of the ink lies on its lines there."""
         m0 = self._local(xy)
         near = self.distances(m0)[0] < SEARCH + self.spacing
         m0 = m0[near]
@@ -151,6 +152,8 @@ class SheetTracker:
         phi, tau = 0.0, np.zeros(2)
         count, weak = self._inliers(m0, phi, tau)
         if count < MIN_INLIERS or weak < MIN_INLIERS / 4:  # the grid is not where it was: look for it
+            if not search:
+                return None
             phi, tau = self._search(m0)
         for _ in range(12):
             phi, tau = self._refine(m0, phi, tau, GATE)
@@ -228,14 +231,22 @@ class SheetTracker:
         found, eye, whole = None, None, False
         for region in (self.fovea(), None):  # the whole images only when the fovea showed no grid
             whole = region is None
-            for which in self.eyes_order:  # the other eye only when this one sees too little of the grid
-                try:
-                    fit = self.register(self.ink(eyes.camera_image(which, region=region)))
-                except InputError as exc:
-                    fit, note["why"] = None, str(exc).splitlines()[0]
-                if fit is not None and (found is None or fit[2] > found[2]):
-                    found, eye = fit, which
-                if found is not None and found[2] >= GOOD_INLIERS:
+            inks: dict = {}  # eye -> the grid ink it saw (None: its image showed no sheet)
+            # near where the grid was first; a search (a jump) only when no eye sees it there: an
+            # eye that does says the grid did not jump, and the other is partly hidden (the arm)
+            for search in (False, True):
+                for which in self.eyes_order:  # the other eye only when this one sees too little of the grid
+                    if which not in inks:
+                        try:
+                            inks[which] = self.ink(eyes.camera_image(which, region=region))
+                        except InputError as exc:
+                            inks[which], note["why"] = None, str(exc).splitlines()[0]
+                    fit = None if inks[which] is None else self.register(inks[which], search=search)
+                    if fit is not None and (found is None or fit[2] > found[2]):
+                        found, eye = fit, which
+                    if found is not None and found[2] >= GOOD_INLIERS:
+                        break
+                if found is not None:
                     break
             if found is not None:
                 break
