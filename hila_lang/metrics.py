@@ -74,15 +74,13 @@ def resample(path: Any, n: int) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n, D)
-        ``scipy.interpolate.CubicSpline`` (not-a-knot) through the T points at u = 0..1; the
-        first and last points are kept exactly.  T = 1 repeats the point; T = 2 is linear.
-        The spline is linear in the points: for T × n up to :data:`MATRIX_LIMIT` it is applied
-        as a cached (n, T) matrix (the same numbers to rounding, without building a spline per
+        The not-a-knot cubic spline (``scipy.interpolate.CubicSpline``'s default, the same
+        numbers to rounding: :func:`_spline`) through the T points at u = 0..1; the first and
+        last points are kept exactly.  T = 1 repeats the point; T = 2 is linear, T = 3 the
+        parabola.  The spline is linear in the points: for T × n up to :data:`MATRIX_LIMIT` it
+        is applied as a cached (n, T) matrix (the same numbers to rounding, without solving per
         call — ``hila eval`` resamples thousands of paths of a few dozen lengths).
     """
-    # lazy: loads scipy, which importing this module does not
-    from scipy.interpolate import CubicSpline
-
     arr = _as_path(path, "path")
     n = check_int(n, "n", minimum=1)
     T = arr.shape[0]
@@ -93,10 +91,46 @@ def resample(path: Any, n: int) -> np.ndarray:
     if T * n <= MATRIX_LIMIT:
         out = _resampling_matrix(T, n) @ arr
     else:
-        u = np.linspace(0.0, 1.0, T)
-        out = CubicSpline(u, arr, axis=0)(np.linspace(0.0, 1.0, n))
+        out = _spline(arr, n)
     out[0], out[-1] = arr[0], arr[-1]
     return out
+
+
+def _spline(y: np.ndarray, n: int) -> np.ndarray:
+    """The not-a-knot cubic spline through ``y`` (T, D) at T equally spaced knots on 0..1,
+    evaluated at ``n`` equally spaced points (n, D).  Without ``scipy.interpolate``: a game scores
+    its marks with it, and importing that (it brings ``scipy.optimize``) cost a game 0.1 s.
+
+    With equal spacing h the second derivatives M solve M[i-1] + 4 M[i] + M[i+1] = 6 Δ²y[i] / h²
+    inside; not-a-knot (the third derivative continuous at the second and the last-but-one knot)
+    is M[0] - 2 M[1] + M[2] = 0 and its mirror, which turn the first and last of those rows into
+    6 M[1] = 6 Δ²y[1] / h² and 6 M[T-2] = 6 Δ²y[T-2] / h²: a tridiagonal system (LAPACK's banded
+    solver, through ``scipy.linalg``, which the k-d trees have loaded already)."""
+    T = len(y)
+    h = 1.0 / (T - 1)
+    if T == 2:
+        m = np.zeros_like(y)
+    elif T == 3:  # one interval's worth of freedom: the parabola (constant second derivative)
+        m = np.repeat(((y[0] - 2.0 * y[1] + y[2]) / h ** 2)[None, :], 3, axis=0)
+    else:
+        # lazy: loads scipy, which importing this module does not
+        from scipy.linalg import solve_banded
+
+        k = T - 2
+        bands = np.empty((3, k))
+        bands[0], bands[1], bands[2] = 1.0, 4.0, 1.0  # above the diagonal, on it, below it
+        bands[1, [0, -1]] = 6.0
+        bands[0, 1] = bands[2, -2] = 0.0  # row 0's M[2] and row k-1's M[k-3]: gone with not-a-knot
+        inner = solve_banded((1, 1), bands, 6.0 * (y[:-2] - 2.0 * y[1:-1] + y[2:]) / h ** 2)
+        m = np.empty_like(y)
+        m[1:-1] = inner
+        m[0] = 2.0 * m[1] - m[2]
+        m[-1] = 2.0 * m[-2] - m[-3]
+    x = np.linspace(0.0, 1.0, n) / h
+    k = np.minimum(np.floor(x).astype(int), T - 2)
+    t = (x - k)[:, None]
+    s = 1.0 - t
+    return s * y[k] + t * y[k + 1] + (h * h / 6.0) * ((s ** 3 - s) * m[k] + (t ** 3 - t) * m[k + 1])
 
 
 #: paths with T × n at most this resample through a cached matrix (:func:`_resampling_matrix`):
@@ -116,10 +150,7 @@ def resample_in_time(t: np.ndarray, pos: np.ndarray, rate: float) -> np.ndarray:
 def _resampling_matrix(T: int, n: int) -> np.ndarray:
     """The (n, T) matrix of :func:`resample`: the spline is linear in the points, so its columns
     are the splines through the unit vectors (built once per pair of lengths, then a product)."""
-    # lazy: loads scipy, which importing this module does not
-    from scipy.interpolate import CubicSpline
-
-    out = CubicSpline(np.linspace(0.0, 1.0, T), np.eye(T), axis=0)(np.linspace(0.0, 1.0, n))
+    out = _spline(np.eye(T), n)
     out.flags.writeable = False
     return out
 

@@ -114,13 +114,26 @@ def test_resampling_through_the_cached_matrix_equals_the_spline():
     from hila_lang.metrics import MATRIX_LIMIT
 
     rng = np.random.default_rng(11)
-    for T, n in ((2, 7), (5, 3), (40, 64), (64, 40), (700, 900)):
+    for T, n in ((2, 7), (3, 11), (4, 9), (5, 3), (40, 64), (64, 40), (700, 900), (4, 100_000)):
         path = rng.normal(size=(T, 3)).cumsum(0)
         want = CubicSpline(np.linspace(0, 1, T), path, axis=0)(np.linspace(0, 1, n))
         got = resample(path, n)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
         np.testing.assert_array_equal(got[[0, -1]], path[[0, -1]])
-    assert 700 * 900 > MATRIX_LIMIT  # the last case took the direct spline
+    assert 700 * 900 > MATRIX_LIMIT  # the last cases took the direct spline
+
+
+def test_resampling_needs_no_scipy_interpolate():
+    """A game scores its marks by resampling; ``scipy.interpolate`` (and the ``scipy.optimize``
+    it brings) is not loaded for it."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np; from hila_lang.metrics import resample; "
+            "resample(np.random.default_rng(0).normal(size=(700, 2)), 200); resample(np.eye(5), 9); "
+            "print(sorted(m for m in ('scipy.interpolate', 'scipy.optimize') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
 
 
 def test_scores_equal_the_single_metrics():

@@ -170,7 +170,7 @@ def test_a_glance_reads_its_fovea_first_and_the_whole_images_only_when_the_grid_
     half = 1.5 * tracker.spacing + FOVEA_MARGIN
     assert fovea.shape == (4, 3) and np.allclose(fovea[:, 2], known.surface_z)
     assert np.allclose(np.abs(tracker._local(fovea[:, :2])), half)
-    tracker.ink = lambda image: image
+    tracker.ink = lambda image, square=None: image
     grid_ink = _ink_of(known, rng)
     still = _GlanceEyes(fovea=grid_ink, whole=None)
     assert tracker.glance(still) is not None
@@ -240,3 +240,46 @@ def test_the_fit_step_is_the_weighted_least_squares_step():
     one = np.column_stack([np.full(50, s / 2 + 0.0001), np.linspace(-s, s, 50)])  # lines along far only
     got_phi, got_tau = tracker._refine(one, 0.0, np.zeros(2), GATE)
     assert got_tau[0] == pytest.approx(-0.0001, abs=1e-12) and got_tau[1] == 0.0 and abs(got_phi) < 1e-12
+
+
+class _TwoEyes(_GlanceEyes):
+    """Eyes whose fovea images differ: ``fovea`` maps an eye to what its region's image shows."""
+
+    def camera_image(self, eye="left", *, region=None):
+        self.calls.append((eye, None if region is None else np.array(region)))
+        return self.whole if region is None else self.fovea[eye]
+
+
+@pytest.mark.parametrize("jump", [0.0, 0.012])
+def test_a_glance_searches_for_the_grid_only_when_no_eye_sees_it_where_it_was(jump):
+    """One eye sees the grid in place (too few lines for a sure fit), the other only the lines of
+    one direction (the arm hides the rest): that eye's view alone would send it searching for a
+    jump, but the first eye says the grid did not jump -- no search, the first eye's fit.  When
+    the grid did jump beyond the fit's reach, no eye sees it in place and the search finds it."""
+    from dataclasses import replace
+
+    from hila_lang.worlds.tictactoe.tracking import GOOD_INLIERS, MIN_INLIERS
+
+    rng = np.random.default_rng(5)
+    known = Grid.game()
+    now = replace(known, grid_center=tuple(np.add(known.grid_center, (jump, -jump / 2))))
+    tracker = SheetTracker({c: cell_corners(known, c) for c in range(1, 10)}, known.surface_z)
+    tracker.ink = lambda image, square=None: image
+    searched = []
+    search = tracker._search
+    tracker._search = lambda m: searched.append(len(m)) or search(m)
+    sparse = _ink_of(now, rng, n_per_line=70)  # the whole grid, thinly
+    dense = _ink_of(now, rng)
+    d, kind = tracker.distances(tracker._local(dense))
+    one_way = dense[(d < GATE) & (kind == 0)]  # one direction's lines only
+    for eye, pts in (("left", sparse), ("right", one_way)):
+        count, weak = tracker._inliers(tracker._local(pts), 0.0, np.zeros(2))
+        if jump == 0.0:  # the premise: a sure fit for neither, and the right eye's alone would search
+            assert (MIN_INLIERS <= count < GOOD_INLIERS) if eye == "left" else (count >= MIN_INLIERS and weak == 0)
+    eyes = _TwoEyes(fovea={"left": sparse, "right": one_way}, whole=None)
+    assert tracker.glance(eyes) is not None
+    note = tracker.glances[-1]
+    assert note["seen"] and note["eye"] == "left" and not note["whole_image"]
+    assert [e for e, _ in eyes.calls] == ["left", "right"]  # each eye's image once, searched or not
+    assert bool(searched) == (jump > 0)
+    assert np.linalg.norm(tracker.centre[:2] - np.asarray(now.grid_center)) < 1e-3

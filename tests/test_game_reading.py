@@ -214,3 +214,40 @@ def test_marks_read_in_the_box_equal_the_marks_read_in_the_whole_view(scene, eye
         assert getattr(in_box, name) == getattr(whole, name), name
     (rows, cols), (h, w) = boxes[0]
     assert (rows.stop - rows.start) * (cols.stop - cols.start) < 0.8 * h * w
+
+
+def test_a_known_square_is_read_as_the_whole_sheet_reads_it():
+    """:func:`rectify_square` (a glance's fovea: where to look is known) gives the grid ink that
+    :func:`rectify` (the whole sheet, found in the image) gives there: the same pixels to within a
+    pixel both ways, on a lattice fixed to the world, the paper as bright."""
+    from scipy.spatial import cKDTree
+
+    from hila_lang.worlds.tictactoe.reading import _ink_masks, rectify, rectify_square, sheet_level
+
+    spec, res = Grid.game(), 0.001
+    marks = ["X", "", "O", "", "", "", "", "X", ""]
+    with DemonstrationScene(spec, marks=marks, seed=2, marker=False) as world:
+        image = eye_image(world, spec)
+    c, h = np.asarray(spec.grid_center, float), 0.5 * spec.grid_size + 0.015
+    square = np.array([[c[0] + a * h, c[1] + b * h, spec.surface_z] for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+
+    def ink(top, origin, sheet):
+        level = sheet_level(top, sheet)
+        ys, xs = np.nonzero(_ink_masks(top, level, res)[0])
+        return level, np.column_stack([origin[0] + xs * res, origin[1] - ys * res])
+
+    top, origin, sheet, _ = rectify(image, spec.surface_z, res)
+    sq_top, sq_origin, sq_sheet = rectify_square(image, spec.surface_z, square, res)
+    assert np.allclose(sq_origin / res, np.round(sq_origin / res), atol=1e-6)  # the world's lattice
+    assert abs(sq_top.shape[1] - 2 * h / res) <= 1 and abs(sq_top.shape[0] - 2 * h / res) <= 1
+    level, whole = ink(top, origin, sheet)
+    sq_level, part = ink(sq_top, sq_origin, sq_sheet)
+    assert abs(sq_level - level) < 0.02 * level
+    # where both views look, 3 pixels inside their edges (a view's edge beyond the image is black)
+    lo = np.maximum([origin[0], origin[1] - top.shape[0] * res], c - h) + 3 * res
+    hi = np.minimum([origin[0] + top.shape[1] * res, origin[1]], c + h) - 3 * res
+    whole = whole[((whole > lo) & (whole < hi)).all(axis=1)]
+    part = part[((part > lo) & (part < hi)).all(axis=1)]
+    assert len(part) > 500 and abs(len(part) - len(whole)) < 0.05 * len(whole)
+    assert cKDTree(whole).query(part)[0].max() <= 1.5 * res
+    assert cKDTree(part).query(whole)[0].max() <= 1.5 * res

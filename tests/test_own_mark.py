@@ -348,3 +348,64 @@ def test_a_person_s_mark_plays_the_game_through_the_robot_s_eyes(tmp_path, monke
     last = vision["per_look"][-1]["board"]
     assert [last[c - 1] for c in robot] == ["O"] * len(robot)  # its marks, read by its eyes as its own
     assert all(m["r"] > 0.95 for m in report["marks"])
+
+
+# --------------------------------------------------------------------------- a mark once read
+
+
+class _Counting:
+    """An own mark that counts its comparisons and answers ``answer``."""
+
+    def __init__(self, answer):
+        self.answer, self.calls = answer, 0
+
+    def classify(self, mask, resolution, own="O", other="X", place=None):
+        self.calls += 1
+        return self.answer
+
+
+def test_a_sure_reading_is_kept_while_the_cell_holds_the_same_ink():
+    """The robot's looks read the same mark again and again: in its cell, ink a pixel off and a
+    little ragged (what the next look sees) keeps the sure reading; other ink there (a half hidden
+    by the arm, a cross), or the same ink read without a place, is compared anew."""
+    from hila_lang.worlds.tictactoe.ownmark import SAME_INK, KeptReadings, ink_overlap
+
+    own = mark_of(learned("triangle", "quick", 1))
+    ref = own.references[0]
+    mark = render([s * 0.8 for s in ref.strokes], 0.001, 0.003)
+    again = np.pad(mark, ((1, 0), (0, 2)))  # a pixel down, two right: the next look's crop
+    ys, xs = np.nonzero(again)
+    again[ys[::15], xs[::15]] = False  # a few pixels lost to noise
+    assert ink_overlap(mark, again) >= SAME_INK
+    half = mark.copy()
+    half[:, mark.shape[1] // 2:] = False
+    cross = render(cross_samples(1, seed=4)[0], 0.001, 0.003)
+    assert ink_overlap(mark, half) < SAME_INK and ink_overlap(mark, cross) < SAME_INK
+    assert ink_overlap(mark, np.zeros_like(mark)) == 0.0
+
+    kept = KeptReadings(own)
+    first = kept.classify(mark, 0.001, place=5)
+    assert first[0] == "O" and first[1] == 1.0
+    assert kept.classify(again, 0.001, place=5) == first and (kept.compared, kept.kept) == (1, 1)
+    assert kept.classify(again, 0.001, place=4) == own.classify(again, 0.001)  # another cell: compared
+    assert kept.classify(cross, 0.001, place=5)[0] == "X" and kept.compared == 3  # other ink: compared
+    assert kept.classify(mark, 0.001, place=5)[0] == "O" and kept.compared == 4
+    assert kept.classify(half, 0.001, place=5) == own.classify(half, 0.001) and kept.compared == 5
+    assert kept.classify(mark, 0.001) == first and kept.compared == 6  # no place: no memory
+
+
+def test_an_unsure_reading_is_never_kept():
+    from hila_lang.worlds.tictactoe.ownmark import UNCLEAR, KeptReadings
+
+    mask = render([np.array([[0.0, 0.0], [0.02, 0.0], [0.02, 0.02]])], 0.001, 0.003)
+    for answer in ((UNCLEAR, 0.0, 0.02), ("O", 0.6, 0.009), ("X", 0.3, 0.033)):
+        counting = _Counting(answer)
+        kept = KeptReadings(counting)
+        for _ in range(3):
+            assert kept.classify(mask, 0.001, place=1) == answer
+        assert counting.calls == 3 and kept.kept == 0
+    sure = _Counting(("X", 1.0, 0.2))
+    kept = KeptReadings(sure)
+    for _ in range(3):
+        kept.classify(mask, 0.001, place=1)
+    assert sure.calls == 1 and kept.kept == 2

@@ -283,11 +283,8 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     med = np.median(ground, axis=0)
     lo = np.maximum(ground.min(axis=0), med - max_extent / 2) - 0.01
     hi = np.minimum(ground.max(axis=0), med + max_extent / 2) + 0.01
-    w, h = int(np.ceil((hi[0] - lo[0]) / resolution)), int(np.ceil((hi[1] - lo[1]) / resolution))
-    top_to_plane = np.array([[resolution, 0, lo[0]], [0, -resolution, hi[1]], [0, 0, 1]])
-    H = plane_to_image_homography(K, T, surface_z) @ top_to_plane
-    top = cv2.warpPerspective(rgb, H, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                              borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
+    top, H = _warp_top(rgb, K, T, surface_z, lo, hi, resolution)
+    h, w = top.shape[:2]
     level = median_level(_planes(rgb)[4][ys, xs])  # np.median(rgb[labels == best].max(axis=1)), by counting
     own = np.zeros((h, w), bool)
     if body:
@@ -297,6 +294,44 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     k = max(3, int(round(0.009 / resolution)) | 1)
     sheet = cv2.morphologyEx(paper, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
     return top, np.array([lo[0], hi[1]]), sheet.astype(bool), own
+
+
+def _warp_top(rgb: np.ndarray, K: np.ndarray, T: np.ndarray, surface_z: float, lo, hi, resolution: float):
+    """The top view (h, w, 3) of the plane z = ``surface_z`` from ``lo`` to ``hi`` (world x, y,
+    metres; row 0 at ``hi``'s y, column 0 at ``lo``'s x) in the pinhole image ``rgb`` (K, pose
+    ``T``), and the homography (3, 3) from its pixels to the image's."""
+    # lazy: loads cv2, which importing this module does not
+    import cv2
+
+    w, h = int(np.ceil((hi[0] - lo[0]) / resolution)), int(np.ceil((hi[1] - lo[1]) / resolution))
+    top_to_plane = np.array([[resolution, 0, lo[0]], [0, -resolution, hi[1]], [0, 0, 1]])
+    H = plane_to_image_homography(K, T, surface_z) @ top_to_plane
+    top = cv2.warpPerspective(rgb, H, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                              borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0))
+    return top, H
+
+
+def rectify_square(image, surface_z: float, square: np.ndarray, resolution: float = RESOLUTION):
+    """Top-down view of the part ``square`` (corners (n, 2+), world x, y, metres) of the plane
+    z = ``surface_z`` (``image`` undistorted first): what :func:`rectify` gives when where to look
+    is known -- no search for the sheet in the image.  The view spans the corners' bounding box
+    on a lattice of ``resolution`` fixed to the world (its origin a multiple of it).
+
+    Returns ``(top, origin, sheet)`` as :func:`rectify`'s first three; ``sheet`` (the paper,
+    closed over what is drawn on it) is judged by the view's own brightest neutral pixels."""
+    # lazy: loads cv2, which importing this module does not
+    import cv2
+
+    image = undistorted(image)
+    rgb = np.ascontiguousarray(np.asarray(image.rgb)[:, :, :3])
+    xy = np.asarray(square, dtype=float)[:, :2]
+    lo = np.floor(xy.min(axis=0) / resolution) * resolution
+    hi = np.ceil(xy.max(axis=0) / resolution) * resolution
+    top, _ = _warp_top(rgb, np.asarray(image.K, float), np.asarray(image.world_T_camera, float),
+                       float(surface_z), lo, hi, resolution)
+    k = max(3, int(round(0.009 / resolution)) | 1)
+    sheet = cv2.morphologyEx(_paper_mask(top).astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
+    return top, np.array([lo[0], hi[1]]), sheet.astype(bool)
 
 
 def _fill_holes(mask: np.ndarray) -> np.ndarray:

@@ -36,7 +36,7 @@ import time
 import numpy as np
 
 from ...core.errors import InputError
-from .reading import _ink_masks, rectify, sheet_level
+from .reading import _ink_masks, rectify, rectify_square, sheet_level
 from .referee import grid_at, pose_of
 
 #: pixels farther than this from every grid line do not pull the fit, metres
@@ -123,8 +123,9 @@ class SheetTracker:
         corners = [self.centre[:2] + a * h * self.right + b * h * self.far for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
         return np.array([[x, y, self.z] for x, y in corners])
 
-    def ink(self, image) -> np.ndarray:
-        """World (x, y) (N, 2) of the grid-ink pixels of one image on the table plane.
+    def ink(self, image, square: np.ndarray | None = None) -> np.ndarray:
+        """World (x, y) (N, 2) of the grid-ink pixels of one image on the table plane: of the
+        part ``square`` (the :meth:`fovea`) when given, else of all the sheet the image shows.
 
         The robot's own body is not masked out here (the board reader does): its outline is a
         set of generous capsules that hide much of the grid still in view around the hand, and
@@ -133,7 +134,10 @@ class SheetTracker:
         board.turn=10``): with the mask 98 of 125 glances saw the grid, and the robot was blind
         for a second at a time while drawing in cell 4; without it all 114 saw it, 0.52 mm median
         and 0.89 mm largest corner error."""
-        top, origin, sheet, _ = rectify(image, self.z, RESOLUTION)
+        if square is None:
+            top, origin, sheet, _ = rectify(image, self.z, RESOLUTION)
+        else:
+            top, origin, sheet = rectify_square(image, self.z, square, RESOLUTION)
         level = sheet_level(top, sheet) if sheet.any() else 240.0
         grid_ink, _ = _ink_masks(top, level, RESOLUTION)
         ys, xs = np.nonzero(grid_ink)
@@ -238,7 +242,7 @@ class SheetTracker:
                 for which in self.eyes_order:  # the other eye only when this one sees too little of the grid
                     if which not in inks:
                         try:
-                            inks[which] = self.ink(eyes.camera_image(which, region=region))
+                            inks[which] = self.ink(eyes.camera_image(which, region=region), region)
                         except InputError as exc:
                             inks[which], note["why"] = None, str(exc).splitlines()[0]
                     fit = None if inks[which] is None else self.register(inks[which], search=search)
