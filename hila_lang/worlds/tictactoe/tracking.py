@@ -11,14 +11,17 @@ grid (the right arm crosses the left eye's view), so reading the whole board
 grid against the grid it knows.  One eye's image (the left one first; the other when the first
 sees too little of the grid, and then whichever saw more goes first) -- only its fovea, the
 part of the sensor that sees the grid's square where the robot last saw it (:meth:`SheetTracker.fovea`),
-and the whole images only when no eye finds the grid there -- is rectified onto the table plane (:func:`.reading.rectify`), the grid's ink pixels are
+and the whole images only when no eye finds the grid there -- is rectified onto the table plane
+(the fovea's square of it, :func:`.reading.rectify_square`: where to look is known; a whole
+image all the sheet it shows, :func:`.reading.rectify`), the grid's ink pixels are
 picked as the reader picks them (dark, neutral, thin strokes; the robot's own body is not masked:
 :meth:`SheetTracker.ink` says why), and the planar rigid motion
 (a turn about the grid's centre and a shift) that lays the known grid lines (four segments) onto
 them is found: refined from where the grid was last (point-to-line Gauss-Newton on the pixels
 within :data:`GATE` of a line, Cauchy-weighted: a robot's dark edges near a line pull little),
-and when too few pixels fall near the lines there (a jump of the sheet) a search over shifts up
-to :data:`SEARCH` and turns up to :data:`SEARCH_TURN` finds the best overlap first.  A glance counts only with at least :data:`MIN_INLIERS` pixels near
+and when too few pixels fall near the lines there in every eye (a jump of the sheet: an eye that
+sees the grid in place says it did not jump, and the other one is partly hidden) a search over
+shifts up to :data:`SEARCH` and turns up to :data:`SEARCH_TURN` finds the best overlap first.  A glance counts only with at least :data:`MIN_INLIERS` pixels near
 lines of both directions; otherwise the robot keeps what it knew (and the glance says so).
 
 :class:`TicTacToeTracking` wires both sides to the engine (:mod:`hila_lang.engine.tracking`):
