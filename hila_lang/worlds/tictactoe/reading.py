@@ -212,7 +212,7 @@ def _ink_masks(rgb: np.ndarray, paper_level: float, resolution: float) -> tuple[
 
     r, g, b, lo, hi = _planes(rgb)
     gray = _total(r, g, b).astype(np.float32) / 3
-    k = max(3, int(round(0.009 / resolution)) | 1)
+    k = _stroke_kernel(resolution)
     blackhat = cv2.morphologyEx(gray, cv2.MORPH_BLACKHAT, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     stroke = blackhat > 0.25 * paper_level
     sat = cv2.subtract(hi, lo)
@@ -290,10 +290,8 @@ def rectify(image, surface_z: float, resolution: float = RESOLUTION, max_extent:
     if body:
         own = cv2.warpPerspective(own_body_mask(image, body).astype(np.uint8), H, (w, h),
                                   flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP).astype(bool)
-    paper = (_paper_mask(top, level) & ~own).astype(np.uint8)
-    k = max(3, int(round(0.009 / resolution)) | 1)
-    sheet = cv2.morphologyEx(paper, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
-    return top, np.array([lo[0], hi[1]]), sheet.astype(bool), own
+    sheet = _closed(_paper_mask(top, level) & ~own, resolution)
+    return top, np.array([lo[0], hi[1]]), sheet, own
 
 
 def _warp_top(rgb: np.ndarray, K: np.ndarray, T: np.ndarray, surface_z: float, lo, hi, resolution: float):
@@ -319,9 +317,6 @@ def rectify_square(image, surface_z: float, square: np.ndarray, resolution: floa
 
     Returns ``(top, origin, sheet)`` as :func:`rectify`'s first three; ``sheet`` (the paper,
     closed over what is drawn on it) is judged by the view's own brightest neutral pixels."""
-    # lazy: loads cv2, which importing this module does not
-    import cv2
-
     image = undistorted(image)
     rgb = np.ascontiguousarray(np.asarray(image.rgb)[:, :, :3])
     xy = np.asarray(square, dtype=float)[:, :2]
@@ -329,9 +324,22 @@ def rectify_square(image, surface_z: float, square: np.ndarray, resolution: floa
     hi = np.ceil(xy.max(axis=0) / resolution) * resolution
     top, _ = _warp_top(rgb, np.asarray(image.K, float), np.asarray(image.world_T_camera, float),
                        float(surface_z), lo, hi, resolution)
-    k = max(3, int(round(0.009 / resolution)) | 1)
-    sheet = cv2.morphologyEx(_paper_mask(top).astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8))
-    return top, np.array([lo[0], hi[1]]), sheet.astype(bool)
+    return top, np.array([lo[0], hi[1]]), _closed(_paper_mask(top), resolution)
+
+
+def _stroke_kernel(resolution: float) -> int:
+    """The side (pixels, odd, at least 3) of the ~9 mm neighbourhood that tells a stroke from
+    its paper: the ink masks' black-hat, and the sheet closed over what is drawn on it."""
+    return max(3, int(round(0.009 / resolution)) | 1)
+
+
+def _closed(paper: np.ndarray, resolution: float) -> np.ndarray:
+    """The paper (bool (h, w)) closed over what is drawn on it (holes up to ~9 mm), bool."""
+    # lazy: loads cv2, which importing this module does not
+    import cv2
+
+    k = _stroke_kernel(resolution)
+    return cv2.morphologyEx(paper.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool)
 
 
 def _fill_holes(mask: np.ndarray) -> np.ndarray:
