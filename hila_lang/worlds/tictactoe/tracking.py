@@ -230,6 +230,30 @@ class SheetTracker:
             step = np.linalg.lstsq(jw, -r * w, rcond=None)[0]
         return phi + float(step[0]), tau + step[1:]
 
+    def _fit_seen(self, eyes, region, note: dict) -> tuple[tuple | None, str | None]:
+        """The best fit (:meth:`register`) of the eyes' images of ``region`` (None: whole images),
+        and the eye that gave it; ``(None, None)`` when none sees the grid.  The other eye only when
+        this one sees too little of the grid; near where the grid was first, and a search (a jump)
+        only when no eye sees it there: an eye that does says the grid did not jump, and the other
+        is partly hidden (the arm).  Why an image showed nothing goes into ``note``."""
+        inks: dict = {}  # eye -> the grid ink it saw (None: its image showed no sheet)
+        found, eye = None, None
+        for search in (False, True):
+            for which in self.eyes_order:
+                if which not in inks:
+                    try:
+                        inks[which] = self.ink(eyes.camera_image(which, region=region), region)
+                    except InputError as exc:
+                        inks[which], note["why"] = None, str(exc).splitlines()[0]
+                fit = None if inks[which] is None else self.register(inks[which], search=search)
+                if fit is not None and (found is None or fit[2] > found[2]):
+                    found, eye = fit, which
+                if found is not None and found[2] >= GOOD_INLIERS:
+                    return found, eye
+            if found is not None:
+                return found, eye
+        return None, None
+
     def glance(self, eyes) -> dict | None:
         """One left-eye image: the grid's corners where the robot now sees it (and remembered as
         :attr:`corners`), or None (then :attr:`corners` are what it knew)."""
@@ -238,23 +262,7 @@ class SheetTracker:
         found, eye, whole = None, None, False
         for region in (self.fovea(), None):  # the whole images only when the fovea showed no grid
             whole = region is None
-            inks: dict = {}  # eye -> the grid ink it saw (None: its image showed no sheet)
-            # near where the grid was first; a search (a jump) only when no eye sees it there: an
-            # eye that does says the grid did not jump, and the other is partly hidden (the arm)
-            for search in (False, True):
-                for which in self.eyes_order:  # the other eye only when this one sees too little of the grid
-                    if which not in inks:
-                        try:
-                            inks[which] = self.ink(eyes.camera_image(which, region=region), region)
-                        except InputError as exc:
-                            inks[which], note["why"] = None, str(exc).splitlines()[0]
-                    fit = None if inks[which] is None else self.register(inks[which], search=search)
-                    if fit is not None and (found is None or fit[2] > found[2]):
-                        found, eye = fit, which
-                    if found is not None and found[2] >= GOOD_INLIERS:
-                        break
-                if found is not None:
-                    break
+            found, eye = self._fit_seen(eyes, region, note)
             if found is not None:
                 break
         if eye is not None and eye != self.eyes_order[0]:
