@@ -96,3 +96,21 @@ def test_a_file_system_without_locks_still_parses(cache, caplog, monkeypatch):
     built, _, was_loaded = _parse_all(caplog)
     assert built and not was_loaded
     assert _parse_all(caplog)[2]  # and read from the cache the next time
+
+
+@pytest.mark.parametrize("kind", ["fifo", "symlink"])
+def test_a_lock_file_that_is_not_a_file_is_left_alone(cache, caplog, tmp_path, kind):
+    """A FIFO put where the lock file goes does not hang the parser (opened without blocking), a
+    symlink there is not followed: the parser is built and cached without the lock."""
+    cache.mkdir(parents=True)
+    target = tmp_path / "elsewhere.txt"
+    if kind == "fifo":
+        os.mkfifo(cache / ".lock")
+    else:
+        target.write_text("keep")
+        (cache / ".lock").symlink_to(target)
+    built, _, was_loaded = _parse_all(caplog)
+    assert built and not was_loaded
+    assert _parse_all(caplog)[2]  # cached all the same
+    if kind == "symlink":
+        assert target.read_text() == "keep" and (cache / ".lock").is_symlink()

@@ -20,6 +20,8 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
+import stat
 import sys
 from pathlib import Path
 
@@ -65,18 +67,22 @@ def _locked(final: Path | None):
     """The cache folder's lock (``.lock`` beside ``final``, flock, exclusive) held while inside;
     nothing when there is no cache or no lock can be taken (then lark's own check of what it
     reads, which builds again from a file it cannot load, is what is left)."""
-    fh = None
+    fd = None
     try:
         # lazy: POSIX only; elsewhere the cache is used without the lock
         import fcntl
 
         if final is not None:
-            fh = open(final.parent / ".lock", "a")  # noqa: SIM115 - closed below (which unlocks it)
-            fcntl.flock(fh, fcntl.LOCK_EX)
+            # never through a symlink, never blocking on a FIFO put there: only a regular file locks
+            fd = os.open(final.parent / ".lock", os.O_WRONLY | os.O_CREAT | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0),
+                         0o644)
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                raise OSError(f"{final.parent / '.lock'} is not a regular file")
+            fcntl.flock(fd, fcntl.LOCK_EX)
     except (ImportError, OSError):  # no fcntl, a folder not writable, a file system without locks
         pass
     try:
         yield
     finally:
-        if fh is not None:
-            fh.close()
+        if fd is not None:
+            os.close(fd)  # which unlocks it
