@@ -242,6 +242,35 @@ def test_the_fit_step_is_the_weighted_least_squares_step():
     assert got_tau[0] == pytest.approx(-0.0001, abs=1e-12) and got_tau[1] == 0.0 and abs(got_phi) < 1e-12
 
 
+@pytest.mark.parametrize("shift, turn", [((0.002, -0.001), 0.7), ((0.0, 0.0), 0.0), ((0.004, 0.003), -1.5)])
+def test_the_fit_stops_once_a_round_moves_the_grid_less_than_its_step(shift, turn):
+    """The Gauss-Newton rounds stop when one moves no grid point by ``REFINE_STEP``: the fit is
+    then within that of where 60 rounds go (its steps shrink tenfold a round here), in fewer
+    rounds than the cap; a looser stop fails it (the first case is still 34 um off after two
+    rounds).  The last case is found by the search first (the grid moved beyond the first fit's
+    reach)."""
+    from dataclasses import replace
+
+    from hila_lang.worlds.tictactoe.tracking import REFINE_ROUNDS, REFINE_STEP, SEARCH
+
+    known = Grid.game()
+    now = replace(known, grid_center=tuple(np.add(known.grid_center, shift)),
+                  grid_rotation=known.grid_rotation + math.radians(turn))
+    tracker = SheetTracker({c: cell_corners(known, c) for c in range(1, 10)}, known.surface_z)
+    xy = _ink_of(now, np.random.default_rng(3))
+    refine, rounds = tracker._refine, []
+    tracker._refine = lambda *args: rounds.append(1) or refine(*args)
+    found = tracker.register(xy)
+    assert found is not None and 2 < len(rounds) < REFINE_ROUNDS
+    m = tracker._local(xy)
+    m = m[tracker.distances(m)[0] < SEARCH + tracker.spacing]
+    phi, tau = (0.0, np.zeros(2)) if turn != -1.5 else tracker._search(m)
+    for _ in range(60):
+        phi, tau = refine(m, phi, tau, GATE)
+    reach = 1.5 * math.sqrt(2.0) * tracker.spacing  # a grid corner's distance from the centre
+    assert abs(found[0] - phi) * reach + np.linalg.norm(found[1] - tau) < REFINE_STEP
+
+
 class _TwoEyes(_GlanceEyes):
     """Eyes whose fovea images differ: ``fovea`` maps an eye to what its region's image shows."""
 

@@ -60,6 +60,12 @@ SEARCH_TURN = 4.0
 FOVEA_MARGIN = 0.015
 #: the rectified view's pixel, metres
 RESOLUTION = 0.001
+#: the fit's Gauss-Newton rounds stop when a round moves no grid point by this much (metres), or
+#: after this many: its steps shrink by about half a round, so the answer is then within about
+#: the last step of where the rounds go (measured on the game's 105 glances, seed 0: 1e-6 m is
+#: reached after 7 rounds at the median; 12 rounds left 1e-7 m at the median, 1e-6 m at most)
+REFINE_STEP = 1e-6
+REFINE_ROUNDS = 12
 #: the eyes a glance tries, in turn (the iCub's right arm draws: it hides less from the left eye);
 #: the one that saw better goes first at the next glance
 EYES = ("left", "right")
@@ -162,8 +168,13 @@ class SheetTracker:
             if not search:
                 return None
             phi, tau = self._search(m0)
-        for _ in range(12):
-            phi, tau = self._refine(m0, phi, tau, GATE)
+        reach = 1.5 * math.sqrt(2.0) * self.spacing  # a grid corner's distance from the centre
+        for _ in range(REFINE_ROUNDS):
+            new_phi, new_tau = self._refine(m0, phi, tau, GATE)
+            moved = abs(new_phi - phi) * reach + math.hypot(*(new_tau - tau))
+            phi, tau = new_phi, new_tau
+            if moved < REFINE_STEP:
+                break
         count, weak = self._inliers(m0, phi, tau)
         if count < MIN_INLIERS or weak < MIN_INLIERS / 4:
             return None
@@ -200,22 +211,28 @@ class SheetTracker:
         return best
 
     def _refine(self, m: np.ndarray, phi: float, tau: np.ndarray, gate: float) -> tuple[float, np.ndarray]:
-        """One Gauss-Newton step of the point-to-line fit (pixels within ``gate``)."""
-        p = self._moved(m, phi, tau)
-        d, kind = self.distances(p)
-        use = d < gate
+        """One Gauss-Newton step of the point-to-line fit (pixels within ``gate``).  The
+        arithmetic of :meth:`_moved` and :meth:`distances`, a column at a time and only what the
+        step needs (a third less time than through them; the same step to the last bit)."""
+        c, s = math.cos(phi), math.sin(phi)
+        x = c * m[:, 0] - s * m[:, 1] + tau[0]
+        y = s * m[:, 0] + c * m[:, 1] + tau[1]
+        half, end = self.spacing / 2, 1.5 * self.spacing
+        ax, ay = np.abs(x), np.abs(y)
+        d0 = np.hypot(np.abs(ax - half), np.maximum(ay - end, 0.0))
+        d1 = np.hypot(np.abs(ay - half), np.maximum(ax - end, 0.0))
+        along = ~(d1 < d0)  # the nearest line runs along far (constant right); a tie goes to it
+        use = np.minimum(d0, d1) < gate
         if use.sum() < 10:
             return phi, tau
-        p, kind = p[use], kind[use]
-        half = self.spacing / 2
+        x, y, along = x[use], y[use], along[use]
         # the signed offset across the nearest line (along the axis it is across: its normal)
-        along = kind == 0
-        across = np.where(along, p[:, 0], p[:, 1])
+        across = np.where(along, x, y)
         r = across - np.where(across > 0, half, -half)
         # the turn acts before the shift: d(R(phi) m)/d(phi) = (-q_v, q_u), q = p - tau, along the normal
         w = 1.0 / (1.0 + (r / (0.5 * GATE)) ** 2)  # Cauchy weights: a stray dark pixel near a line pulls little
-        jw = np.empty((len(p), 3))
-        jw[:, 0] = np.where(along, tau[1] - p[:, 1], p[:, 0] - tau[0]) * w
+        jw = np.empty((len(x), 3))
+        jw[:, 0] = np.where(along, tau[1] - y, x - tau[0]) * w
         jw[:, 1] = along * w
         jw[:, 2] = ~along * w
         # the weighted least-squares step through its 3 x 3 normal equations (a third of lstsq's
@@ -272,13 +289,15 @@ class SheetTracker:
             # the ink moved by the inverse of the point transform: x -> R(-phi) (x - tau)
             c, s = math.cos(-phi), math.sin(-phi)
             axes = np.column_stack([self.right, self.far])
-
-            def moved(point):
-                local = self._local(point[None, :2])[0] - tau
-                xy_new = self.centre[:2] + axes @ np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
-                return np.array([xy_new[0], xy_new[1], point[2]])
-
-            self._frame({cell: {n: moved(p) for n, p in names.items()} for cell, names in self.corners.items()})
+            where = [(cell, n) for cell, names in self.corners.items() for n in names]
+            points = np.array([self.corners[cell][n] for cell, n in where])  # (36, 3): all at once
+            local = self._local(points[:, :2]) - tau
+            turned = np.column_stack([c * local[:, 0] - s * local[:, 1], s * local[:, 0] + c * local[:, 1]])
+            points[:, :2] = self.centre[:2] + turned @ axes.T
+            moved: dict = {}
+            for (cell, n), point in zip(where, points):
+                moved.setdefault(cell, {})[n] = point
+            self._frame(moved)
             note = {"seen": True, "inliers": count, "weakest": weak,
                     "turn_deg": round(math.degrees(-phi), 3), "shift_mm": round(1000 * float(np.linalg.norm(tau)), 3),
                     "eye": eye, "whole_image": whole}
