@@ -65,6 +65,10 @@ MIN_MARK_AREA = 25e-6
 MIN_MARK_DEPTH = 0.25
 #: a cell is occluded when more than this fraction of it is neither paper nor ink
 OCCLUDED_FRACTION = 0.2
+#: the grid's whole degree is looked for on every this many of its pixels, and the best this
+#: many degrees judged again on all of them (:func:`_grid_axes`)
+COARSE_EVERY = 4
+COARSE_KEPT = 5
 _CORNER_STEPS = {"tl": (-0.5, 0.5), "tr": (0.5, 0.5), "br": (0.5, -0.5), "bl": (-0.5, -0.5)}
 
 
@@ -363,12 +367,12 @@ def _grid_axes(pts: np.ndarray, min_sep: float = 10.0) -> tuple[np.ndarray, np.n
     c = pts.mean(axis=0)
     q = pts - c
 
-    def scores(alphas):
-        """Peakedness of both projections, for every angle at once (in place: no temporaries of
-        (P, A); the squared counts summed as integers, which float64 held exactly too)."""
+    def scores(alphas, points=q):
+        """Peakedness of both projections of ``points``, for every angle at once (in place: no
+        temporaries of (P, A); the squared counts summed as integers, which float64 held exactly too)."""
         total = np.zeros(len(alphas))
         for shift in (0.0, np.pi / 2):
-            proj = q @ np.array([np.cos(alphas + shift), np.sin(alphas + shift)])  # (P, A)
+            proj = points @ np.array([np.cos(alphas + shift), np.sin(alphas + shift)])  # (P, A)
             proj -= proj.min(axis=0)
             bins = np.rint(proj, out=proj).astype(np.int64)  # np.round's own rounding (half to even)
             width = int(bins.max()) + 1
@@ -378,7 +382,11 @@ def _grid_axes(pts: np.ndarray, min_sep: float = 10.0) -> tuple[np.ndarray, np.n
         return total
 
     coarse = np.radians(np.arange(0.0, 90.0, 1.0))
-    a0 = coarse[int(np.argmax(scores(coarse)))]
+    # the whole degree on every 4th pixel first, then its best few on all of them: the same degree
+    # as all the pixels at every one (on 184 looks of games seeds 0-3, still and moving, it was the
+    # subsample's first or second), at a third of the time
+    few = np.sort(np.argsort(-scores(coarse, q[::COARSE_EVERY]), kind="stable")[:COARSE_KEPT])
+    a0 = coarse[few[int(np.argmax(scores(coarse[few])))]]
     fine = a0 + np.radians(np.arange(-1.0, 1.0001, 0.05))
     alpha = fine[int(np.argmax(scores(fine)))]
     n1 = np.array([np.cos(alpha), np.sin(alpha)])
