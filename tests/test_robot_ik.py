@@ -157,3 +157,51 @@ def test_force_limits_read_the_urdf_once_and_give_each_joint_s_effort(monkeypatc
     assert len(reads) == 1
     limits = robot.limits()
     assert forces == [limits[n]["effort"] for n in robot.chain().names] and len(forces) == robot.chain().dof
+
+
+def test_an_aim_is_the_damped_least_squares_turn_of_the_whole_jacobians_angular_rows():
+    """:func:`ik.aim` turns with the angular rows of the tip's Jacobian, taken from the forward
+    kinematics alone: the same angles, to the bit, as the plain loop on :meth:`jacobian`'s rows
+    3-5, for the iCub's gaze chain aimed at seeded points on and around its table (from the head
+    straight ahead, the torso turned), with joints pinned at their limits along the way."""
+    import math
+
+    from hila_lang.robot.eyes import GAZE_WEIGHTS
+
+    chain = ik.KinematicChain.from_urdf(model.urdf_path().read_text(), "eyes_tilt_link",
+                                        pose(about_z(model.ROOT_YAW), model.ROOT_POSITION))
+    weights = np.array([GAZE_WEIGHTS.get(n, 0.0) for n in chain.names])
+
+    def plain(q0, target):  # ik.aim as first written: the whole Jacobian, its rows 3-5
+        lo, hi = chain.lower, chain.upper
+        q, ridge = np.clip(q0, lo, hi), 1e-4 * np.eye(3)
+        angle = math.pi
+        for _ in range(50):
+            jac, tip = chain.jacobian(q)
+            jac = jac[3:]
+            z, d = tip[:3, 2], target - tip[:3, 3]
+            d /= math.sqrt(float(d @ d))
+            e = ik._cross(z, d)
+            angle = math.atan2(math.sqrt(float(e @ e)), float(z @ d))
+            if angle <= 1e-4:
+                break
+            free = weights > 0
+            for _ in range(2):
+                wf = weights * free
+                dq = wf * (jac.T @ np.linalg.solve((jac * wf) @ jac.T + ridge, e))
+                pinned = ((q <= lo + 1e-9) & (dq < 0)) | ((q >= hi - 1e-9) & (dq > 0))
+                if not (pinned & free).any():
+                    break
+                free &= ~pinned
+            q = np.clip(q + np.clip(dq, -0.3, 0.3), lo, hi)
+        return q, angle
+
+    rng = np.random.default_rng(4)
+    pinned = 0
+    for _ in range(40):
+        q0 = np.where(weights > 0, 0.0, rng.uniform(-0.3, 0.3, chain.dof))  # the torso turned
+        target = np.array([rng.uniform(-0.6, 0.1), rng.uniform(-0.5, 0.5), rng.uniform(-0.3, 0.5)])
+        got, want = ik.aim(chain, q0, target, weights), plain(q0, target)
+        assert np.array_equal(got[0], want[0]) and got[1] == want[1]
+        pinned += bool(np.any((got[0] <= chain.lower + 1e-9) | (got[0] >= chain.upper - 1e-9)))
+    assert pinned >= 3  # some aims end at a joint's limit: the pinned-joint branch is exercised

@@ -350,8 +350,8 @@ def aim(
     angle = math.pi
     ridge = 1e-4 * np.eye(3)
     for _ in range(iterations):
-        jac, pose = chain.jacobian(q)
-        jac = jac[3:]
+        pose, _, world_axes = chain.forward(q)
+        jac = np.ascontiguousarray(world_axes.T)  # the Jacobian's angular rows: the turn is all an aim needs
         z = pose[:3, 2]
         d = target - pose[:3, 3]
         d /= math.sqrt(float(d @ d))  # np.linalg.norm's own arithmetic, without its overhead
