@@ -2,7 +2,7 @@
 
 Run from the checkout::
 
-    python bench/game.py                 # 3 single games as separate processes + 20 in one process
+    python bench/game.py                 # 3 single games as separate processes, 3 times each, + 20 in one process
     python bench/game.py --series 50     # a longer series (texture leaks show as RSS growth)
 
 Part 0, the floor, measured in the same run: what a game cannot cost less than with this robot,
@@ -14,17 +14,21 @@ simulator and renderer --
   opponent) times the cost of a bare ``stepSimulation`` in that scene;
 - eyes: the game's images (counted the same way) times the cost of one image as it is made
   there: a glance while drawing reads only the eye's fovea around the grid (a part of the
-  sensor, :func:`hila_lang.robot.lens.sensor_window`), every other image (a look at the board,
-  the output folder's pictures) is a whole eye image through the lens.
+  sensor, :func:`hila_lang.robot.lens.sensor_window`), a look at the board and the output
+  folder's eye.png are whole eye images through the lens, and the output folder's top.png is a
+  480 x 480 view from above with the arm put aside (twice a whole eye image's cost: priced as
+  one, it made the floor 0.06 s too low).
 
-``floor = start-up + steps x step + glances x glance + images x image`` per game; ``ratio = wall /
-floor`` (goal <= 1.5).  The unit costs are sampled before the single games, between them and after them
-(a start-up process, 5 x 1000 bare steps, 7 whole eye images and 7 of the game's fovea glances
--- each with its eye, its fovea and the arm where it was -- each time, in the counted game's
-scene kept open), and their
-medians used: on a shared machine the load moves within minutes, and unit costs timed at one
-moment put the same code's ratio anywhere between 0.96 and 1.73 (main, load 10-14, two runs
-five minutes apart).
+``floor = start-up + steps x step + glances x glance + images x image + tops x top`` per game;
+``ratio = wall / floor`` (goal <= 1.5).  The unit costs are sampled before the single games,
+after each round of them (a start-up process, 5 x 1000 bare steps, 7 whole eye images, 7 of the
+game's fovea glances -- each with its eye, its fovea and the arm where it was -- and 3 top
+views each time, in the counted game's scene kept open), and their medians used: on a shared
+machine the load moves within minutes, and unit costs timed at one moment put the same code's
+ratio anywhere between 0.96 and 1.73 (main, load 10-14, two runs five minutes apart).  For the
+same reason each seed's game is played ``--repeat`` times (3), in rounds over the seeds, and its
+wall is their median: one game each put the same code's per-seed ratios between 1.43 and 1.60
+in one run.
 
 Part 1 times ``hila exec programs/game.hila`` as a fresh process (start-up, loading the iCub,
 the whole game, the output folder), reading the child's peak resident memory.  Targets: under
@@ -33,7 +37,7 @@ with its own PyBullet client, and prints the resident memory after each, so a le
 ``loadTexture`` on every ink reload, docs/design.md §5) shows as growth per game.  The last line
 sums it up::
 
-    game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> glances=<n>x<ms> images=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
+    game wall=<s> floor=<s> ratio=<wall/floor> startup=<s> steps=<n>x<ms> glances=<n>x<ms> images=<n>x<ms> tops=<n>x<ms> peak=<MB> series=<n> failed=<games that ended in an error> rss_growth_per_game=<MB> r_min=<R>
 
 Beside the floor it prints where the in-process game's time went: the stepping loop, the IK, the
 rendering, the robot's looks at the board and its glances (each with the part spent taking eye
@@ -139,9 +143,13 @@ def counted_game(seed: int, out: Path):
     timed = {"look": [0, 0.0, 0.0], "glance": [0, 0.0, 0.0]}  # calls, seconds, of them in eye images
     inside = []  # the timed stage an eye image is taken for
 
+    eye_images = [0]  # whole eye images (the rest of the renders that are not glances: top views)
+
     def counted(eye="left", **kw):  # a fovea glance (a region given) or a whole eye image
         if kw.get("region") is not None:  # where it looked and where the arm was: the probe's glances
             glances.append((eye, np.array(kw["region"]), backend.body.arm_angles()))
+        else:
+            eye_images[0] += 1
         a = time.perf_counter()
         try:
             return camera_image(eye, **kw)
@@ -174,28 +182,40 @@ def counted_game(seed: int, out: Path):
         player.look_at_board, tracking.SheetTracker.glance = look_at_board, glance
     stats = interp.backend.stats
     return interp, {"steps": stats["steps"], "glances": len(glances), "images": stats["renders"] - len(glances),
+                    "eye_images": eye_images[0],
                     "glance_views": glances,
                     "in_game_s": in_game,
                     "ik_solves": stats["ik_solves"], "ik_s": stats["ik_seconds"], "step_loop_s": stats["step_seconds"],
                     "render_s": stats["render_seconds"], "timed": timed}
 
 
-def finish_counted(interp, counts: dict) -> tuple[int, int, int]:
-    """Write the counted game's output folder (its pictures are eye images too, eye.png, or top
-    views; the back end is closed), adding them and the time it took to ``counts``; returns
-    (simulator steps, fovea glances, whole eye images)."""
+def finish_counted(interp, counts: dict) -> tuple[int, int, int, int]:
+    """Write the counted game's output folder (its pictures: an eye image, eye.png, and a top
+    view, top.png; the back end is closed), adding them and the time it took to ``counts``;
+    returns (simulator steps, fovea glances, whole eye images, top views)."""
     from hila_lang.session.runner import finish
 
-    renders = interp.backend.stats["renders"]
+    eyes = interp.backend.eyes
+    camera_image, before = eyes.camera_image, interp.backend.stats["renders"]
+
+    def counted(*args, **kw):
+        counts["eye_images"] += 1
+        return camera_image(*args, **kw)
+
+    eyes.camera_image = counted
     a = time.perf_counter()
-    finish(interp)
+    try:
+        finish(interp)
+    finally:
+        eyes.camera_image = camera_image
     counts["outputs_s"] = time.perf_counter() - a
-    counts["images"] += interp.backend.stats["renders"] - renders
-    return counts["steps"], counts["glances"], counts["images"]
+    counts["images"] += interp.backend.stats["renders"] - before
+    return counts["steps"], counts["glances"], counts["eye_images"], counts["images"] - counts["eye_images"]
 
 
-def seed_counts(seed: int, out: Path) -> tuple[int, int, int]:
-    """(simulator steps, fovea glances, whole eye images incl. the output folder's) of game ``seed``."""
+def seed_counts(seed: int, out: Path) -> tuple[int, int, int, int]:
+    """(simulator steps, fovea glances, whole eye images, top views) of game ``seed``, the
+    output folder's pictures included."""
     return finish_counted(*counted_game(seed, out))
 
 
@@ -209,7 +229,7 @@ class Probe:
     def __init__(self, interp, out: Path, glances: list) -> None:
         self.backend, self.out = interp.backend, out
         self.views = [glances[int(k)] for k in np.linspace(0, len(glances) - 1, 7)] if glances else []
-        self.start, self.step, self.image, self.glance = [], [], [], []
+        self.start, self.step, self.image, self.glance, self.top = [], [], [], [], []
 
     def sample(self) -> None:
         be = self.backend
@@ -236,10 +256,15 @@ class Probe:
         finally:
             pb.restoreState(stateId=saved, physicsClientId=c)
             pb.removeState(saved, physicsClientId=c)
+        for _ in range(3):  # the report's top view, as it is made (the arm aside, 480 x 480)
+            a = time.perf_counter()
+            be.overview.top_view_image(arm_aside=True)
+            self.top.append(time.perf_counter() - a)
         be.stats["renders"] = renders  # the probe's images are not the game's
 
-    def costs(self) -> tuple[float, float, float, float]:
-        return tuple(float(np.median(v)) if v else 0.0 for v in (self.start, self.step, self.glance, self.image))
+    def costs(self) -> tuple[float, float, float, float, float]:
+        return tuple(float(np.median(v)) if v else 0.0
+                     for v in (self.start, self.step, self.glance, self.image, self.top))
 
 
 def series(n: int, out: Path) -> list[tuple[float, float, dict | str]]:
@@ -268,6 +293,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--games", type=int, default=3, help="single-process games to time (default 3)")
     parser.add_argument("--series", type=int, default=20, help="games in one process (default 20)")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="times each single-process game is played, in rounds over the seeds; its wall is "
+                             "their median (default 3)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -278,27 +306,31 @@ def main(argv: list[str] | None = None) -> int:
         # (seeds 0-2: 6442, 7466, 5800 steps; 105, 110, 105 glances)
         tallies = {seed: seed_counts(seed, tmp / f"counted{seed}") for seed in range(1, args.games)}
         probe.sample()
-        walls, r_all = [], []
+        runs: dict[int, list[float]] = {seed: [] for seed in range(args.games)}
+        r_all: list[float] = []
         peak = 0.0
-        for seed in range(args.games):
-            wall, game_peak, report = one_process_game(seed, "minimax", tmp / f"g{seed}")
-            peak = max(peak, game_peak)
-            walls.append(wall)
-            r_all += [m["r"] for m in report["marks"] if m["r"] is not None]
-            print(f"game seed={seed}: wall {wall:.2f} s, result {report['result']}, "
-                  f"{len(report['moves'])} moves, in-game {report['wall_time_s']:.2f} s, "
-                  f"tracking median {report['tracking_error_mm']['median']:.3f} mm "
-                  f"max {report['tracking_error_mm']['max']:.3f} mm, "
-                  f"R min {min(m['r'] for m in report['marks']):.4f}", flush=True)
+        for round_ in range(args.repeat):  # rounds over the seeds: a slow minute slows every seed alike
+            for seed in range(args.games):
+                wall, game_peak, report = one_process_game(seed, "minimax", tmp / f"g{seed}")
+                peak = max(peak, game_peak)
+                runs[seed].append(wall)
+                r_all += [m["r"] for m in report["marks"] if m["r"] is not None]
+                print(f"game seed={seed} run {round_ + 1}: wall {wall:.2f} s, result {report['result']}, "
+                      f"{len(report['moves'])} moves, in-game {report['wall_time_s']:.2f} s, "
+                      f"tracking median {report['tracking_error_mm']['median']:.3f} mm "
+                      f"max {report['tracking_error_mm']['max']:.3f} mm, "
+                      f"R min {min(m['r'] for m in report['marks']):.4f}", flush=True)
             probe.sample()
+        walls = [float(np.median(runs[seed])) for seed in range(args.games)]
         tallies[0] = finish_counted(interp, counts)
-        start, step, glance, image = probe.costs()
-        counts.update(step_s=step, glance_s=glance, image_s=image)
-        floors = {seed: start + n * step + g * glance + i * image for seed, (n, g, i) in tallies.items()}
+        start, step, glance, image, top = probe.costs()
+        counts.update(step_s=step, glance_s=glance, image_s=image, top_s=top)
+        floors = {seed: start + n * step + g * glance + i * image + t * top for seed, (n, g, i, t) in tallies.items()}
         floor = floors[0]
         print(f"floor: start-up {start:.2f} s + {counts['steps']} steps x {step * 1e3:.3f} ms "
               f"+ {counts['glances']} fovea glances x {glance * 1e3:.1f} ms "
-              f"+ {counts['images']} whole images x {image * 1e3:.1f} ms = {floor:.2f} s (medians of "
+              f"+ {tallies[0][2]} whole eye images x {image * 1e3:.1f} ms + {tallies[0][3]} top views x "
+              f"{top * 1e3:.1f} ms = {floor:.2f} s (medians of "
               f"{len(probe.start)} samples, before, between and after the games); the in-process game spent "
               f"{counts['in_game_s']:.2f} s: stepping loop {counts['step_loop_s']:.2f} s, "
               f"IK {counts['ik_solves']} solves {counts['ik_s']:.2f} s, rendering {counts['render_s']:.2f} s, "
@@ -322,16 +354,17 @@ def main(argv: list[str] | None = None) -> int:
                 growth = (rows[-1][1] - rows[1][1]) / (len(rows) - 2)
         ratios = [w / floors[seed] for seed, w in enumerate(walls)]
         for seed, w in enumerate(walls):
-            n, g, i = tallies[seed]
-            print(f"game seed={seed}: wall {w:.2f} s against its floor {floors[seed]:.2f} s ({n} steps, {g} glances, "
-                  f"{i} whole images): {ratios[seed]:.2f}")
+            n, g, i, t = tallies[seed]
+            print(f"game seed={seed}: wall {w:.2f} s (median of {', '.join(f'{x:.2f}' for x in runs[seed])}) against "
+                  f"its floor {floors[seed]:.2f} s ({n} steps, {g} glances, {i} whole eye images, {t} top views): "
+                  f"{ratios[seed]:.2f}")
         wall = float(np.median(walls))
         print(f"load average {os.getloadavg()[0]:.2f} at the end")
         print(f"game wall={wall:.2f} floor={float(np.median(list(floors.values()))):.2f} ratio={float(np.median(ratios)):.2f} "
               f"startup={start:.2f} "
               f"steps={counts['steps']}x{counts['step_s'] * 1e3:.3f}ms glances={counts['glances']}x"
-              f"{counts['glance_s'] * 1e3:.1f}ms images={counts['images']}x"
-              f"{counts['image_s'] * 1e3:.1f}ms peak={peak:.0f} series={args.series} failed={failed} "
+              f"{counts['glance_s'] * 1e3:.1f}ms images={tallies[0][2]}x"
+              f"{counts['image_s'] * 1e3:.1f}ms tops={tallies[0][3]}x{counts['top_s'] * 1e3:.1f}ms peak={peak:.0f} series={args.series} failed={failed} "
               f"rss_growth_per_game={growth:.2f} r_min={min(r_all):.4f}")
     return 1 if failed else 0
 
