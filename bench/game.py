@@ -21,8 +21,8 @@ simulator and renderer --
 
 ``floor = start-up + steps x step + glances x glance + images x image + tops x top`` per game;
 ``ratio = wall / floor`` (goal <= 1.5).  The unit costs are sampled before the single games,
-after each round of them (a start-up process, 5 x 1000 bare steps, 7 whole eye images, 7 of the
-game's fovea glances -- each with its eye, its fovea and the arm where it was -- and 3 top
+after each round of them (two start-up processes, 5 x 1000 bare steps, 7 whole eye images, 7 of
+the game's fovea glances -- each with its eye, its fovea and the arm where it was -- and 3 top
 views each time, in the counted game's scene kept open), and their medians used: on a shared
 machine the load moves within minutes, and unit costs timed at one moment put the same code's
 ratio anywhere between 0.96 and 1.73 (main, load 10-14, two runs five minutes apart).  For the
@@ -233,7 +233,8 @@ class Probe:
 
     def sample(self) -> None:
         be = self.backend
-        self.start.append(startup_s(self.out, len(self.start)))
+        for _ in range(2):  # two: its median moved most between runs (0.96-1.14 s) of the unit costs
+            self.start.append(startup_s(self.out, len(self.start)))
         pb, c = be.sim.pb, be.sim.client
         for _ in range(5):  # a busy machine slows them as it slows a game
             a = time.perf_counter()

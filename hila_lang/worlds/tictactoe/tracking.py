@@ -63,7 +63,8 @@ RESOLUTION = 0.001
 #: the fit's Gauss-Newton rounds stop when a round moves no grid point by this much (metres), or
 #: after this many: its steps shrink by about half a round, so the answer is then within about
 #: the last step of where the rounds go (measured on the game's 105 glances, seed 0: 1e-6 m is
-#: reached after 7 rounds at the median; 12 rounds left 1e-7 m at the median, 1e-6 m at most)
+#: reached after 8 rounds at the median, 11 at most; 12 rounds left 1e-7 m at the median, 1e-6 m
+#: at most; with the sheet moving, 11 rounds at the median)
 REFINE_STEP = 1e-6
 REFINE_ROUNDS = 12
 #: the eyes a glance tries, in turn (the iCub's right arm draws: it hides less from the left eye);
