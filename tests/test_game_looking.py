@@ -202,6 +202,47 @@ def test_the_table_is_not_given_the_first_look_needs_both_eyes():
                       read=scripted([Reading(EMPTY), "no sheet of paper found in the image"]))
 
 
+def logged(readings, log):
+    """:func:`scripted`, noting each read as (image, the table height it was read on)."""
+    read = scripted(readings)
+
+    def logging(image, surface_z, body=None):
+        log.append((image.index, round(float(surface_z), 6)))
+        return read(image, surface_z, body)
+    return logging
+
+
+def test_the_first_look_reads_again_only_the_views_that_count():
+    """The first look: both eyes with the arm still (a cell hidden: they cannot place the table),
+    then both with the arm aside, which place it.  Those two are read on the prior height, on the
+    height their crossings give, and on the table that makes; the still views, whose readings no
+    longer count, are not read again.  A later pair that moves the table by more than
+    ``REREAD_DZ`` has its images read again on it."""
+    from hila_lang.worlds.tictactoe.vision import REREAD_DZ
+
+    hidden = Reading(EMPTY, occluded=[3], confidence=[1] * 2 + [0] + [1] * 6)
+    log: list = []
+    table = Table(0.47)
+    eyes, arm = Eyes(), Arm(LIFT)
+    sight = look_at_board(eyes, Hand(arm.position, arm.move), table, Memory(), LIFT, ASIDE,
+                          read=logged([hidden, hidden, Reading(EMPTY), Reading(EMPTY)], log))
+    z = round(GRID.surface_z, 6)
+    assert table.known and table.z == pytest.approx(GRID.surface_z, abs=1e-9) and sight.arm == "aside"
+    assert log == [(0, 0.47), (1, 0.47), (2, 0.47), (3, 0.47), (2, z), (3, z), (2, z), (3, z)]
+
+    log.clear()
+    off = Table(0.47)
+    off.add([GRID.surface_z + 3 * REREAD_DZ] * 4)  # known, but off: both eyes' crossings move it
+    eyes = Eyes()
+    look_at_board(eyes, Hand(arm.position, arm.move), off, Memory(), LIFT, ASIDE,
+                  read=logged([Reading(["", "", "", "", "O", "", "", "", ""], confidence=[1] * 4 + [0.2] + [1] * 4),
+                               Reading(EMPTY)], log))
+    moved = round(off.z, 6)
+    assert abs(off.z - (GRID.surface_z + 3 * REREAD_DZ)) > REREAD_DZ
+    assert log == [(0, round(GRID.surface_z + 3 * REREAD_DZ, 6)), (1, round(GRID.surface_z + 3 * REREAD_DZ, 6)),
+                   (0, moved), (1, moved)]
+
+
 # --------------------------------------------------------------------------- the player's decisions
 
 class Seeing(Player):

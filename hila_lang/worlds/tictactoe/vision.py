@@ -38,7 +38,8 @@ triangulates the four inner crossings of the grid (cell 5's corners) from the tw
 (:func:`hila_lang.perception.triangulation.triangulate`, the left eye placed by its joint
 angles, the right one by the robot's calibration of the pair) -- only from two images that each
 see the whole grid, and only when the four crossings come out level; the plane's height is the
-median of every crossing triangulated so far (:class:`Table`), and the images are read again on it.  The
+median of every crossing triangulated so far (:class:`Table`), and the images of the arm's present
+place are read again on it (those from where the arm was before no longer count).  The
 first look always uses both eyes for that; later looks refine it whenever both eyes look.
 """
 
@@ -232,8 +233,9 @@ def look_at_board(eyes, hand, table: Table, memory: Memory, lift: np.ndarray | N
             z_read = table.z
             _read(shot, read, z_read)
             if _update_table(images, table, read, right_T_left) and abs(table.z - z_read) > REREAD_DZ:
-                for other in images:
-                    _read(other, read, table.z)
+                for other in images:  # the arm's present place only: the others' readings no longer count
+                    if other.arm == arm:
+                        _read(other, read, table.z)
             current = [im for im in images if im.arm == arm and im.reading is not None]
             if not current or not table.known and len(images) < 2:
                 if not current:
