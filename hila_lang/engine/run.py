@@ -85,12 +85,13 @@ class RunExecutor(Executor):
         icps = [k for k in t.icps if k not in (START, END)]
         out: dict[str, np.ndarray | None] = {}
         spread = None
-        seen: list[dict] = []  # the world's points, asked once for all of a group's names
+        points = None  # the world's points, asked once for all of a group's names
 
         def lookup(name: str):
-            if not seen:
-                seen.append(scene.world.points())
-            return scene.lookup(name, seen[0])
+            nonlocal points
+            if points is None:
+                points = scene.world.points()
+            return scene.lookup(name, points)
 
         for icp, expr in st.bindings:
             if icp == A.SPREAD:
