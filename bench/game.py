@@ -298,6 +298,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="times each single-process game is played, in rounds over the seeds; its wall is "
                              "their median (default 3)")
     args = parser.parse_args(argv)
+    for name in ("games", "repeat"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name} must be at least 1, got {getattr(args, name)}")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         print(f"load average {os.getloadavg()[0]:.2f} at start ({os.cpu_count()} cores, shared)", flush=True)
